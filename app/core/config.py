@@ -1,0 +1,260 @@
+"""The one settings object of cavewalk (pydantic-settings).
+
+Sources, highest priority first: keyword arguments, ``CAVEWALK_*`` environment
+variables (nested with ``__``, e.g. ``CAVEWALK_SERVER__PORT=9000``), the TOML file
+(``cavewalk.toml`` in the working directory, or the path given by ``--config`` /
+``CAVEWALK_CONFIG``), then the defaults below. Unknown keys are errors, so a typo
+in the file is reported by name instead of silently ignored.
+
+Each pipeline stage gets its own small frozen config dataclass, built here once
+(``*.to_config()``) and passed to the stage's constructor.
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic_settings import (
+    BaseSettings,
+    PydanticBaseSettingsSource,
+    SettingsConfigDict,
+    TomlConfigSettingsSource,
+)
+
+from pipeline.cave import CaveGeometry, Wall, box_cave
+from pipeline.errors import ConfigError
+
+DEFAULT_CONFIG_FILE = Path("cavewalk.toml")
+_HOME = Path.home()
+
+
+class _Section(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class WallSettings(_Section):
+    name: str
+    corners: Annotated[list[list[float]], Field(min_length=4, max_length=4)]
+    resolution_px: tuple[int, int] = (1920, 1600)
+
+
+class CaveSettings(_Section):
+    """CAVE geometry. Without ``walls``, a box of width x depth x height with four walls."""
+
+    width_m: float = Field(3.0, gt=0)
+    depth_m: float = Field(3.0, gt=0)
+    height_m: float = Field(2.5, gt=0)
+    wall_resolution_px: tuple[int, int] = (1920, 1600)
+    walls: list[WallSettings] | None = None
+
+    def geometry(self) -> CaveGeometry:
+        if self.walls is None:
+            return box_cave(self.width_m, self.depth_m, self.height_m, self.wall_resolution_px)
+        return CaveGeometry(
+            walls=tuple(Wall(w.name, w.corners, w.resolution_px) for w in self.walls),  # type: ignore[arg-type]
+            floor_half_size_m=(self.width_m / 2, self.depth_m / 2),
+        )
+
+
+class CameraSettings(_Section):
+    """One camera: a name and a source URI.
+
+    Source URIs: an integer device index (``"0"``), an RTSP/HTTP URL, a video file
+    path, an image folder path, or ``sim`` (a virtual camera of the simulator).
+    """
+
+    name: Annotated[str, Field(min_length=1, pattern=r"^[A-Za-z0-9_.-]+$")]
+    source: str = "sim"
+
+
+def _default_cameras() -> list[CameraSettings]:
+    return [CameraSettings(name=f"cam0{i}", source="sim") for i in range(1, 5)]
+
+
+class ServerSettings(_Section):
+    host: str = "127.0.0.1"
+    port: int = Field(8000, ge=1, le=65535)
+    viser_port: int = Field(8080, ge=1, le=65535)
+    token: str | None = None
+    cors_origins: list[str] = Field(default_factory=list)
+    max_request_bytes: int = Field(1_000_000, gt=0)
+
+
+class PathSettings(_Section):
+    db: Path = _HOME / ".local" / "share" / "cavewalk" / "cavewalk.db"
+    models_dir: Path = _HOME / ".cache" / "cavewalk" / "models"
+    cache_dir: Path = _HOME / ".cache" / "cavewalk"
+    calibration: Path | None = None
+
+
+class PoseSettings(_Section):
+    model: Path | None = None  # default: <models_dir>/yolo11n-pose.onnx
+    input_size: tuple[int, int] = (640, 384)  # (width, height) of the network input
+    score_threshold: float = Field(0.35, ge=0, le=1)
+    nms_iou: float = Field(0.6, ge=0, le=1)
+    keypoint_threshold: float = Field(0.3, ge=0, le=1)
+    providers: list[Literal["cpu", "cuda"]] = Field(default_factory=lambda: ["cpu"])  # type: ignore[arg-type]
+    threads: int = Field(0, ge=0)  # 0 = onnxruntime's choice
+
+
+class RecognitionSettings(_Section):
+    model: Path | None = None  # default: the committed pipeline/recognition/action.onnx
+    ema_alpha: float = Field(0.35, gt=0, le=1)
+    min_dwell_s: float = Field(0.15, ge=0)
+
+
+class RuntimeSettings(_Section):
+    target_fps: float = Field(30.0, gt=0)
+    emit_rate_hz: float = Field(60.0, gt=0)
+    heartbeat_s: float = Field(1.0, gt=0)
+
+
+class SimSettings(_Section):
+    camera_preset: Literal["kinect_color", "depth"] = "kinect_color"
+    fps: float = Field(30.0, gt=0)
+    bystanders: int = Field(1, ge=0, le=8)
+    seed: int = 0
+
+
+class Settings(BaseSettings):
+    """Everything configurable in cavewalk."""
+
+    model_config = SettingsConfigDict(
+        env_prefix="CAVEWALK_",
+        env_nested_delimiter="__",
+        extra="forbid",
+        frozen=True,
+    )
+
+    cave: CaveSettings = CaveSettings()
+    cameras: list[CameraSettings] = Field(default_factory=_default_cameras)
+    workstations: list[str] = Field(default_factory=list)
+    server: ServerSettings = ServerSettings()
+    paths: PathSettings = PathSettings()
+    pose: PoseSettings = PoseSettings()
+    recognition: RecognitionSettings = RecognitionSettings()
+    runtime: RuntimeSettings = RuntimeSettings()
+    sim: SimSettings = SimSettings()
+
+    @field_validator("cameras")
+    @classmethod
+    def _unique_cameras(cls, v: list[CameraSettings]) -> list[CameraSettings]:
+        names = [c.name for c in v]
+        if len(set(names)) != len(names):
+            raise ValueError(f"camera names must be unique, got {names}")
+        return v
+
+    @field_validator("workstations")
+    @classmethod
+    def _host_port(cls, v: list[str]) -> list[str]:
+        for item in v:
+            parse_endpoint(item)
+        return v
+
+    @classmethod
+    def settings_customise_sources(
+        cls,
+        settings_cls: type[BaseSettings],
+        init_settings: PydanticBaseSettingsSource,
+        env_settings: PydanticBaseSettingsSource,
+        dotenv_settings: PydanticBaseSettingsSource,
+        file_secret_settings: PydanticBaseSettingsSource,
+    ) -> tuple[PydanticBaseSettingsSource, ...]:
+        toml_path = _ConfigPath().config or DEFAULT_CONFIG_FILE
+        sources: list[PydanticBaseSettingsSource] = [init_settings, env_settings]
+        if toml_path.is_file():
+            sources.append(TomlConfigSettingsSource(settings_cls, toml_file=toml_path))
+        return tuple(sources)
+
+    @property
+    def pose_model_path(self) -> Path:
+        return self.pose.model or self.paths.models_dir / "yolo11n-pose.onnx"
+
+
+class _ConfigPath(BaseSettings):
+    """Reads only CAVEWALK_CONFIG (the TOML file's path)."""
+
+    model_config = SettingsConfigDict(env_prefix="CAVEWALK_", extra="ignore")
+    config: Path | None = None
+
+
+def parse_endpoint(value: str) -> tuple[str, int]:
+    """``"host:port"`` -> (host, port); raises ValueError with the reason."""
+    host, sep, port = value.rpartition(":")
+    if not sep or not host:
+        raise ValueError(f"workstation {value!r} must be HOST:PORT")
+    try:
+        port_i = int(port)
+    except ValueError:
+        raise ValueError(f"workstation {value!r}: port {port!r} is not a number") from None
+    if not 1 <= port_i <= 65535:
+        raise ValueError(f"workstation {value!r}: port must be 1-65535")
+    return host.strip("[]"), port_i
+
+
+def format_validation_error(exc: ValidationError, source: str) -> str:
+    """One readable line per bad key, naming the key path."""
+    lines = [f"invalid settings ({source}):"]
+    for err in exc.errors():
+        key = ".".join(str(p) for p in err["loc"]) or "(root)"
+        lines.append(f"  {key}: {err['msg']}")
+    return "\n".join(lines)
+
+
+def load_settings(config_path: Path | None = None, **overrides: Any) -> Settings:
+    """Build the settings from an explicit TOML file (or the default sources).
+
+    Raises :class:`ConfigError` with a message naming every bad key.
+    """
+    source = str(config_path) if config_path else "environment / cavewalk.toml"
+    if config_path is not None and not Path(config_path).is_file():
+        raise ConfigError(f"config file not found: {config_path}")
+    try:
+        if config_path is None:
+            return Settings(**overrides)
+
+        class _FromFile(Settings):
+            @classmethod
+            def settings_customise_sources(
+                cls,
+                settings_cls: type[BaseSettings],
+                init_settings: PydanticBaseSettingsSource,
+                env_settings: PydanticBaseSettingsSource,
+                dotenv_settings: PydanticBaseSettingsSource,
+                file_secret_settings: PydanticBaseSettingsSource,
+            ) -> tuple[PydanticBaseSettingsSource, ...]:
+                return (
+                    init_settings,
+                    env_settings,
+                    TomlConfigSettingsSource(settings_cls, toml_file=config_path),
+                )
+
+        loaded = _FromFile(**overrides)
+        return Settings.model_construct(**{k: getattr(loaded, k) for k in Settings.model_fields})
+    except ValidationError as exc:
+        raise ConfigError(format_validation_error(exc, source)) from exc
+    except ValueError as exc:  # TOML syntax errors
+        raise ConfigError(f"cannot read settings from {source}: {exc}") from exc
+
+
+_override: Settings | None = None
+
+
+@lru_cache(maxsize=1)
+def _cached() -> Settings:
+    return load_settings()
+
+
+def get_settings() -> Settings:
+    """The process-wide settings (built on first use, not at import)."""
+    return _override if _override is not None else _cached()
+
+
+def set_settings(settings: Settings | None) -> None:
+    """Install settings for this process (the CLI after parsing --config; tests)."""
+    global _override
+    _override = settings
+    _cached.cache_clear()

@@ -1,0 +1,20 @@
+"""One log format for every cavewalk process."""
+
+from __future__ import annotations
+
+import logging
+
+LOG_FORMAT = "%(asctime)s %(levelname)-7s %(processName)s %(name)s: %(message)s"
+
+
+def configure_logging(level: int = logging.INFO) -> None:
+    """Configure the root logger once (called by the CLI and worker processes, not on import)."""
+    root = logging.getLogger()
+    if not any(getattr(h, "_cavewalk", False) for h in root.handlers):
+        handler = logging.StreamHandler()
+        handler.setFormatter(logging.Formatter(LOG_FORMAT, datefmt="%H:%M:%S"))
+        handler._cavewalk = True  # type: ignore[attr-defined]
+        root.addHandler(handler)
+    root.setLevel(level)
+    for noisy in ("matplotlib", "PIL", "httpx", "websockets", "asyncio", "ultralytics"):
+        logging.getLogger(noisy).setLevel(max(level, logging.WARNING))

