@@ -1,0 +1,149 @@
+"""The typed SQLAlchemy 2 ORM models of cavewalk's SQLite database.
+
+The schema is fixed (other modules, e.g. ``app.study``, read these classes);
+columns are only ever added through a new Alembic migration in ``migrations/``.
+Times are stored as UTC datetimes, except :attr:`Event.ts` (unix seconds, float)
+which the pipeline's events carry.
+"""
+
+from __future__ import annotations
+
+from datetime import UTC, datetime
+from typing import Any
+
+from sqlalchemy import JSON, Boolean, DateTime, Float, ForeignKey, Index, Integer, String, Text
+from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column, relationship
+from sqlalchemy.types import TypeDecorator
+
+PARTICIPANT_CODE_PATTERN = r"^[A-Za-z0-9_-]{1,32}$"
+CONDITIONS = ("CC", "EC")
+SESSION_STATUSES = ("planned", "running", "stopped")
+INSTRUMENTS = ("ssq", "mssq", "ipq", "nasa_tlx")
+PHASES = ("pre", "post")
+CALIBRATION_STATUSES = ("pending", "running", "done", "failed")
+
+
+def utcnow() -> datetime:
+    return datetime.now(UTC)
+
+
+class UTCDateTime(TypeDecorator[datetime]):
+    """A DateTime that is always timezone-aware UTC in Python (SQLite stores it naive)."""
+
+    impl = DateTime
+    cache_ok = True
+
+    def process_bind_param(self, value: datetime | None, dialect: Any) -> datetime | None:
+        if value is None:
+            return None
+        if value.tzinfo is None:
+            value = value.replace(tzinfo=UTC)
+        return value.astimezone(UTC).replace(tzinfo=None)
+
+    def process_result_value(self, value: datetime | None, dialect: Any) -> datetime | None:
+        return None if value is None else value.replace(tzinfo=UTC)
+
+
+class Base(DeclarativeBase):
+    pass
+
+
+class Participant(Base):
+    """A pseudonymous study participant (the code is the only identifier stored)."""
+
+    __tablename__ = "participants"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    code: Mapped[str] = mapped_column(String(32), unique=True, nullable=False)
+    first_condition: Mapped[str | None] = mapped_column(String(2), nullable=True)  # "CC" | "EC"
+    notes: Mapped[str] = mapped_column(Text, default="", nullable=False)
+    created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow, nullable=False)
+
+    sessions: Mapped[list[StudySession]] = relationship(
+        back_populates="participant", order_by="StudySession.id"
+    )
+
+
+class StudySession(Base):
+    """One participant's block in one condition ("CC" controller / "EC" embodied)."""
+
+    __tablename__ = "study_sessions"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    participant_id: Mapped[int] = mapped_column(ForeignKey("participants.id"), nullable=False, index=True)
+    condition: Mapped[str] = mapped_column(String(2), nullable=False)
+    planned_index: Mapped[int | None] = mapped_column(Integer, nullable=True)  # 1 or 2
+    status: Mapped[str] = mapped_column(String(16), default="planned", nullable=False)
+    started_at: Mapped[datetime | None] = mapped_column(UTCDateTime(), nullable=True)
+    stopped_at: Mapped[datetime | None] = mapped_column(UTCDateTime(), nullable=True)
+    notes: Mapped[str] = mapped_column(Text, default="", nullable=False)
+    created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow, nullable=False)
+
+    participant: Mapped[Participant] = relationship(back_populates="sessions")
+    questionnaires: Mapped[list[QuestionnaireResponse]] = relationship(
+        back_populates="session", order_by="QuestionnaireResponse.id"
+    )
+
+
+class QuestionnaireResponse(Base):
+    """A submitted questionnaire: the raw answers and the scores computed on submission."""
+
+    __tablename__ = "questionnaire_responses"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    session_id: Mapped[int] = mapped_column(ForeignKey("study_sessions.id"), nullable=False, index=True)
+    instrument: Mapped[str] = mapped_column(String(16), nullable=False)
+    phase: Mapped[str | None] = mapped_column(String(8), nullable=True)
+    answers: Mapped[dict[str, Any]] = mapped_column(JSON, nullable=False)
+    pairwise: Mapped[dict[str, Any] | None] = mapped_column(JSON, nullable=True)
+    scores: Mapped[dict[str, Any]] = mapped_column(JSON, nullable=False)
+    created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow, nullable=False)
+
+    session: Mapped[StudySession] = relationship(back_populates="questionnaires")
+
+
+class Event(Base):
+    """One entry of the event log (action, navigator, calibration, pipeline, session, error ...)."""
+
+    __tablename__ = "events"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    session_id: Mapped[int | None] = mapped_column(
+        ForeignKey("study_sessions.id"), nullable=True, index=True
+    )
+    ts: Mapped[float] = mapped_column(Float, nullable=False)  # unix seconds
+    kind: Mapped[str] = mapped_column(String(32), nullable=False)
+    payload: Mapped[dict[str, Any]] = mapped_column(JSON, nullable=False, default=dict)
+
+    __table_args__ = (Index("ix_events_ts", "ts"),)
+
+
+class CalibrationRun(Base):
+    """A calibration of the cameras: its progress, its result and whether it is the active one."""
+
+    __tablename__ = "calibration_runs"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow, nullable=False)
+    status: Mapped[str] = mapped_column(String(16), default="pending", nullable=False)
+    progress: Mapped[float] = mapped_column(Float, default=0.0, nullable=False)
+    message: Mapped[str] = mapped_column(Text, default="", nullable=False)
+    result: Mapped[dict[str, Any] | None] = mapped_column(JSON, nullable=True)
+    active: Mapped[bool] = mapped_column(Boolean, default=False, nullable=False)
+
+
+__all__ = [
+    "CALIBRATION_STATUSES",
+    "CONDITIONS",
+    "INSTRUMENTS",
+    "PARTICIPANT_CODE_PATTERN",
+    "PHASES",
+    "SESSION_STATUSES",
+    "Base",
+    "CalibrationRun",
+    "Event",
+    "Participant",
+    "QuestionnaireResponse",
+    "StudySession",
+    "utcnow",
+]
