@@ -81,6 +81,9 @@ class ServerSettings(_Section):
     token: str | None = None
     cors_origins: list[str] = Field(default_factory=list)
     max_request_bytes: int = Field(1_000_000, gt=0)
+    live_rate_hz: float = Field(10.0, gt=0, le=60)  # WebSocket status messages per second
+    event_flush_s: float = Field(0.5, gt=0, le=1.0)  # event log batch interval (loss bound on a crash)
+    viser: bool = True  # serve the 3D view
 
 
 class PathSettings(_Section):
@@ -92,7 +95,13 @@ class PathSettings(_Section):
 
 class PoseSettings(_Section):
     model: Path | None = None  # default: <models_dir>/yolo11n-pose.onnx
-    input_size: tuple[int, int] = (640, 384)  # (width, height) of the network input
+    # long side of the network input, px (multiple of 32); the short side follows the
+    # images' aspect, so 1088x1920 portrait views run at 384x640, not padded to a square
+    input_long_side: int = Field(640, ge=32, multiple_of=32)
+    roi: bool = True  # ROI mode: run tracked views on crops around their tracks
+    roi_long_side: int = Field(256, ge=32, multiple_of=32)  # network long side for the crops
+    roi_margin: float = Field(0.2, ge=0, le=2)  # crop margin, fraction of the tracks' box size
+    roi_full_every: int = Field(30, ge=1)  # a full-frame pass at least every this many frames
     score_threshold: float = Field(0.35, ge=0, le=1)
     nms_iou: float = Field(0.6, ge=0, le=1)
     keypoint_threshold: float = Field(0.3, ge=0, le=1)
@@ -102,8 +111,20 @@ class PoseSettings(_Section):
 
 class RecognitionSettings(_Section):
     model: Path | None = None  # default: the committed pipeline/recognition/action.onnx
-    ema_alpha: float = Field(0.35, gt=0, le=1)
-    min_dwell_s: float = Field(0.15, ge=0)
+    ema_alpha: float = Field(0.35, gt=0, le=1)  # weight of a new model output, per model frame
+    min_dwell_s: float = Field(0.15, ge=0)  # a new class must lead this long before the command changes
+    switch_prob: float = Field(0.5, ge=0, le=1)  # ... with at least this smoothed probability
+    yaw_alpha: float = Field(0.3, gt=0, le=1)  # facing-direction smoothing, per model frame
+    max_gap_s: float = Field(0.5, gt=0)  # a longer gap between skeletons resets the recogniser
+    speed_alpha: float = Field(0.15, gt=0, le=1)  # speed smoothing, per model frame
+    step_length_m: float = Field(0.7, gt=0)  # virtual distance per step at the reference knee lift
+    threads: int = Field(1, ge=0)  # onnxruntime intra-op threads (0 = its choice)
+
+    def to_config(self) -> Any:
+        """The recogniser's frozen :class:`pipeline.recognition.recognizer.RecognizerConfig`."""
+        from pipeline.recognition.recognizer import RecognizerConfig
+
+        return RecognizerConfig.from_settings(self)
 
 
 class RuntimeSettings(_Section):
@@ -117,6 +138,28 @@ class SimSettings(_Section):
     fps: float = Field(30.0, gt=0)
     bystanders: int = Field(1, ge=0, le=8)
     seed: int = 0
+
+
+class CalibrationSettings(_Section):
+    """Wall marker patterns and the PnP calibration (see pipeline.calibration.config)."""
+
+    dictionary: str = "DICT_4X4_250"
+    grid: tuple[int, int] = (6, 5)  # (columns, rows) of ArUco markers on every wall
+    margin_frac: float = Field(0.04, ge=0, lt=0.45)
+    quiet_frac: float = Field(0.3, ge=0.15, lt=0.9)
+    nominal_hfov_deg: float = Field(70.0, ge=10, le=170)  # focal-length prior when focal_prior_px is unset
+    focal_prior_px: float | None = Field(None, gt=0)
+    min_markers: int = Field(6, ge=2)
+    min_walls: int = Field(2, ge=1)
+    ransac_px: float = Field(4.0, gt=0)
+    good_rms_px: float = Field(0.5, gt=0)
+    fair_rms_px: float = Field(1.5, gt=0)
+
+    def to_config(self) -> Any:
+        """The stage's frozen CalibrationConfig."""
+        from pipeline.calibration.config import CalibrationConfig
+
+        return CalibrationConfig(**self.model_dump())
 
 
 class Settings(BaseSettings):
@@ -138,6 +181,7 @@ class Settings(BaseSettings):
     recognition: RecognitionSettings = RecognitionSettings()
     runtime: RuntimeSettings = RuntimeSettings()
     sim: SimSettings = SimSettings()
+    calibration: CalibrationSettings = CalibrationSettings()
 
     @field_validator("cameras")
     @classmethod
