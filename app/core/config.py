@@ -140,6 +140,13 @@ class SimSettings(_Section):
     seed: int = 0
 
 
+class StudySettings(_Section):
+    """The user study's design and analysis (see app.study)."""
+
+    min_gap_days: float = Field(2.0, ge=0)  # minimum time between a participant's two sessions
+    alpha: float = Field(0.05, gt=0, lt=1)  # significance level (Shapiro-Wilk decision, stars)
+
+
 class CalibrationSettings(_Section):
     """Wall marker patterns and the PnP calibration (see pipeline.calibration.config)."""
 
@@ -181,6 +188,7 @@ class Settings(BaseSettings):
     recognition: RecognitionSettings = RecognitionSettings()
     runtime: RuntimeSettings = RuntimeSettings()
     sim: SimSettings = SimSettings()
+    study: StudySettings = StudySettings()
     calibration: CalibrationSettings = CalibrationSettings()
 
     @field_validator("cameras")
