@@ -1,0 +1,172 @@
+"""The FastAPI application: ``create_app(settings)`` and its lifespan.
+
+The lifespan migrates the SQLite database to the newest Alembic revision, starts
+the event-log writer, the one viser server (the 3D view) and the pipeline owner,
+and stops them all in reverse order on shutdown. The dashboard (``frontend/``) is
+served at ``/``, the API under ``/api/v1``, OpenAPI at ``/docs``.
+"""
+
+from __future__ import annotations
+
+import ipaddress
+import logging
+import secrets
+from collections.abc import AsyncIterator, Callable
+from contextlib import asynccontextmanager
+from pathlib import Path
+from typing import Any
+
+from fastapi import FastAPI, Request
+from fastapi.middleware.cors import CORSMiddleware
+from fastapi.responses import JSONResponse
+from fastapi.staticfiles import StaticFiles
+
+from app.api.limits import BodySizeLimit
+from app.api.main import api_router
+from app.core.config import Settings, get_settings
+from app.db.engine import make_engine, make_session_factory
+from app.db.migrate import upgrade
+from app.db.repositories import (
+    RecordNotFound,
+    StateConflict,
+    fail_unfinished_calibration_runs,
+    running_session,
+)
+from app.services.event_log import EventWriter, EventWriterConfig
+from app.services.live import PipelineFacade, PipelineService, SourceName
+from pipeline.errors import CavewalkError, InputError
+
+log = logging.getLogger(__name__)
+
+FRONTEND_DIR = Path(__file__).resolve().parent.parent / "frontend"
+
+
+def is_loopback(host: str) -> bool:
+    if host in ("localhost", ""):
+        return True
+    try:
+        return ipaddress.ip_address(host.strip("[]")).is_loopback
+    except ValueError:
+        return False
+
+
+def operator_token(settings: Settings) -> str | None:
+    """The token the API requires: the configured one, a fresh one when bound beyond loopback, else None."""
+    if settings.server.token:
+        return settings.server.token
+    if not is_loopback(settings.server.host):
+        return secrets.token_urlsafe(24)
+    return None
+
+
+def create_app(
+    settings: Settings | None = None,
+    *,
+    autostart: SourceName | None = None,
+    pipeline_factory: Callable[[], PipelineFacade] | bool | None = True,
+    token: str | None = None,
+) -> FastAPI:
+    """Build the application.
+
+    autostart: start the pipeline with this source once the app is up (``cavewalk demo``).
+    pipeline_factory: True = the runtime's ``Pipeline`` built from the settings; None/False = none.
+    token: the operator token (default :func:`operator_token`); the ``serve`` command prints it.
+    """
+    settings = settings or get_settings()
+    token = token if token is not None else operator_token(settings)
+
+    @asynccontextmanager
+    async def lifespan(app: FastAPI) -> AsyncIterator[None]:
+        from app.services.calibration import CalibrationService
+
+        engine = make_engine(settings.paths.db)
+        upgrade(engine)
+        factory = make_session_factory(engine)
+        with factory() as db:
+            n = fail_unfinished_calibration_runs(db, "interrupted: the server stopped during the run")
+            if n:
+                log.warning("%d calibration run(s) left unfinished by the last server were marked failed", n)
+            running = running_session(db)
+        events = EventWriter(factory, EventWriterConfig(flush_interval_s=settings.server.event_flush_s))
+        events.start()
+        if running is not None:
+            events.set_session(running.id)
+        viewer = None
+        if settings.server.viser:
+            from app.viewer import Viewer
+
+            viewer = Viewer.start(settings)
+        if pipeline_factory is True:
+            from app.services.pipeline_factory import runtime_factory
+
+            built, reason = runtime_factory(settings, factory)
+        else:
+            built, reason = (pipeline_factory or None), "no pipeline in this app"
+        pipeline = PipelineService(
+            built, events, sinks=(viewer,) if viewer else (), rate_hz=settings.server.live_rate_hz
+        )
+        if built is None:
+            pipeline.unavailable_reason = reason
+        calibration = CalibrationService(settings, factory, events, pipeline, viewer)
+        app.state.settings = settings
+        app.state.engine = engine
+        app.state.session_factory = factory
+        app.state.events = events
+        app.state.viewer = viewer
+        app.state.pipeline = pipeline
+        app.state.calibration = calibration
+        events.record(
+            "server", {"state": "started", "host": settings.server.host, "port": settings.server.port}
+        )
+        if autostart is not None:
+            try:
+                pipeline.start(autostart)
+            except Exception as exc:
+                log.error("could not start the pipeline (%s): %s", autostart, exc)
+                events.record("error", {"where": "pipeline start", "message": str(exc)})
+        try:
+            yield
+        finally:
+            calibration.close()
+            pipeline.close()
+            events.record("server", {"state": "stopped"})
+            events.close()
+            if viewer is not None:
+                viewer.stop()
+            engine.dispose()
+
+    app = FastAPI(
+        title="cavewalk",
+        summary="Markerless full-body locomotion for CAVE VR rooms: operator API",
+        version="1",
+        lifespan=lifespan,
+    )
+    app.state.token = token
+    app.state.settings = settings
+    _install_error_handlers(app)
+    app.include_router(api_router)
+    if settings.server.cors_origins:
+        app.add_middleware(
+            CORSMiddleware,
+            allow_origins=list(settings.server.cors_origins),
+            allow_methods=["*"],
+            allow_headers=["*"],
+        )
+    app.add_middleware(BodySizeLimit, max_bytes=settings.server.max_request_bytes)
+    if FRONTEND_DIR.is_dir():
+        app.mount("/", StaticFiles(directory=FRONTEND_DIR, html=True), name="frontend")
+    return app
+
+
+def _install_error_handlers(app: FastAPI) -> None:
+    def handler(code: int) -> Callable[[Request, Exception], Any]:
+        async def _handle(_request: Request, exc: Exception) -> JSONResponse:
+            message = exc.args[0] if exc.args else str(exc)
+            return JSONResponse({"detail": str(message)}, status_code=code)
+
+        return _handle
+
+    app.add_exception_handler(RecordNotFound, handler(404))
+    app.add_exception_handler(StateConflict, handler(409))
+    app.add_exception_handler(InputError, handler(422))
+    app.add_exception_handler(CavewalkError, handler(400))

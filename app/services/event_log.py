@@ -1,0 +1,159 @@
+"""The event log writer: events are queued in memory and written to SQLite in batches.
+
+A study day of 60 Hz action events must not slow the pipeline or the API, so
+:meth:`EventWriter.record` only appends to a queue; a background thread inserts
+what has gathered every ``flush_interval_s`` (at most one second, so a crash loses
+at most the last second) and on :meth:`close`. Events recorded while a study session
+is running carry that session's id.
+"""
+
+from __future__ import annotations
+
+import logging
+import queue
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from sqlalchemy.orm import Session
+
+from app.db.repositories import add_events
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True, slots=True)
+class EventWriterConfig:
+    flush_interval_s: float = 0.5
+    max_batch: int = 2000
+
+    def __post_init__(self) -> None:
+        if not 0 < self.flush_interval_s <= 1.0:
+            raise ValueError(f"flush_interval_s must be in (0, 1], got {self.flush_interval_s}")
+        if self.max_batch < 1:
+            raise ValueError(f"max_batch must be >= 1, got {self.max_batch}")
+
+
+class _Flush:
+    __slots__ = ("done",)
+
+    def __init__(self) -> None:
+        self.done = threading.Event()
+
+
+class EventWriter:
+    """Batches events into the ``events`` table from a background thread."""
+
+    def __init__(self, session_factory: Callable[[], Session], config: EventWriterConfig | None = None):
+        self._factory = session_factory
+        self._config = config or EventWriterConfig()
+        self._queue: queue.SimpleQueue[dict[str, Any] | _Flush | None] = queue.SimpleQueue()
+        self._session_id: int | None = None
+        self._lock = threading.Lock()
+        self._thread: threading.Thread | None = None
+        self.written = 0
+        self.failed = 0
+
+    # -- producer side (any thread) ----------------------------------------------------
+    @property
+    def session_id(self) -> int | None:
+        with self._lock:
+            return self._session_id
+
+    def set_session(self, session_id: int | None) -> None:
+        """Events recorded from now on belong to this study session (None = none)."""
+        with self._lock:
+            self._session_id = session_id
+
+    def record(self, kind: str, payload: dict[str, Any], ts: float | None = None) -> None:
+        """Queue one event; never blocks on the database."""
+        with self._lock:
+            sid = self._session_id
+        self._queue.put(
+            {
+                "session_id": sid,
+                "ts": float(ts if ts is not None else time.time()),
+                "kind": str(kind)[:32],
+                "payload": payload,
+            }
+        )
+
+    def flush(self, timeout_s: float = 5.0) -> bool:
+        """Write everything queued so far before returning (True when done in time)."""
+        if self._thread is None or not self._thread.is_alive():
+            self._write(self._drain_now())
+            return True
+        marker = _Flush()
+        self._queue.put(marker)
+        return marker.done.wait(timeout_s)
+
+    # -- lifecycle ---------------------------------------------------------------------
+    def start(self) -> None:
+        if self._thread is not None:
+            return
+        self._thread = threading.Thread(target=self._run, name="event-writer", daemon=True)
+        self._thread.start()
+
+    def close(self) -> None:
+        """Write what is queued and stop the thread."""
+        if self._thread is not None:
+            self._queue.put(None)
+            self._thread.join(timeout=10)
+            self._thread = None
+        self._write(self._drain_now())
+
+    # -- consumer side -----------------------------------------------------------------
+    def _drain_now(self) -> list[dict[str, Any]]:
+        out: list[dict[str, Any]] = []
+        while True:
+            try:
+                item = self._queue.get_nowait()
+            except queue.Empty:
+                return out
+            if isinstance(item, dict):
+                out.append(item)
+            elif isinstance(item, _Flush):
+                item.done.set()
+
+    def _write(self, batch: list[dict[str, Any]]) -> None:
+        if not batch:
+            return
+        try:
+            with self._factory() as db:
+                add_events(db, batch)
+            self.written += len(batch)
+        except Exception:
+            self.failed += len(batch)
+            log.exception("could not write %d events", len(batch))
+
+    def _run(self) -> None:
+        cfg = self._config
+        batch: list[dict[str, Any]] = []
+        markers: list[_Flush] = []
+        deadline = time.monotonic() + cfg.flush_interval_s
+        stopping = False
+        while not stopping:
+            timeout = max(0.0, deadline - time.monotonic())
+            try:
+                item = self._queue.get(timeout=timeout)
+            except queue.Empty:
+                item = _NOTHING
+            if item is None:
+                stopping = True
+            elif isinstance(item, _Flush):
+                markers.append(item)
+            elif isinstance(item, dict):
+                batch.append(item)
+            now = time.monotonic()
+            if stopping or markers or len(batch) >= cfg.max_batch or now >= deadline:
+                self._write(batch)
+                batch = []
+                for m in markers:
+                    m.done.set()
+                markers = []
+                deadline = now + cfg.flush_interval_s
+
+
+_NOTHING: Any = object()

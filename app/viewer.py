@@ -1,0 +1,247 @@
+"""The 3D view: one viser server showing the CAVE, the cameras and the people tracked now.
+
+Scene names are stable (``/cave/...``, ``/cameras/{name}``, ``/people/{user_id}/joints``,
+``/people/{user_id}/bones``, ``/navigator/arrow``); handles are kept and updated in place,
+each status's updates inside ``server.atomic()``. Created and stopped by the app's lifespan.
+"""
+
+from __future__ import annotations
+
+import colorsys
+import logging
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from app.core.config import Settings
+from pipeline.camera import Camera
+from pipeline.cave import CaveGeometry
+from pipeline.skeleton import BONES, J
+
+log = logging.getLogger(__name__)
+
+F32 = NDArray[np.float32]
+
+NAVIGATOR_COLOR = (255, 140, 0)
+
+
+def user_color(user_id: int) -> tuple[int, int, int]:
+    """A stable, distinct colour per user id (golden-ratio hues, never the navigator's orange)."""
+    hue = (0.55 + 0.618034 * user_id) % 1.0
+    if abs(hue - 0.08) < 0.05:
+        hue = (hue + 0.1) % 1.0
+    r, g, b = colorsys.hsv_to_rgb(hue, 0.65, 0.95)
+    return int(r * 255), int(g * 255), int(b * 255)
+
+
+def joints_array(joints: Sequence[Sequence[float] | None]) -> F32:
+    """17 joints ``[x, y, z]`` or None -> (17, 3) float32 with NaN where unknown."""
+    out = np.full((len(joints), 3), np.nan, dtype=np.float32)
+    for i, j in enumerate(joints):
+        if j is not None and len(j) == 3 and all(v is not None for v in j):
+            out[i] = np.asarray(j, dtype=np.float32)
+    return out
+
+
+def bone_segments(joints: F32) -> F32:
+    """(B, 2, 3) segments of the skeleton's bones whose two ends are known."""
+    segs = [
+        (joints[a], joints[b])
+        for a, b in BONES
+        if np.all(np.isfinite(joints[a])) and np.all(np.isfinite(joints[b]))
+    ]
+    return np.asarray(segs, dtype=np.float32).reshape(-1, 2, 3)
+
+
+def facing_arrow(joints: F32, yaw_deg: float, length_m: float = 0.6) -> F32 | None:
+    """(3, 2, 3) segments of an arrow on the floor under the hips, pointing along ``yaw_deg``.
+
+    yaw 0 = facing +Y, positive counter-clockwise seen from above (SPEC.md).
+    """
+    hips = joints[[J["l_hip"], J["r_hip"]]]
+    hips = hips[np.all(np.isfinite(hips), axis=1)]
+    if len(hips) == 0 or not math.isfinite(yaw_deg):
+        return None
+    base = hips.mean(axis=0)
+    base[2] = 0.02
+    yaw = math.radians(yaw_deg)
+    d = np.array([-math.sin(yaw), math.cos(yaw), 0.0], dtype=np.float32)
+    side = np.array([d[1], -d[0], 0.0], dtype=np.float32)
+    tip = base + d * length_m
+    head = 0.15 * length_m
+    return np.asarray(
+        [[base, tip], [tip, tip - d * head + side * head * 0.6], [tip, tip - d * head - side * head * 0.6]],
+        dtype=np.float32,
+    )
+
+
+def wall_mesh(cave: CaveGeometry) -> tuple[F32, NDArray[np.int32]]:
+    verts = np.concatenate([w.corners_m for w in cave.walls]).astype(np.float32)
+    faces = []
+    for k in range(len(cave.walls)):
+        o = 4 * k
+        faces += [[o, o + 1, o + 2], [o, o + 2, o + 3]]
+    return verts, np.asarray(faces, dtype=np.int32)
+
+
+def wall_outlines(cave: CaveGeometry) -> F32:
+    segs = [[w.corners_m[i], w.corners_m[(i + 1) % 4]] for w in cave.walls for i in range(4)]
+    return np.asarray(segs, dtype=np.float32)
+
+
+def camera_pose(cam: Camera) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(wxyz quaternion, position) of the camera-to-world transform (OpenCV camera axes)."""
+    import viser.transforms as vtf
+
+    r_cw = cam.R.T
+    position = -r_cw @ cam.t
+    return np.asarray(vtf.SO3.from_matrix(r_cw).wxyz), position
+
+
+@dataclass(slots=True)
+class _Person:
+    joints: Any
+    bones: Any
+
+
+@dataclass(slots=True)
+class Viewer:
+    """The one ViserServer of the app and the handles of its scene."""
+
+    server: Any
+    cave: CaveGeometry
+    people: dict[int, _Person] = field(default_factory=dict)
+    cameras: dict[str, Any] = field(default_factory=dict)
+    arrow: Any = None
+
+    @classmethod
+    def start(cls, settings: Settings, cameras: Sequence[Camera] | None = None) -> Viewer:
+        import viser
+
+        server = viser.ViserServer(host=settings.server.host, port=settings.server.viser_port, verbose=False)
+        viewer = cls(server=server, cave=settings.cave.geometry())
+        viewer._build_static()
+        viewer.show_cameras(cameras if cameras is not None else _default_cameras(settings))
+        log.info("3D view on http://%s:%d", settings.server.host, viewer.port)
+        return viewer
+
+    @property
+    def port(self) -> int:
+        return int(self.server.get_port())
+
+    def _build_static(self) -> None:
+        scene = self.server.scene
+        scene.set_up_direction("+z")
+        hx, hy = self.cave.floor_half_size_m
+        scene.add_grid(
+            "/cave/floor", width=2 * hx, height=2 * hy, plane="xy", cell_size=0.25, section_size=1.0
+        )
+        verts, faces = wall_mesh(self.cave)
+        scene.add_mesh_simple("/cave/walls", verts, faces, color=(120, 160, 220), opacity=0.12, side="double")
+        scene.add_line_segments(
+            "/cave/outlines", wall_outlines(self.cave), colors=(70, 90, 140), thickness=0.01
+        )
+        scene.add_frame("/cave/origin", axes_length=0.3, axes_radius=0.01)
+
+    def show_cameras(self, cameras: Sequence[Camera]) -> None:
+        """Camera frusta at the calibrated poses (replacing those shown before)."""
+        with self.server.atomic():
+            for name in set(self.cameras) - {c.name for c in cameras}:
+                self.cameras.pop(name).remove()
+            for cam in cameras:
+                w, h = cam.image_size
+                fov = 2.0 * math.atan2(h / 2.0, float(cam.K[1, 1]))
+                wxyz, pos = camera_pose(cam)
+                handle = self.cameras.get(cam.name)
+                if handle is None:
+                    self.cameras[cam.name] = self.server.scene.add_camera_frustum(
+                        f"/cameras/{cam.name}",
+                        fov=fov,
+                        aspect=w / h,
+                        scale=0.25,
+                        thickness=0.01,
+                        color=(40, 40, 40),
+                        wxyz=wxyz,
+                        position=pos,
+                    )
+                else:
+                    handle.fov, handle.aspect, handle.wxyz, handle.position = fov, w / h, wxyz, pos
+
+    def update(self, snapshot: Mapping[str, Any]) -> None:
+        """Show the skeletons of a status snapshot (``extra.people3d``) and the navigator's arrow."""
+        people3d = (snapshot.get("extra") or {}).get("people3d") or []
+        navigator = snapshot.get("navigator")
+        action = snapshot.get("action") or {}
+        scene = self.server.scene
+        seen: set[int] = set()
+        nav_joints: F32 | None = None
+        with self.server.atomic():
+            for p in people3d:
+                uid = int(p["user_id"])
+                joints = joints_array(p.get("joints") or p.get("joints_m") or [])
+                if joints.shape != (17, 3):
+                    continue
+                seen.add(uid)
+                color = NAVIGATOR_COLOR if uid == navigator else user_color(uid)
+                valid = joints[np.all(np.isfinite(joints), axis=1)]
+                segs = bone_segments(joints)
+                person = self.people.get(uid)
+                if person is None:
+                    person = _Person(
+                        joints=scene.add_point_cloud(
+                            f"/people/{uid}/joints",
+                            valid,
+                            colors=color,
+                            point_size=0.05,
+                            point_shape="circle",
+                        ),
+                        bones=scene.add_line_segments(
+                            f"/people/{uid}/bones", segs, colors=color, thickness=0.02
+                        ),
+                    )
+                    self.people[uid] = person
+                else:
+                    person.joints.points = valid
+                    person.joints.colors = np.tile(np.asarray(color, np.uint8), (len(valid), 1))
+                    person.bones.points = segs
+                    person.bones.colors = np.tile(np.asarray(color, np.uint8), (len(segs), 2, 1))
+                if uid == navigator:
+                    nav_joints = joints
+            for uid in set(self.people) - seen:
+                gone = self.people.pop(uid)
+                gone.joints.remove()
+                gone.bones.remove()
+            arrow = None
+            if nav_joints is not None and action.get("yaw_deg") is not None:
+                arrow = facing_arrow(nav_joints, float(action["yaw_deg"]))
+            if arrow is None:
+                if self.arrow is not None:
+                    self.arrow.visible = False
+            elif self.arrow is None:
+                self.arrow = scene.add_line_segments(
+                    "/navigator/arrow", arrow, colors=NAVIGATOR_COLOR, thickness=0.03
+                )
+            else:
+                self.arrow.points = arrow
+                self.arrow.visible = True
+
+    def stop(self) -> None:
+        """Stop the server and free its port."""
+        self.server.stop()
+
+
+def _default_cameras(settings: Settings) -> list[Camera]:
+    """The simulator's default cameras, shown until a calibration is active."""
+    try:
+        from pipeline.sim.scene import default_cameras
+    except ImportError:
+        return []
+    try:
+        return list(default_cameras(settings.cave.geometry(), settings.sim.camera_preset))
+    except Exception:
+        log.exception("could not build the simulator's default cameras")
+        return []
