@@ -186,10 +186,13 @@ def undistort_points(cam: Camera, uv_px: F64) -> F64:
     ok = np.all(np.isfinite(flat), axis=1)
     if np.any(ok):
         if np.any(cam.dist != 0):
-            und = cv2.undistortPointsIter(
+            # undistortPoints(src, K, dist, dst, R, P, criteria): OpenCV 4.x named this
+            # criteria overload undistortPointsIter; OpenCV 5 folds it into undistortPoints.
+            und = cv2.undistortPoints(
                 flat[ok].reshape(-1, 1, 2),
                 cam.K,
                 cam.dist,
+                None,
                 None,
                 None,
                 (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 20, 1e-9),
