@@ -1,0 +1,399 @@
+"""The within-subject analysis of the study, as the paper ran it in SPSS.
+
+Per measure (SSQ after the session and its change from before, IPQ, NASA-TLX): descriptives per
+condition; Shapiro-Wilk on the paired differences (EC - CC); when they look normal the paired
+t-test and the repeated-measures ANOVA F(1, n-1) with partial eta squared (sphericity is trivially
+met with two levels; Mauchly's test and the Greenhouse-Geisser correction are applied for designs
+with more levels); otherwise the Wilcoxon signed-rank test with Z and r = Z / sqrt(n); Cohen's
+d_z for paired data with its 95 % confidence interval and the paper's six-level label.
+
+Statistics come from scipy and pingouin. Wilcoxon p-values follow R's ``wilcox.test``: zero
+differences are dropped ("wilcox" zero method); exact p without ties or zeros for n < 50,
+otherwise the tie-corrected normal approximation with continuity correction. Z is the
+tie-corrected normal deviate without continuity correction (as SPSS reports it).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import warnings
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from app.study.data import CONDITIONS, ResponseRecord, StudyData
+
+if TYPE_CHECKING:
+    from app.core.config import Settings
+
+log = logging.getLogger(__name__)
+
+#: measure -> (instrument, phase or None for any, score key). ``ssq_total_delta`` is post - pre.
+MEASURES: dict[str, tuple[str, str | None, str]] = {
+    "ssq_total_post": ("ssq", "post", "total"),
+    "ssq_nausea_post": ("ssq", "post", "nausea"),
+    "ssq_oculomotor_post": ("ssq", "post", "oculomotor"),
+    "ssq_disorientation_post": ("ssq", "post", "disorientation"),
+    "ssq_total_delta": ("ssq", "post-pre", "total"),
+    "ipq_G1": ("ipq", None, "G1"),
+    "ipq_SP": ("ipq", None, "SP"),
+    "ipq_INV": ("ipq", None, "INV"),
+    "ipq_REAL": ("ipq", None, "REAL"),
+    "tlx_raw": ("nasa_tlx", None, "raw_tlx"),
+    "tlx_mental": ("nasa_tlx", None, "mental"),
+    "tlx_physical": ("nasa_tlx", None, "physical"),
+    "tlx_temporal": ("nasa_tlx", None, "temporal"),
+    "tlx_performance": ("nasa_tlx", None, "performance"),
+    "tlx_effort": ("nasa_tlx", None, "effort"),
+    "tlx_frustration": ("nasa_tlx", None, "frustration"),
+}
+MIN_N = 3
+#: The paper's six levels of |d| (upper bounds): negligible < 0.2 <= very small < 0.5 <= small
+#: < 0.8 <= medium < 1.2 <= large < 2.0 <= very large.
+EFFECT_LEVELS: tuple[tuple[float, str], ...] = (
+    (0.2, "negligible"),
+    (0.5, "very small"),
+    (0.8, "small"),
+    (1.2, "medium"),
+    (2.0, "large"),
+    (math.inf, "very large"),
+)
+SPHERICITY_TWO_LEVELS = (
+    "sphericity is trivially met with two levels (a single difference score): "
+    "Mauchly's test and the Greenhouse-Geisser correction do not apply"
+)
+
+
+@dataclass(frozen=True, slots=True)
+class AnalysisConfig:
+    alpha: float = 0.05
+
+    def __post_init__(self) -> None:
+        if not 0 < self.alpha < 1:
+            raise ValueError(f"alpha must be in (0, 1), got {self.alpha}")
+
+    @classmethod
+    def from_settings(cls, settings: Settings) -> AnalysisConfig:
+        return cls(alpha=settings.study.alpha)
+
+
+def _num(x: Any) -> float | None:
+    """A finite float, or None (JSON has no NaN)."""
+    if x is None:
+        return None
+    v = float(x)
+    return v if math.isfinite(v) else None
+
+
+def describe(values: ArrayLike) -> dict[str, float | int | None]:
+    """n, mean, SD (n - 1), median, quartiles and IQR."""
+    a = np.asarray(values, dtype=float)
+    if a.size == 0:
+        return {"n": 0, "mean": None, "sd": None, "median": None, "q1": None, "q3": None, "iqr": None}
+    q1, med, q3 = np.percentile(a, [25, 50, 75])
+    return {
+        "n": int(a.size),
+        "mean": _num(np.mean(a)),
+        "sd": _num(np.std(a, ddof=1)) if a.size > 1 else None,
+        "median": _num(med),
+        "q1": _num(q1),
+        "q3": _num(q3),
+        "iqr": _num(q3 - q1),
+    }
+
+
+def effect_label(d: float | None) -> str | None:
+    """The paper's label of an effect size |d| (see :data:`EFFECT_LEVELS`)."""
+    if d is None or not math.isfinite(d):
+        return None
+    for upper, label in EFFECT_LEVELS:
+        if abs(d) < upper:
+            return label
+    return EFFECT_LEVELS[-1][1]
+
+
+def shapiro(diff: NDArray[np.float64]) -> tuple[float | None, float | None]:
+    from scipy.stats import shapiro as _shapiro
+
+    if diff.size < MIN_N or np.ptp(diff) == 0:
+        return None, None  # undefined for fewer than 3 values or constant data
+    res = _shapiro(diff)
+    return _num(res.statistic), _num(res.pvalue)
+
+
+def paired_t(x: NDArray[np.float64], y: NDArray[np.float64]) -> dict[str, Any]:
+    """Paired t-test of x - y (pingouin)."""
+    import pingouin as pg
+
+    row = pg.ttest(x, y, paired=True).iloc[0]
+    return {"statistic": _num(row["T"]), "df": int(row["dof"]), "p": _num(row["p_val"])}
+
+
+def wilcoxon(x: NDArray[np.float64], y: NDArray[np.float64]) -> dict[str, Any] | None:
+    """Wilcoxon signed-rank test of x - y (scipy), R's conventions for p, SPSS's Z; None if all zero."""
+    from scipy.stats import wilcoxon as _wilcoxon
+
+    diff = x - y
+    nonzero = diff[diff != 0]
+    n = int(nonzero.size)
+    if n == 0:
+        return None
+    ties = np.unique(np.abs(nonzero)).size < n
+    zeros = n < diff.size
+    exact = n < 50 and not ties and not zeros
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # scipy warns about ties / small samples under the approximation
+        res = _wilcoxon(
+            x, y, zero_method="wilcox", correction=not exact, method="exact" if exact else "asymptotic"
+        )
+        v = _wilcoxon(x, y, zero_method="wilcox", alternative="greater", method="asymptotic").statistic
+        z = _wilcoxon(x, y, zero_method="wilcox", correction=False, method="asymptotic").zstatistic
+    return {
+        "statistic": _num(res.statistic),  # the smaller of the two rank sums (W)
+        "V": _num(v),  # the sum of the positive ranks (R's V)
+        "p": _num(res.pvalue),
+        "z": _num(z),
+        "r": _num(z / math.sqrt(n)),
+        "n_nonzero": n,
+        "p_method": "exact" if exact else "normal approximation, tie-corrected, continuity-corrected",
+    }
+
+
+def cohens_dz(x: NDArray[np.float64], y: NDArray[np.float64]) -> tuple[float | None, list[float] | None]:
+    """Cohen's d_z of x - y (mean / SD of the differences) and its 95 % CI (pingouin)."""
+    import pingouin as pg
+
+    diff = x - y
+    if diff.size < 2 or np.std(diff, ddof=1) == 0:
+        return None, None
+    d = float(pg.compute_effsize(x, y, paired=True, eftype="cohen_dz"))
+    ci = pg.compute_esci(stat=d, nx=diff.size, ny=diff.size, paired=True, eftype="cohen", decimals=6)
+    return _num(d), [float(ci[0]), float(ci[1])]
+
+
+def rm_anova(levels: Mapping[str, ArrayLike]) -> dict[str, Any]:
+    """One-way repeated-measures ANOVA over the conditions in ``levels`` (same subjects, same order).
+
+    With more than two levels, Mauchly's test of sphericity and the Greenhouse-Geisser corrected
+    p-value (pingouin); with two, sphericity holds trivially and that is said in the result.
+    """
+    import pandas as pd
+    import pingouin as pg
+
+    arrays = {k: np.asarray(v, dtype=float) for k, v in levels.items()}
+    n = {a.size for a in arrays.values()}
+    if len(arrays) < 2 or len(n) != 1:
+        raise ValueError(
+            f"expected >= 2 levels of equal length, got sizes { {k: a.size for k, a in arrays.items()} }"
+        )
+    (size,) = n
+    df = pd.DataFrame(
+        {
+            "subject": np.tile(np.arange(size), len(arrays)),
+            "condition": np.repeat(list(arrays), size),
+            "value": np.concatenate(list(arrays.values())),
+        }
+    )
+    k = len(arrays)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        table = pg.rm_anova(
+            data=df,
+            dv="value",
+            within="condition",
+            subject="subject",
+            detailed=True,
+            effsize="np2",
+            correction=k > 2,
+        )
+    row = table.iloc[0]
+    out: dict[str, Any] = {
+        "F": _num(row["F"]),
+        "df1": int(row["DF"]),
+        "df2": int(table.iloc[1]["DF"]),
+        "p": _num(row["p_unc"]),
+        "partial_eta_sq": _num(row["np2"]),
+        "levels": k,
+    }
+    if k == 2:
+        out["sphericity"] = SPHERICITY_TWO_LEVELS
+    else:
+        out["mauchly_W"] = _num(row.get("W_spher"))
+        out["mauchly_p"] = _num(row.get("p_spher"))
+        out["sphericity_met"] = bool(row.get("sphericity"))
+        out["gg_epsilon"] = _num(row.get("eps"))
+        out["p_gg"] = _num(row.get("p_GG_corr"))
+    return out
+
+
+def paired_test(cc: ArrayLike, ec: ArrayLike, alpha: float = 0.05) -> dict[str, Any]:
+    """Compare the two conditions on paired values (index i = the same participant); EC - CC."""
+    a = np.asarray(cc, dtype=float)
+    b = np.asarray(ec, dtype=float)
+    if a.shape != b.shape or a.ndim != 1:
+        raise ValueError(f"expected two 1-D arrays of equal length, got shapes {a.shape} and {b.shape}")
+    dc, de = describe(a), describe(b)
+    out: dict[str, Any] = {
+        "n": int(a.size),
+        "test": None,
+        "statistic": None,
+        "p": None,
+        "cohens_d": None,
+        "cohens_d_ci95": None,
+        "effect_label": None,
+        "normal": None,
+        "mean_cc": dc["mean"],
+        "sd_cc": dc["sd"],
+        "median_cc": dc["median"],
+        "iqr_cc": dc["iqr"],
+        "mean_ec": de["mean"],
+        "sd_ec": de["sd"],
+        "median_ec": de["median"],
+        "iqr_ec": de["iqr"],
+        "mean_diff": _num(np.mean(b - a)) if a.size else None,
+        "direction": "EC - CC",
+    }
+    if a.size < MIN_N:
+        out["note"] = (
+            f"not enough data: {a.size} participant(s) with both conditions, at least {MIN_N} needed"
+        )
+        return out
+    diff = b - a
+    w, p_sw = shapiro(diff)
+    out["shapiro_w"], out["shapiro_p"] = w, p_sw
+    out["normal"] = bool(p_sw is not None and p_sw > alpha)
+    d, ci = cohens_dz(b, a)
+    out["cohens_d"], out["cohens_d_ci95"], out["effect_label"] = d, ci, effect_label(d)
+    if np.all(diff == 0):
+        out["note"] = "every paired difference is zero: no test is possible"
+        return out
+    wil = wilcoxon(b, a)
+    out["wilcoxon"] = wil
+    if np.ptp(diff) > 0:
+        out["paired_t"] = paired_t(b, a)
+        out["anova"] = rm_anova({"CC": a, "EC": b})
+    if out["normal"]:
+        out.update(test="paired_t", statistic=out["paired_t"]["statistic"], p=out["paired_t"]["p"])
+        out["df"] = out["paired_t"]["df"]
+    elif wil is not None:
+        out.update(test="wilcoxon", statistic=wil["statistic"], p=wil["p"], z=wil["z"], r=wil["r"])
+        if np.ptp(diff) == 0:
+            out["note"] = "every paired difference is the same: Shapiro-Wilk and the t-test are undefined"
+    return out
+
+
+# --- from the study records to paired values -------------------------------------------------
+
+
+def _latest(responses: Sequence[ResponseRecord], instrument: str, phase: str | None) -> ResponseRecord | None:
+    match = [r for r in responses if r.instrument == instrument and (phase is None or r.phase == phase)]
+    return match[-1] if match else None
+
+
+def session_value(responses: Sequence[ResponseRecord], measure: str) -> float | None:
+    """The measure's value in one session (its latest matching questionnaire), or None."""
+    instrument, phase, key = MEASURES[measure]
+    if phase == "post-pre":
+        post, pre = _latest(responses, instrument, "post"), _latest(responses, instrument, "pre")
+        if post is None or pre is None or key not in post.scores or key not in pre.scores:
+            return None
+        return float(post.scores[key]) - float(pre.scores[key])
+    r = _latest(responses, instrument, phase)
+    if r is None or key not in r.scores or r.scores[key] is None:
+        return None
+    return float(r.scores[key])
+
+
+def condition_values(data: StudyData, measure: str) -> dict[str, dict[str, float]]:
+    """participant code -> condition -> value (from the latest session of that condition that has it)."""
+    out: dict[str, dict[str, float]] = {}
+    for p in data.participants:
+        per: dict[str, float] = {}
+        for s in data.sessions_of(p.id):  # ordered by id: later sessions override earlier ones
+            v = session_value(data.responses_of(s.id), measure)
+            if v is not None:
+                per[s.condition] = v
+        out[p.code] = per
+    return out
+
+
+def paired_values(
+    data: StudyData, measure: str
+) -> tuple[list[str], NDArray[np.float64], NDArray[np.float64]]:
+    """Codes and the CC and EC values of the participants who have both."""
+    values = condition_values(data, measure)
+    codes = [c for c, v in values.items() if all(k in v for k in CONDITIONS)]
+    cc = np.array([values[c]["CC"] for c in codes], dtype=float)
+    ec = np.array([values[c]["EC"] for c in codes], dtype=float)
+    return codes, cc, ec
+
+
+def _mssq(data: StudyData) -> dict[str, Any]:
+    per: dict[str, Mapping[str, float]] = {}
+    for p in data.participants:
+        for s in data.sessions_of(p.id):
+            r = _latest(data.responses_of(s.id), "mssq", None)
+            if r is not None:
+                per[p.code] = r.scores
+    first = {p.code: p.first_condition for p in data.participants}
+    out: dict[str, Any] = {
+        "n": len(per),
+        "role": "description / covariate (filled once, before the first session)",
+        **{k: describe([float(v[k]) for v in per.values() if k in v]) for k in ("child", "adult", "total")},
+        "total_by_first_condition": {
+            c: describe([float(v["total"]) for code, v in per.items() if first[code] == c and "total" in v])
+            for c in CONDITIONS
+        },
+        "values": {code: dict(v) for code, v in per.items()},
+    }
+    codes, cc, ec = paired_values(data, "ssq_total_post")
+    mssq_total = np.array([float(per[c]["total"]) if c in per else np.nan for c in codes])
+    keep = np.isfinite(mssq_total)
+    if keep.sum() >= MIN_N and np.ptp(mssq_total[keep]) > 0 and np.ptp((ec - cc)[keep]) > 0:
+        from scipy.stats import spearmanr
+
+        rho = spearmanr(mssq_total[keep], (ec - cc)[keep])
+        out["spearman_with_ssq_total_post_diff"] = {
+            "rho": _num(rho.statistic),
+            "p": _num(rho.pvalue),
+            "n": int(keep.sum()),
+        }
+    return out
+
+
+def analyse(data: StudyData, config: AnalysisConfig | None = None) -> dict[str, Any]:
+    """The whole analysis as JSON-able data (the shape of ``GET /api/v1/analysis``)."""
+    config = config or AnalysisConfig()
+    reasons: dict[str, str] = {}
+    for p in data.participants:
+        have = {s.condition for s in data.sessions_of(p.id) if data.responses_of(s.id)}
+        missing = [c for c in CONDITIONS if c not in have]
+        if missing:
+            reasons[p.code] = (
+                "no questionnaire in any session"
+                if len(missing) == 2
+                else f"no data in condition {missing[0]}"
+            )
+    measures: dict[str, Any] = {}
+    for name in MEASURES:
+        values = condition_values(data, name)
+        codes, cc, ec = paired_values(data, name)
+        result = paired_test(cc, ec, config.alpha)
+        result["participants"] = codes
+        result["excluded"] = sorted(
+            c for c, v in values.items() if not all(k in v for k in CONDITIONS) and c not in reasons
+        )
+        measures[name] = result
+    return {
+        "participants": len(data.participants),
+        "excluded": sorted(reasons),
+        "excluded_reasons": reasons,
+        "alpha": config.alpha,
+        "direction": "differences are EC - CC",
+        "measures": measures,
+        "mssq": _mssq(data),
+    }

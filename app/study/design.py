@@ -1,0 +1,161 @@
+"""The within-subject design: counterbalanced order, the gap between sessions, completeness.
+
+The paper's design: every participant does both conditions, controller (``CC``) and embodied
+(``EC``), on different days (two days apart), half of them CC first and half EC first. Before
+and after each session the SSQ; after each session the IPQ and the NASA-TLX; the MSSQ once.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from collections.abc import Iterable
+from dataclasses import dataclass
+from itertools import pairwise
+from typing import TYPE_CHECKING, Any
+
+from app.study.data import CONDITIONS, StudyData
+
+if TYPE_CHECKING:
+    from app.core.config import Settings
+
+#: The questionnaires every session needs: (instrument, phase); phase None = any phase.
+PER_SESSION: tuple[tuple[str, str | None], ...] = (
+    ("ssq", "pre"),
+    ("ssq", "post"),
+    ("ipq", None),
+    ("nasa_tlx", None),
+)
+
+
+@dataclass(frozen=True, slots=True)
+class DesignConfig:
+    min_gap_days: float = 2.0
+
+    def __post_init__(self) -> None:
+        if self.min_gap_days < 0:
+            raise ValueError(f"min_gap_days must be >= 0, got {self.min_gap_days}")
+
+    @classmethod
+    def from_settings(cls, settings: Settings) -> DesignConfig:
+        return cls(min_gap_days=settings.study.min_gap_days)
+
+
+def order_for(first: str) -> tuple[str, str]:
+    """The two conditions in the order a participant does them."""
+    if first not in CONDITIONS:
+        raise ValueError(f"first condition must be one of {CONDITIONS}, got {first!r}")
+    return (first, "EC" if first == "CC" else "CC")
+
+
+def next_first_condition(assigned: Iterable[str | None]) -> str:
+    """The first condition for the next participant: the one used less so far (CC on a tie).
+
+    Adding participants one by one this alternates CC, EC, CC, ... so the groups never differ
+    by more than one, whatever N turns out to be.
+    """
+    counts = Counter(c for c in assigned if c in CONDITIONS)
+    return "CC" if counts["CC"] <= counts["EC"] else "EC"
+
+
+def counterbalanced_orders(n: int) -> list[tuple[str, str]]:
+    """Orders for ``n`` participants: half CC first, half EC first (alternating)."""
+    if n < 0:
+        raise ValueError(f"n must be >= 0, got {n}")
+    assigned: list[str | None] = []
+    for _ in range(n):
+        assigned.append(next_first_condition(assigned))
+    return [order_for(str(c)) for c in assigned]
+
+
+@dataclass(frozen=True, slots=True)
+class GapWarning:
+    participant_id: int
+    code: str
+    session_ids: tuple[int, int]
+    gap_days: float
+    min_gap_days: float
+
+    @property
+    def message(self) -> str:
+        return (
+            f"participant {self.code}: sessions {self.session_ids[0]} and {self.session_ids[1]} are "
+            f"{self.gap_days:.2f} days apart, less than the minimum of {self.min_gap_days:g} days"
+        )
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "participant_id": self.participant_id,
+            "code": self.code,
+            "session_ids": list(self.session_ids),
+            "gap_days": round(self.gap_days, 3),
+            "min_gap_days": self.min_gap_days,
+            "message": self.message,
+        }
+
+
+def gap_warnings(data: StudyData, min_gap_days: float) -> list[GapWarning]:
+    """A warning for each pair of a participant's consecutive started sessions closer than the gap."""
+    out: list[GapWarning] = []
+    for p in data.participants:
+        started = sorted((s.started_at, s.id) for s in data.sessions_of(p.id) if s.started_at is not None)
+        for (t_a, id_a), (t_b, id_b) in pairwise(started):
+            gap = (t_b - t_a).total_seconds() / 86400.0
+            if gap < min_gap_days:
+                out.append(GapWarning(p.id, p.code, (id_a, id_b), gap, min_gap_days))
+    return out
+
+
+def completeness(data: StudyData) -> list[dict[str, Any]]:
+    """Per participant: the conditions without a session and the questionnaires still missing."""
+    out: list[dict[str, Any]] = []
+    for p in data.participants:
+        sessions = data.sessions_of(p.id)
+        missing: list[dict[str, Any]] = []
+        has_mssq = False
+        for s in sessions:
+            responses = data.responses_of(s.id)
+            has_mssq = has_mssq or any(r.instrument == "mssq" for r in responses)
+            for instrument, phase in PER_SESSION:
+                if not any(
+                    r.instrument == instrument and (phase is None or r.phase == phase) for r in responses
+                ):
+                    missing.append(
+                        {
+                            "session_id": s.id,
+                            "condition": s.condition,
+                            "instrument": instrument,
+                            "phase": phase,
+                        }
+                    )
+        if not has_mssq:
+            missing.append({"session_id": None, "condition": None, "instrument": "mssq", "phase": None})
+        conditions = {s.condition for s in sessions}
+        missing_conditions = [c for c in CONDITIONS if c not in conditions]
+        out.append(
+            {
+                "participant_id": p.id,
+                "code": p.code,
+                "sessions": len(sessions),
+                "missing_conditions": missing_conditions,
+                "missing": missing,
+                "complete": not missing and not missing_conditions,
+            }
+        )
+    return out
+
+
+def design_summary(data: StudyData, config: DesignConfig) -> dict[str, Any]:
+    """Everything the study panel shows about the design, JSON-able."""
+    firsts = [p.first_condition for p in data.participants]
+    counts = Counter(c for c in firsts if c is not None)
+    nxt = next_first_condition(firsts)
+    return {
+        "participants": len(data.participants),
+        "first_condition_counts": {c: counts[c] for c in CONDITIONS},
+        "balanced": abs(counts["CC"] - counts["EC"]) <= 1,
+        "next_first_condition": nxt,
+        "next_order": list(order_for(nxt)),
+        "min_gap_days": config.min_gap_days,
+        "gap_warnings": [w.as_dict() for w in gap_warnings(data, config.min_gap_days)],
+        "completeness": completeness(data),
+    }
