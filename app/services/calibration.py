@@ -207,14 +207,16 @@ class CalibrationService:
         return images
 
     def _solve(self, run_id: int, images: dict[str, U8]) -> dict[str, Any]:
-        from pipeline.calibration.overlay import draw_overlay
         from pipeline.calibration.pnp import calibrate_cameras
 
-        results = calibrate_cameras(images, self.layout(), calibration_config(self._settings))
+        layout = self.layout()
+        results = calibrate_cameras(
+            {k: [v] for k, v in images.items()}, layout, calibration_config(self._settings)
+        )
         out_dir = self.runs_dir / str(run_id)
         out_dir.mkdir(parents=True, exist_ok=True)
         cameras = []
-        for res in results:
+        for name, res in results.items():
             cameras.append(
                 camera_record(
                     res.camera,
@@ -223,13 +225,27 @@ class CalibrationService:
                         "verdict": str(res.verdict),
                         "markers_used": int(res.markers_used),
                         "walls_seen": list(res.walls_seen),
+                        "coverage": float(res.coverage),
                     },
                 )
             )
-            overlay = draw_overlay(images[res.camera.name], res, self._cave, self.layout())
-            self.overlay_path(run_id, res.camera.name).write_bytes(encode_png(overlay))
+            overlay = self._overlay(images[name], res)
+            if overlay is not None:
+                self.overlay_path(run_id, name).write_bytes(encode_png(overlay))
         (out_dir / "calibration.json").write_text(json.dumps({"cameras": cameras}, indent=1))
         return {"cameras": cameras}
+
+    def _overlay(self, image: U8, result: Any) -> U8 | None:
+        """The calibration stage's overlay (detected/reprojected corners, walls, axes), if it has one."""
+        try:
+            from pipeline.calibration import overlay  # type: ignore[attr-defined,unused-ignore]
+        except ImportError:
+            log.warning("pipeline.calibration.overlay is not available: no overlay images")
+            return None
+        draw = getattr(overlay, "draw_overlay", None) or getattr(overlay, "render_overlay", None)
+        if draw is None:
+            return None
+        return np.asarray(draw(image, result, self._cave, self.layout()), dtype=np.uint8)
 
     def _show_cameras(self, run: CalibrationRun) -> None:
         if self._viewer is not None and run.result is not None:

@@ -1,0 +1,112 @@
+"""``cavewalk serve`` and ``cavewalk demo``: the dashboard, REST API, WebSocket and 3D view."""
+
+from __future__ import annotations
+
+import socket
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from pipeline.errors import ConfigError, InputError
+
+
+def port_free(host: str, port: int) -> bool:
+    """True when ``host:port`` can be bound now (TCP)."""
+    family = socket.AF_INET6 if ":" in host.strip("[]") else socket.AF_INET
+    with socket.socket(family, socket.SOCK_STREAM) as s:
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            s.bind((host.strip("[]"), port))
+        except OSError:
+            return False
+    return True
+
+
+HostOpt = Annotated[str | None, typer.Option("--host", help="Address to bind (default 127.0.0.1).")]
+PortOpt = Annotated[int | None, typer.Option("--port", help="HTTP port (default 8000).", min=1, max=65535)]
+ViserOpt = Annotated[
+    int | None, typer.Option("--viser-port", help="Port of the 3D view (default 8080).", min=1, max=65535)
+]
+DbOpt = Annotated[Path | None, typer.Option("--db", help="SQLite database file.")]
+ConfigOpt = Annotated[Path | None, typer.Option("--config", help="Settings TOML file.")]
+EmitOpt = Annotated[
+    list[str] | None,
+    typer.Option("--emit", help="HOST:PORT of a workstation to send the UDP stream to (repeatable)."),
+]
+
+
+def run_server(
+    *,
+    demo: bool,
+    host: str | None,
+    port: int | None,
+    viser_port: int | None,
+    db: Path | None,
+    config: Path | None,
+    emit: list[str] | None,
+) -> None:
+    import uvicorn
+
+    from app.cli import apply_config
+    from app.core.config import get_settings, parse_endpoint, set_settings
+    from app.main import create_app, operator_token
+
+    apply_config(config)
+    settings = get_settings()
+    given = {"host": host, "port": port, "viser_port": viser_port}
+    server = settings.server.model_copy(update={k: v for k, v in given.items() if v is not None})
+    paths = settings.paths if db is None else settings.paths.model_copy(update={"db": db.expanduser()})
+    workstations = list(settings.workstations)
+    for item in emit or []:
+        try:
+            parse_endpoint(item)
+        except ValueError as exc:
+            raise InputError(f"--emit: {exc}") from None
+        workstations.append(item)
+    settings = settings.model_copy(update={"server": server, "paths": paths, "workstations": workstations})
+    set_settings(settings)
+    if paths.db.exists() and paths.db.is_dir():
+        raise ConfigError(f"--db {paths.db} is a folder, not a database file")
+    if not port_free(server.host, server.port):
+        raise ConfigError(f"port {server.port} on {server.host} is in use (choose another with --port)")
+    if server.viser and not port_free(server.host, server.viser_port):
+        raise ConfigError(f"port {server.viser_port} is in use (choose another with --viser-port)")
+    token = operator_token(settings)
+    app = create_app(settings, autostart="simulator" if demo else None, token=token)
+    shown = "localhost" if server.host in ("127.0.0.1", "localhost") else server.host
+    typer.echo(f"cavewalk dashboard: http://{shown}:{server.port}/  (API docs: /docs)")
+    if server.viser:
+        typer.echo(f"3D view:            http://{shown}:{server.viser_port}/")
+    typer.echo(f"database:           {paths.db}")
+    if token is not None:
+        source = "from the settings" if settings.server.token else "generated for this run"
+        typer.echo(f"operator token ({source}): {token}")
+        typer.echo(f"  open http://{shown}:{server.port}/?token={token}")
+    uvicorn.run(app, host=server.host.strip("[]"), port=server.port, log_level="warning", ws="websockets")
+
+
+def register(cli: typer.Typer) -> None:
+    @cli.command("serve")
+    def serve(
+        host: HostOpt = None,
+        port: PortOpt = None,
+        viser_port: ViserOpt = None,
+        db: DbOpt = None,
+        config: ConfigOpt = None,
+        emit: EmitOpt = None,
+    ) -> None:
+        """The dashboard, REST API, WebSocket and viser 3D view (cameras from the settings)."""
+        run_server(demo=False, host=host, port=port, viser_port=viser_port, db=db, config=config, emit=emit)
+
+    @cli.command("demo")
+    def demo(
+        host: HostOpt = None,
+        port: PortOpt = None,
+        viser_port: ViserOpt = None,
+        db: DbOpt = None,
+        config: ConfigOpt = None,
+        emit: EmitOpt = None,
+    ) -> None:
+        """``serve`` with a simulated CAVE and user: no cameras needed."""
+        run_server(demo=True, host=host, port=port, viser_port=viser_port, db=db, config=config, emit=emit)
