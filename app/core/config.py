@@ -169,6 +169,51 @@ class CalibrationSettings(_Section):
         return CalibrationConfig(**self.model_dump())
 
 
+class TriangulationSettings(_Section):
+    """Cross-view association, robust triangulation, 3D tracks (see pipeline.triangulation.config)."""
+
+    min_score: float = Field(0.3, ge=0, le=1)  # 2D keypoints scored lower are ignored
+    outlier_ratio: float = Field(3.0, gt=1)  # a view this many times worse than the others is dropped
+    outlier_min_px: float = Field(12.0, ge=0)  # ... if also above this error
+    max_reproj_px: float = Field(40.0, gt=0)  # a joint with a larger mean error is unknown
+    refine_iterations: int = Field(2, ge=0, le=20)  # Gauss-Newton steps after the DLT
+    max_epipolar_px: float = Field(40.0, gt=0)  # association: same person below this distance
+    min_common_joints: int = Field(4, ge=1, le=17)
+    memory_factor: float = Field(0.5, gt=0, le=1)  # pull towards last frames' association
+    memory_s: float = Field(5.0, ge=0)  # (camera, track) -> user links forgotten after this
+    max_missing_s: float = Field(2.0, ge=0)  # a user unseen this long loses the id
+    max_match_distance_m: float = Field(0.7, gt=0)
+    smoothing: Literal["none", "one_euro"] = "one_euro"
+    one_euro_min_cutoff_hz: float = Field(2.0, gt=0)
+    one_euro_beta: float = Field(0.7, ge=0)
+    one_euro_d_cutoff_hz: float = Field(1.0, gt=0)
+    bone_prior_s: float = Field(2.0, ge=0)  # bone lengths learned over a user's first seconds
+    bone_tolerance: float = Field(0.35, gt=0)  # then a limb this far off (fraction) is an outlier
+    min_valid_joints: int = Field(5, ge=1, le=17)
+
+    def to_config(self) -> Any:
+        """The stage's frozen ReconstructionConfig."""
+        from pipeline.triangulation.config import ReconstructionConfig
+
+        return ReconstructionConfig.from_flat(self.model_dump())
+
+
+class NavigatorSettings(_Section):
+    """Choice of the primary navigator (see pipeline.triangulation.navigator)."""
+
+    mode: Literal["auto", "manual"] = "auto"
+    dwell_s: float = Field(0.5, ge=0)  # auto: tracked this long before being chosen
+    hold_s: float = Field(1.5, ge=0)  # the choice survives an occlusion this long
+    max_radius_m: float = Field(1.5, gt=0)  # auto: only people this near the centre
+    switch_margin_m: float = Field(0.5, ge=0)  # auto: a challenger must be this much nearer
+
+    def to_config(self) -> Any:
+        """The selector's frozen NavigatorConfig."""
+        from pipeline.triangulation.config import NavigatorConfig
+
+        return NavigatorConfig(**self.model_dump())
+
+
 class Settings(BaseSettings):
     """Everything configurable in cavewalk."""
 
@@ -190,6 +235,8 @@ class Settings(BaseSettings):
     sim: SimSettings = SimSettings()
     study: StudySettings = StudySettings()
     calibration: CalibrationSettings = CalibrationSettings()
+    triangulation: TriangulationSettings = TriangulationSettings()
+    navigator: NavigatorSettings = NavigatorSettings()
 
     @field_validator("cameras")
     @classmethod

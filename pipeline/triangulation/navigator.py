@@ -1,0 +1,165 @@
+"""The primary navigator: which tracked user drives the locomotion.
+
+``manual``: the operator picks a user id (``set_manual``); that user is the navigator whenever
+tracked, and stays chosen through an occlusion of up to ``hold_s``.
+``auto``: the person nearest the CAVE centre who has been tracked for ``dwell_s``; the choice is
+sticky (it survives an occlusion of up to ``hold_s``) and passes to someone else only when they
+have been nearer the centre by ``switch_margin_m`` for ``dwell_s``, or the navigator is lost.
+Every change is logged and returned as a :class:`NavigatorChange` for the session log.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from pipeline.errors import InputError
+from pipeline.triangulation.config import NavigatorConfig
+from pipeline.triangulation.types import Person3D
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True, slots=True)
+class NavigatorChange:
+    """The navigator (or the selection mode) changed.
+
+    timestamp_s: time of the frame (or of the last frame, for an operator's change).
+    previous, current: user ids, None = no navigator.
+    mode: ``auto`` or ``manual`` after the change.
+    reason: a short human-readable cause.
+    """
+
+    timestamp_s: float
+    previous: int | None
+    current: int | None
+    mode: str
+    reason: str
+
+    def __post_init__(self) -> None:
+        if self.mode not in ("auto", "manual"):
+            raise ValueError(f"mode must be 'auto' or 'manual', got {self.mode!r}")
+
+
+@dataclass(slots=True)
+class _Seen:
+    first_s: float
+    last_s: float
+    radius_m: float
+
+
+class NavigatorSelector:
+    """Chooses the primary navigator among the tracked users, frame by frame."""
+
+    def __init__(self, config: NavigatorConfig | None = None) -> None:
+        self.config = config or NavigatorConfig()
+        self._mode: str = self.config.mode
+        self._manual_id: int | None = None
+        self._current: int | None = None
+        self._seen: dict[int, _Seen] = {}
+        self._challenger_since: dict[int, float] = {}
+        self._t = 0.0
+
+    @property
+    def mode(self) -> str:
+        return self._mode
+
+    @property
+    def current(self) -> int | None:
+        """The navigator's user id, or None."""
+        return self._current
+
+    @property
+    def tracked(self) -> tuple[int, ...]:
+        """User ids seen within ``hold_s`` of the last frame, sorted."""
+        return tuple(sorted(self._seen))
+
+    def _change(self, previous: int | None, previous_mode: str, reason: str) -> NavigatorChange | None:
+        if previous == self._current and previous_mode == self._mode:
+            return None
+        ev = NavigatorChange(self._t, previous, self._current, self._mode, reason)
+        log.info("navigator %s -> %s (%s, %s)", previous, self._current, self._mode, reason)
+        return ev
+
+    def set_manual(self, user_id: int) -> NavigatorChange | None:
+        """Make ``user_id`` the navigator until ``set_auto`` or another ``set_manual``.
+
+        Raises InputError (and changes nothing) when that user is not currently tracked.
+        """
+        if isinstance(user_id, bool) or not isinstance(user_id, int | np.integer):
+            raise InputError(f"user_id must be an integer, got {user_id!r}")
+        uid = int(user_id)
+        if uid not in self._seen:
+            known = ", ".join(str(u) for u in self.tracked) or "none"
+            raise InputError(f"user {uid} is not tracked (tracked users: {known})")
+        previous, previous_mode = self._current, self._mode
+        self._mode, self._manual_id, self._current = "manual", uid, uid
+        self._challenger_since.clear()
+        return self._change(previous, previous_mode, "chosen by the operator")
+
+    def set_auto(self) -> NavigatorChange | None:
+        """Return to automatic choice (the current navigator stays while tracked)."""
+        previous, previous_mode = self._current, self._mode
+        self._mode, self._manual_id = "auto", None
+        self._challenger_since.clear()
+        if self._current is not None and self._current not in self._seen:
+            self._current = None
+        return self._change(previous, previous_mode, "automatic choice")
+
+    def update(self, people: Sequence[Person3D], timestamp_s: float) -> NavigatorChange | None:
+        """Feed one frame's people; returns the change of navigator, if any."""
+        t = float(timestamp_s)
+        if not math.isfinite(t):
+            raise InputError(f"timestamp_s must be finite, got {timestamp_s!r}")
+        self._t = t
+        cfg = self.config
+        cx, cy = cfg.center_m
+        present: set[int] = set()
+        for p in people:
+            pos = p.position_m
+            if not np.all(np.isfinite(pos)):
+                continue
+            r = float(math.hypot(pos[0] - cx, pos[1] - cy))
+            s = self._seen.get(p.user_id)
+            if s is None or t - s.last_s > cfg.hold_s:
+                self._seen[p.user_id] = _Seen(t, t, r)
+            else:
+                s.last_s, s.radius_m = t, r
+            present.add(p.user_id)
+        for uid in [u for u, s in self._seen.items() if t - s.last_s > cfg.hold_s]:
+            del self._seen[uid]
+            self._challenger_since.pop(uid, None)
+
+        previous, previous_mode = self._current, self._mode
+        if self._mode == "manual":
+            self._current = self._manual_id if self._manual_id in self._seen else None
+            reason = "operator's choice tracked" if self._current is not None else "operator's choice lost"
+            return self._change(previous, previous_mode, reason)
+
+        eligible = {
+            u: self._seen[u].radius_m
+            for u in present
+            if t - self._seen[u].first_s >= cfg.dwell_s and self._seen[u].radius_m <= cfg.max_radius_m
+        }
+        if self._current is not None and self._current in self._seen:
+            r_cur = self._seen[self._current].radius_m
+            for u in list(self._challenger_since):
+                if u not in eligible or eligible[u] + cfg.switch_margin_m >= r_cur:
+                    del self._challenger_since[u]
+            for u, r in eligible.items():
+                if u != self._current and r + cfg.switch_margin_m < r_cur:
+                    self._challenger_since.setdefault(u, t)
+            ready = [u for u, since in self._challenger_since.items() if t - since >= cfg.dwell_s]
+            if ready:
+                self._current = min(ready, key=lambda u: eligible[u])
+                self._challenger_since.clear()
+                return self._change(previous, previous_mode, "another user is nearer the centre")
+            return None
+        self._challenger_since.clear()
+        self._current = min(eligible, key=lambda u: (eligible[u], u)) if eligible else None
+        reason = "nearest the centre" if self._current is not None else "navigator lost"
+        return self._change(previous, previous_mode, reason)

@@ -1,0 +1,140 @@
+"""The triangulation stage's façade: tracked 2D views in, 3D skeletons with user ids out.
+
+Used the same way by the live runtime and the offline ``process`` command::
+
+    rec = Reconstructor(cameras, ReconstructionConfig())
+    people = rec.update(tracked_views, timestamp_s)     # list[Person3D]
+    change = navigator.update(people, timestamp_s)       # NavigatorSelector, separately
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pipeline.camera import Camera, undistort_points
+from pipeline.errors import InputError
+from pipeline.skeleton import NUM_JOINTS
+from pipeline.tracking.types import TrackedView
+from pipeline.triangulation.association import associate
+from pipeline.triangulation.config import ReconstructionConfig
+from pipeline.triangulation.dlt import CameraRig, triangulate
+from pipeline.triangulation.tracks3d import Candidate, Tracks3D
+from pipeline.triangulation.types import Person3D
+
+log = logging.getLogger(__name__)
+
+F64 = NDArray[np.float64]
+MIN_VIEW_AGREEMENT = 0.5  # a view must be used for half its confident joints to stay in a person
+
+
+class Reconstructor:
+    """Cross-view association, robust triangulation and 3D tracks, one multi-view frame at a time."""
+
+    def __init__(self, cameras: Sequence[Camera], config: ReconstructionConfig | None = None) -> None:
+        self.config = config or ReconstructionConfig()
+        self.rig = CameraRig.from_cameras(cameras)
+        self._cam_index = {name: i for i, name in enumerate(self.rig.names)}
+        self.tracks = Tracks3D(self.config.tracks, memory_s=self.config.association.memory_s)
+
+    @property
+    def cameras(self) -> tuple[Camera, ...]:
+        return self.rig.cameras
+
+    def reset(self) -> None:
+        """Forget every user and (camera, track) link (e.g. when the pipeline restarts)."""
+        self.tracks = Tracks3D(self.config.tracks, memory_s=self.config.association.memory_s)
+
+    def _check(self, views: Sequence[TrackedView], timestamp_s: float) -> None:
+        if not math.isfinite(timestamp_s):
+            raise InputError(f"timestamp_s must be finite, got {timestamp_s!r}")
+        seen: set[str] = set()
+        for v in views:
+            if not isinstance(v, TrackedView):
+                raise InputError(f"expected TrackedView objects, got {type(v).__name__}")
+            if v.camera not in self._cam_index:
+                raise InputError(f"view from unknown camera {v.camera!r}; calibrated cameras are "
+                                 f"{', '.join(self.rig.names)}")
+            if v.camera in seen:
+                raise InputError(f"two views from camera {v.camera!r} in one frame")
+            seen.add(v.camera)
+
+    def update(self, views: Sequence[TrackedView], timestamp_s: float) -> list[Person3D]:
+        """One multi-view frame -> the 3D people seen by at least two cameras, sorted by user id.
+
+        Raises InputError (leaving the tracks unchanged) for views of unknown or repeated cameras.
+        """
+        t = float(timestamp_s)
+        self._check(views, t)
+        tp = self.config.triangulation
+        cam_rows: list[int] = []
+        keys: list[tuple[str, int]] = []
+        uv_rows: list[F64] = []
+        xy_rows: list[F64] = []
+        w_rows: list[F64] = []
+        for v in views:
+            if len(v) == 0:
+                continue
+            ci = self._cam_index[v.camera]
+            uv = np.asarray(v.keypoints_xy, dtype=np.float64)
+            sc = np.asarray(v.keypoint_scores, dtype=np.float64)
+            ok = np.all(np.isfinite(uv), axis=2) & np.isfinite(sc) & (sc >= tp.min_score) & (sc > 0)
+            uv_rows.append(uv)
+            xy_rows.append(undistort_points(self.rig.cameras[ci], uv))
+            w_rows.append(np.where(ok, sc, 0.0))
+            cam_rows.extend([ci] * len(v))
+            keys.extend((v.camera, int(tid)) for tid in v.track_ids)
+        if not keys:
+            self.tracks.assign([], t)
+            return []
+        cam_idx = np.asarray(cam_rows, dtype=np.int64)
+        uv_all, xy_all, w_all = np.concatenate(uv_rows), np.concatenate(xy_rows), np.concatenate(w_rows)
+        prior = np.array([self.tracks.prior_user(k) for k in keys], dtype=np.int64)
+        clusters = [c for c in associate(self.rig, cam_idx, xy_all, w_all, prior, self.config.association)
+                    if len(c) >= 2]
+        if not clusters:
+            self.tracks.assign([], t)
+            return []
+
+        c_count, k_count = len(self.rig), len(clusters)
+        uv = np.full((c_count, k_count * NUM_JOINTS, 2), np.nan)
+        xy = np.full((c_count, k_count * NUM_JOINTS, 2), np.nan)
+        w = np.zeros((c_count, k_count * NUM_JOINTS))
+        for k, members in enumerate(clusters):
+            sl = slice(k * NUM_JOINTS, (k + 1) * NUM_JOINTS)
+            for r in members:
+                uv[cam_idx[r], sl], xy[cam_idx[r], sl], w[cam_idx[r], sl] = uv_all[r], xy_all[r], w_all[r]
+        tri = triangulate(self.rig, uv, w, tp, normalized=xy)
+
+        kept: list[tuple[F64, NDArray[np.bool_], F64, tuple[tuple[str, int], ...]]] = []
+        candidates: list[Candidate] = []
+        for k, members in enumerate(clusters):
+            sl = slice(k * NUM_JOINTS, (k + 1) * NUM_JOINTS)
+            valid = tri.valid[sl]
+            if int(valid.sum()) < self.config.tracks.min_valid_joints:
+                continue
+            views_kept = []
+            for r in members:
+                confident = w_all[r] > 0
+                agree = tri.used[cam_idx[r], sl][confident].mean() if confident.any() else 0.0
+                if agree >= MIN_VIEW_AGREEMENT:
+                    views_kept.append(keys[r])
+                else:
+                    log.debug("view %s#%d disagrees with its person (%.0f%% of joints used)",
+                              keys[r][0], keys[r][1], 100 * agree)
+            person = Person3D(-1, tri.points_m[sl], valid, float("nan"), tuple(views_kept))
+            kept.append((tri.points_m[sl], valid, tri.reproj_px[sl], tuple(views_kept)))
+            candidates.append(Candidate(tuple(views_kept), person.position_m))
+        user_ids = self.tracks.assign(candidates, t)
+
+        people: list[Person3D] = []
+        for uid, (joints, valid, reproj, vk) in zip(user_ids, kept, strict=True):
+            raw_err = float(np.mean(reproj[valid])) if valid.any() else float("nan")
+            joints_out, valid_out = self.tracks.postprocess(uid, joints, valid, t)
+            people.append(Person3D(uid, joints_out, valid_out, raw_err, vk))
+        people.sort(key=lambda p: p.user_id)
+        return people
