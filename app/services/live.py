@@ -23,6 +23,7 @@ from typing import Any, Literal, Protocol
 import numpy as np
 
 from app.services.event_log import EventWriter
+from pipeline.errors import InputError
 
 log = logging.getLogger(__name__)
 
@@ -158,20 +159,28 @@ def status_snapshot(status: Any) -> dict[str, Any]:
     return snap
 
 
+#: The runtime's event kinds -> the event log's kinds (others are kept as they are).
+EVENT_KINDS = {"state": "pipeline", "worker": "pipeline", "camera": "pipeline"}
+
+
 def event_fields(event: Any) -> tuple[str, dict[str, Any], float]:
-    """A runtime ``PipelineEvent`` -> (kind, payload, unix ts) for the event log."""
+    """A runtime ``PipelineEvent`` (timestamp_s, kind, message, data) -> (kind, payload, unix ts)."""
     raw = jsonable(event)
     if not isinstance(raw, dict):
         return "pipeline", {"value": raw}, time.time()
-    kind = str(raw.pop("kind", None) or raw.pop("type", None) or "pipeline")
-    ts_val = raw.pop("ts", None)
+    kind = str(raw.pop("kind", None) or "pipeline")
+    ts_val = raw.pop("timestamp_s", None)
     if ts_val is None:
-        ts_val = raw.pop("timestamp_s", None)
-    payload = raw.pop("payload", None)
-    if not isinstance(payload, dict):
-        payload = raw if payload is None else {"value": payload, **raw}
+        ts_val = raw.pop("ts", None)
+    data = raw.pop("data", None)
+    payload: dict[str, Any] = (
+        dict(data) if isinstance(data, dict) else ({} if data is None else {"data": data})
+    )
+    payload.update(raw)  # message and anything else
+    if kind in ("worker", "camera"):
+        payload.setdefault("source", kind)
     ts = float(ts_val) if isinstance(ts_val, int | float) and math.isfinite(ts_val) else time.time()
-    return kind, payload, ts
+    return EVENT_KINDS.get(kind, kind), payload, ts
 
 
 class PipelineService:
@@ -241,7 +250,10 @@ class PipelineService:
                 if user_id is None:
                     return None, "auto"
                 raise UnknownUser("the pipeline is not running")
-            self._pipeline.set_navigator(user_id)
+            try:
+                self._pipeline.set_navigator(user_id)
+            except InputError as exc:  # the pipeline's own, newer view of who is tracked
+                raise UnknownUser(str(exc)) from exc
             self._events.record(
                 "navigator",
                 {"user_id": user_id, "mode": "manual" if user_id is not None else "auto", "by": "operator"},
@@ -307,6 +319,9 @@ class PipelineService:
             if self._pipeline is not None:
                 try:
                     self._pipeline.stop()
+                    close = getattr(self._pipeline, "close", None)
+                    if callable(close):
+                        close()
                 except Exception:
                     log.exception("pipeline stop failed")
                 self._pipeline = None

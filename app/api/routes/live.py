@@ -9,6 +9,7 @@ import logging
 from fastapi import APIRouter, WebSocket, WebSocketDisconnect, status
 
 from app.api.deps import bearer_token, token_matches
+from app.api.routes.status import live_snapshot
 
 log = logging.getLogger(__name__)
 
@@ -25,11 +26,10 @@ async def live(ws: WebSocket) -> None:
         await ws.close(code=status.WS_1008_POLICY_VIOLATION, reason="operator token required")
         return
     await ws.accept()
-    pipeline = ws.app.state.pipeline
     period = 1.0 / ws.app.state.settings.server.live_rate_hz
     try:
         while True:
-            snap = pipeline.snapshot()
+            snap = live_snapshot(ws)
             await ws.send_json({"type": "status", **snap})
             # Anything the client sends is ignored; a disconnect ends the loop promptly.
             with contextlib.suppress(TimeoutError):

@@ -1,15 +1,47 @@
-"""The live status of the pipeline (the same object the WebSocket sends)."""
+"""The live status of the pipeline (the same object the WebSocket sends) and what the dashboard needs."""
 
 from __future__ import annotations
 
-from fastapi import APIRouter
+from typing import Any
 
-from app.api.deps import PipelineDep
+from fastapi import APIRouter
+from fastapi.requests import HTTPConnection
+from pydantic import BaseModel
+
+from app.api.deps import PipelineDep, SettingsDep, ViewerDep
 from app.schemas.live import StatusPublic
 
 router = APIRouter(tags=["status"])
 
 
+class DashboardInfo(BaseModel):
+    viser_port: int | None
+    cameras: list[str]
+    walls: list[str]
+    live_rate_hz: float
+    pipeline_available: bool
+    pipeline_unavailable_reason: str
+
+
+def live_snapshot(conn: HTTPConnection) -> dict[str, Any]:
+    """The pipeline's snapshot plus the app's own live facts (the running study session)."""
+    snap = conn.app.state.pipeline.snapshot()
+    snap["running_session_id"] = conn.app.state.events.session_id
+    return snap
+
+
 @router.get("/status", response_model=StatusPublic)
-def get_status(pipeline: PipelineDep) -> StatusPublic:
-    return StatusPublic.model_validate(pipeline.snapshot())
+def get_status(conn: HTTPConnection) -> StatusPublic:
+    return StatusPublic.model_validate(live_snapshot(conn))
+
+
+@router.get("/info", response_model=DashboardInfo)
+def info(settings: SettingsDep, viewer: ViewerDep, pipeline: PipelineDep) -> DashboardInfo:
+    return DashboardInfo(
+        viser_port=viewer.port if viewer is not None else None,
+        cameras=[c.name for c in settings.cameras],
+        walls=[w.name for w in settings.cave.geometry().walls],
+        live_rate_hz=settings.server.live_rate_hz,
+        pipeline_available=pipeline.available,
+        pipeline_unavailable_reason=pipeline.unavailable_reason,
+    )
