@@ -1,0 +1,46 @@
+// Top bar and latency panel: pipeline state, fps, dropped frames, per-stage latency, camera health;
+// start/stop of the pipeline.
+
+import { post, toast, el } from "../api.js";
+import { onStatus } from "../live.js";
+
+const fmt = (v, d = 1) => (v === null || v === undefined ? "–" : Number(v).toFixed(d));
+
+export function mountStatus() {
+  const state = document.getElementById("state");
+  const tbody = document.querySelector("#latency-table tbody");
+  const health = document.getElementById("camera-health");
+  onStatus((s) => {
+    state.textContent = s.state;
+    state.dataset.state = s.state;
+    document.getElementById("source").textContent = s.source || "–";
+    document.getElementById("fps").textContent = fmt(s.fps);
+    document.getElementById("dropped").textContent = s.dropped;
+    document.getElementById("running-session").textContent = s.running_session_id ?? "none";
+    tbody.replaceChildren(
+      ...Object.entries(s.latency_ms || {}).map(([stage, q]) =>
+        el("tr", {}, el("td", {}, stage), el("td", {}, fmt(q.p50)), el("td", {}, fmt(q.p95)), el("td", {}, fmt(q.p99))),
+      ),
+    );
+    health.replaceChildren(
+      ...(s.cameras || []).map((c) =>
+        el("li", { class: c.ok ? "ok" : "bad", title: c.last_error || "" }, `${c.name} ${c.ok ? "ok" : "down"} ${fmt(c.fps)} fps`),
+      ),
+    );
+  });
+  document.getElementById("pipeline-start").addEventListener("click", async () => {
+    const source = document.getElementById("source-select").value;
+    try {
+      await post("/pipeline/start", { source });
+    } catch (err) {
+      toast(`start failed: ${err.message}`);
+    }
+  });
+  document.getElementById("pipeline-stop").addEventListener("click", async () => {
+    try {
+      await post("/pipeline/stop");
+    } catch (err) {
+      toast(`stop failed: ${err.message}`);
+    }
+  });
+}
