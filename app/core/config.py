@@ -117,7 +117,8 @@ class RecognitionSettings(_Section):
     yaw_alpha: float = Field(0.3, gt=0, le=1)  # facing-direction smoothing, per model frame
     max_gap_s: float = Field(0.5, gt=0)  # a longer gap between skeletons resets the recogniser
     speed_alpha: float = Field(0.15, gt=0, le=1)  # speed smoothing, per model frame
-    step_length_m: float = Field(0.7, gt=0)  # virtual distance per step at the reference knee lift
+    forward_step_m: float = Field(0.4, gt=0)  # virtual distance per forward step (speed = cadence x this)
+    side_step_m: float = Field(0.3, gt=0)  # ... per side step
     threads: int = Field(1, ge=0)  # onnxruntime intra-op threads (0 = its choice)
 
     def to_config(self) -> Any:

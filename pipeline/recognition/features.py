@@ -1,0 +1,183 @@
+"""Pre-processing of skeleton windows for the action model (pure functions).
+
+The paper normalises translation and rotation so that the classifier does not
+depend on where the user stands or which wall they face. Here a window of
+frames ``(..., T, 17, 3)`` (metres, CAVE frame, NaN = unknown) becomes
+
+1. translation-normalised: minus the window's mean pelvis (mid-hip) position, so
+   the pelvis motion *inside* the window (sway, bob, side-steps) is kept;
+2. rotation-normalised: turned about +Z so the window's mean facing direction
+   (from hips and shoulders) points along +Y;
+3. scale-normalised: divided by the window's torso length (mid-shoulder to
+   mid-hip), so tall and short bodies look alike;
+4. filled: unknown joints take their last known position in the normalised frame
+   (the first known one before that, zero if never seen) and a mask channel says
+   which were measured;
+5. extended with velocities (per second at the model's frame rate, body units).
+
+Every function works on any number of leading batch dimensions, so training
+(``(N, T, 17, 3)``) and streaming inference (``(T, 17, 3)``) share the code.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pipeline.skeleton import NUM_JOINTS, J
+
+# Per-joint channels given to the model: x, y, z, vx, vy, vz, known.
+CHANNELS_PER_JOINT = 7
+NUM_CHANNELS = NUM_JOINTS * CHANNELS_PER_JOINT
+DEFAULT_TORSO_M = 0.5
+_MIN_TORSO_M = 0.15
+
+_L_HIP, _R_HIP = J["l_hip"], J["r_hip"]
+_L_SH, _R_SH = J["l_shoulder"], J["r_shoulder"]
+
+
+def _check_joints(joints: NDArray[np.floating]) -> NDArray[np.float64]:
+    arr = np.asarray(joints, dtype=np.float64)
+    if arr.ndim < 2 or arr.shape[-2:] != (NUM_JOINTS, 3):
+        raise ValueError(f"joints must have shape (..., {NUM_JOINTS}, 3), got {arr.shape}")
+    return arr
+
+
+def _nan_mid(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Midpoint of two points (..., 3); the known one where the other is NaN."""
+    out = np.where(np.isnan(a), b, a)
+    both = ~np.isnan(a) & ~np.isnan(b)
+    return np.where(both, 0.5 * (a + b), out)
+
+
+def pelvis(joints: NDArray[np.floating]) -> NDArray[np.float64]:
+    """Mid-hip position (..., 3); one hip if the other is unknown; NaN if both are."""
+    arr = _check_joints(joints)
+    return _nan_mid(arr[..., _L_HIP, :], arr[..., _R_HIP, :])
+
+
+def facing_vectors(joints: NDArray[np.floating]) -> NDArray[np.float64]:
+    """Unnormalised horizontal facing direction (..., 2) from hips and shoulders.
+
+    COCO *left* is the person's own left: a person facing +Y has the left hip at
+    -X, so the left-minus-right vector (-1, 0) turned clockwise by 90 degrees,
+    (v_y, -v_x) = (0, 1), is the facing direction. Hips and shoulders are summed
+    as unit vectors; a pair with a missing side contributes nothing. NaN when
+    neither pair is complete.
+    """
+    arr = _check_joints(joints)
+    total = np.zeros((*arr.shape[:-2], 2))
+    count = np.zeros(arr.shape[:-2])
+    for left, right in ((_L_HIP, _R_HIP), (_L_SH, _R_SH)):
+        v = arr[..., left, :2] - arr[..., right, :2]
+        norm = np.linalg.norm(v, axis=-1)
+        ok = np.isfinite(norm) & (norm > 1e-6)
+        unit = np.where(ok[..., None], v / np.where(ok, norm, 1.0)[..., None], 0.0)
+        total += np.stack([unit[..., 1], -unit[..., 0]], axis=-1)
+        count += ok
+    return np.where((count > 0)[..., None], total, np.nan)
+
+
+def yaw_from_vector(vec: NDArray[np.floating]) -> NDArray[np.float64]:
+    """Yaw in degrees (CAVE convention: 0 = +Y, counter-clockwise positive) of (..., 2) vectors."""
+    v = np.asarray(vec, dtype=np.float64)
+    yaw = np.degrees(np.arctan2(-v[..., 0], v[..., 1])) + 0.0  # + 0.0: no negative zero
+    return np.where(yaw <= -180.0, yaw + 360.0, yaw)
+
+
+def window_yaw_deg(joints: NDArray[np.floating]) -> NDArray[np.float64]:
+    """Mean facing yaw over the time axis of a window (..., T, 17, 3) -> (...); 0 when unknown."""
+    vec = facing_vectors(joints)
+    norm = np.linalg.norm(vec, axis=-1, keepdims=True)
+    unit = np.where(np.isfinite(norm) & (norm > 1e-9), vec / np.where(norm > 1e-9, norm, 1.0), 0.0)
+    unit = np.nan_to_num(unit)
+    mean = unit.sum(axis=-2)
+    unknown = np.linalg.norm(mean, axis=-1) < 1e-9
+    mean[unknown] = (0.0, 1.0)
+    return yaw_from_vector(mean)
+
+
+def rotation_z(yaw_deg: NDArray[np.floating] | float) -> NDArray[np.float64]:
+    """Rotation matrices (..., 3, 3) about +Z by ``yaw_deg`` (counter-clockwise seen from above)."""
+    a = np.radians(np.asarray(yaw_deg, dtype=np.float64))
+    c, s = np.cos(a), np.sin(a)
+    zero, one = np.zeros_like(a), np.ones_like(a)
+    return np.stack(
+        [np.stack([c, -s, zero], -1), np.stack([s, c, zero], -1), np.stack([zero, zero, one], -1)], -2
+    )
+
+
+def torso_length(joints: NDArray[np.floating]) -> NDArray[np.float64]:
+    """Median mid-shoulder to mid-hip distance over the time axis (..., T, 17, 3) -> (...)."""
+    arr = _check_joints(joints)
+    shoulders = _nan_mid(arr[..., _L_SH, :], arr[..., _R_SH, :])
+    d = np.linalg.norm(shoulders - pelvis(arr), axis=-1)
+    with np.errstate(all="ignore"):
+        known = np.isfinite(d).any(axis=-1)
+        med = np.nanmedian(np.where(known[..., None], d, DEFAULT_TORSO_M), axis=-1)
+    return np.where(np.isfinite(med) & (med > _MIN_TORSO_M), med, DEFAULT_TORSO_M)
+
+
+def normalize_window(joints: NDArray[np.floating]) -> NDArray[np.float64]:
+    """Translation, rotation and scale normalisation of windows (..., T, 17, 3); NaN stays NaN."""
+    arr = _check_joints(joints)
+    if arr.ndim < 3:
+        raise ValueError(f"a window needs a time axis: (..., T, 17, 3), got {arr.shape}")
+    pel = pelvis(arr)  # (..., T, 3)
+    with np.errstate(all="ignore"):
+        known = np.asarray(np.isfinite(pel).all(axis=-1))
+        centre = np.nanmean(np.where(known[..., None], pel, np.nan), axis=-2)  # (..., 3)
+        fallback = np.nanmean(arr, axis=(-3, -2))
+    centre = np.where(np.isfinite(centre), centre, fallback)
+    centre = np.nan_to_num(centre)
+    rot = rotation_z(-window_yaw_deg(arr))  # (..., 3, 3): facing -> +Y
+    scale = torso_length(arr)
+    centred = arr - centre[..., None, None, :]
+    rotated = np.einsum("...ij,...tkj->...tki", rot, centred)
+    return rotated / scale[..., None, None, None]
+
+
+def fill_unknown(joints: NDArray[np.floating]) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """Fill NaN joints along time (..., T, 17, 3): last known value, else first known, else 0.
+
+    Returns (filled, known) with known (..., T, 17) True where the joint was measured.
+    """
+    arr = _check_joints(joints)
+    known: NDArray[np.bool_] = np.asarray(np.isfinite(arr).all(axis=-1))
+    t = arr.shape[-3]
+    idx = np.where(known, np.arange(t)[:, None], -1)
+    last = np.maximum.accumulate(idx, axis=-2)  # index of the last known frame so far (-1: none yet)
+    first = np.where(known, np.arange(t)[:, None], t)
+    first_known = first.min(axis=-2, keepdims=True)  # (..., 1, 17)
+    src = np.where(last >= 0, last, np.minimum(first_known, t - 1))
+    filled = np.take_along_axis(arr, src[..., None], axis=-3)
+    never = np.asarray(~known.any(axis=-2, keepdims=True))
+    filled = np.where(never[..., None] | ~np.isfinite(filled), 0.0, filled)
+    return filled, known
+
+
+def window_features(joints: NDArray[np.floating], fps: float) -> NDArray[np.float32]:
+    """Model input features (..., T, 17, 7) of windows (..., T, 17, 3) sampled at ``fps``.
+
+    Channels per joint: normalised x, y, z, their velocities (body units per second)
+    and 1.0 where the joint was measured, 0.0 where it was filled in.
+    """
+    if not np.isfinite(fps) or fps <= 0:
+        raise ValueError(f"fps must be positive, got {fps}")
+    pos, known = fill_unknown(normalize_window(joints))
+    vel = np.zeros_like(pos)
+    vel[..., 1:, :, :] = (pos[..., 1:, :, :] - pos[..., :-1, :, :]) * fps
+    both = known.copy()
+    both[..., 1:, :] &= known[..., :-1, :]
+    vel *= both[..., None]
+    return np.concatenate([pos, vel, known[..., None].astype(np.float64)], axis=-1).astype(np.float32)
+
+
+def to_model_input(features: NDArray[np.float32]) -> NDArray[np.float32]:
+    """(..., T, 17, 7) features -> (..., 17*7, T), the joint-channel layout of the network."""
+    f = np.asarray(features, dtype=np.float32)
+    if f.ndim < 3 or f.shape[-2:] != (NUM_JOINTS, CHANNELS_PER_JOINT):
+        raise ValueError(f"features must have shape (..., T, 17, 7), got {f.shape}")
+    lead, t = f.shape[:-3], f.shape[-3]
+    moved = np.moveaxis(f.reshape(*lead, t, NUM_CHANNELS), -1, -2)
+    return np.ascontiguousarray(moved)

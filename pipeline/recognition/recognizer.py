@@ -1,0 +1,358 @@
+"""Streaming action recognition: one model call per new frame on a sliding window.
+
+:class:`ActionRecognizer` receives the navigator's 3D skeleton frame by frame
+(any frame rate, NaN for unknown joints), resamples it to the model's frame rate,
+runs the committed SlowFast ONNX model on the newest window, smooths the class
+probabilities with an exponential moving average (as in the paper) and only
+changes the command when the new class has led for a minimum dwell time
+(hysteresis), so the command does not flicker. It also reports the smoothed
+facing direction and the intended walking speed. onnxruntime only; no torch.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pipeline.errors import InputError, ModelError
+from pipeline.recognition.features import NUM_CHANNELS, to_model_input, window_features
+from pipeline.recognition.orientation import YawSmoother, raw_yaw_deg
+from pipeline.recognition.speed import SpeedConfig, speed_mps
+from pipeline.recognition.types import ActionEstimate
+from pipeline.skeleton import ACTIONS, NUM_JOINTS
+
+log = logging.getLogger(__name__)
+
+DEFAULT_MODEL_PATH = Path(__file__).resolve().parent / "action.onnx"
+_STILL = ACTIONS.index("still")
+
+
+class RecognitionSection(Protocol):
+    """What :meth:`RecognizerConfig.from_settings` reads (``settings.recognition``)."""
+
+    @property
+    def model(self) -> Path | None: ...
+    @property
+    def ema_alpha(self) -> float: ...
+    @property
+    def min_dwell_s(self) -> float: ...
+    @property
+    def switch_prob(self) -> float: ...
+    @property
+    def yaw_alpha(self) -> float: ...
+    @property
+    def max_gap_s(self) -> float: ...
+    @property
+    def speed_alpha(self) -> float: ...
+    @property
+    def forward_step_m(self) -> float: ...
+    @property
+    def side_step_m(self) -> float: ...
+    @property
+    def threads(self) -> int: ...
+
+
+@dataclass(frozen=True, slots=True)
+class RecognizerConfig:
+    """Parameters of the streaming recogniser (built from ``settings.recognition``).
+
+    ema_alpha: weight of a new model output in the probability EMA, per model frame.
+    min_dwell_s: how long a new class must lead (with probability >= switch_prob) before the
+        command changes.
+    yaw_alpha: weight of a new frame in the facing-direction EMA, per model frame.
+    max_gap_s: a longer gap between frames starts afresh (reset).
+    speed_alpha: weight of a new estimate in the speed EMA, per model frame.
+    """
+
+    model_path: Path = DEFAULT_MODEL_PATH
+    ema_alpha: float = 0.5
+    min_dwell_s: float = 0.1
+    switch_prob: float = 0.5
+    yaw_alpha: float = 0.3
+    max_gap_s: float = 0.5
+    speed_alpha: float = 0.15
+    speed: SpeedConfig = field(default_factory=SpeedConfig)
+    threads: int = 1
+
+    def __post_init__(self) -> None:
+        for name in ("ema_alpha", "yaw_alpha", "speed_alpha"):
+            value = getattr(self, name)
+            if not 0 < value <= 1:
+                raise ValueError(f"{name} must be in (0, 1], got {value}")
+        if self.min_dwell_s < 0:
+            raise ValueError(f"min_dwell_s must be >= 0, got {self.min_dwell_s}")
+        if not 0 <= self.switch_prob <= 1:
+            raise ValueError(f"switch_prob must be in [0, 1], got {self.switch_prob}")
+        if self.max_gap_s <= 0:
+            raise ValueError(f"max_gap_s must be positive, got {self.max_gap_s}")
+        if self.threads < 0:
+            raise ValueError(f"threads must be >= 0, got {self.threads}")
+
+    @classmethod
+    def from_settings(cls, section: RecognitionSection) -> RecognizerConfig:
+        return cls(
+            model_path=Path(section.model) if section.model is not None else DEFAULT_MODEL_PATH,
+            ema_alpha=section.ema_alpha,
+            min_dwell_s=section.min_dwell_s,
+            switch_prob=section.switch_prob,
+            yaw_alpha=section.yaw_alpha,
+            max_gap_s=section.max_gap_s,
+            speed_alpha=section.speed_alpha,
+            speed=SpeedConfig(forward_step_m=section.forward_step_m, side_step_m=section.side_step_m),
+            threads=section.threads,
+        )
+
+
+@dataclass(frozen=True, slots=True)
+class ModelInfo:
+    """What the ONNX file says about itself (its metadata)."""
+
+    window: int
+    fps: float
+    classes: tuple[str, ...]
+    input_name: str
+
+
+def open_session(path: Path, threads: int = 1) -> Any:
+    """An onnxruntime session for the action model; :class:`ModelError` if it cannot be loaded."""
+    import onnxruntime as ort
+
+    p = Path(path)
+    if not p.is_file():
+        raise ModelError(f"action model not found: {p} (train it with scripts/train_action.py)")
+    opts = ort.SessionOptions()
+    opts.intra_op_num_threads = threads
+    opts.inter_op_num_threads = 1
+    opts.log_severity_level = 3
+    try:
+        return ort.InferenceSession(str(p), sess_options=opts, providers=["CPUExecutionProvider"])
+    except Exception as exc:  # onnxruntime raises its own Fail/InvalidGraph types
+        raise ModelError(f"cannot load action model {p}: {exc}") from exc
+
+
+def model_info(session: Any) -> ModelInfo:
+    """Read window length, frame rate and classes from the model; :class:`ModelError` if unusable."""
+    meta = session.get_modelmeta().custom_metadata_map
+    inputs = session.get_inputs()
+    try:
+        window = int(meta["window"])
+        fps = float(meta["fps"])
+        classes = tuple(meta["classes"].split(","))
+    except (KeyError, ValueError) as exc:
+        raise ModelError(f"the action model lacks its metadata (window, fps, classes): {exc}") from exc
+    if classes != ACTIONS:
+        raise ModelError(f"the action model's classes must be {ACTIONS}, got {classes}")
+    shape = inputs[0].shape if len(inputs) == 1 else None
+    if shape is None or len(shape) != 3 or shape[1] != NUM_CHANNELS or shape[2] != window:
+        raise ModelError(f"the action model's input must be (B, {NUM_CHANNELS}, {window}), got {shape}")
+    return ModelInfo(window=window, fps=fps, classes=classes, input_name=inputs[0].name)
+
+
+def classify_windows(session: Any, windows: NDArray[np.floating], fps: float) -> NDArray[np.float32]:
+    """Class probabilities (N, 4) of windows (N, T, 17, 3) in one batched model call."""
+    info = model_info(session)
+    x = to_model_input(window_features(windows, fps))
+    out = session.run(None, {info.input_name: x})[0]
+    return np.asarray(out, dtype=np.float32)
+
+
+def ema(
+    previous: NDArray[np.floating] | None, value: NDArray[np.floating], alpha: float
+) -> NDArray[np.float64]:
+    """One exponential-moving-average step: alpha x value + (1 - alpha) x previous."""
+    v = np.asarray(value, dtype=np.float64)
+    if previous is None:
+        return v
+    return alpha * v + (1.0 - alpha) * np.asarray(previous, dtype=np.float64)
+
+
+def _interpolate(a: NDArray[np.float64], b: NDArray[np.float64], w: float) -> NDArray[np.float64]:
+    """Linear interpolation a -> b at w in [0, 1]; where one side is unknown, the nearer frame's value."""
+    lin = (1.0 - w) * a + w * b
+    nearest = a if w < 0.5 else b
+    return np.where(np.isnan(a) | np.isnan(b), nearest, lin)
+
+
+class CommandFilter:
+    """EMA over class probabilities plus hysteresis: the command changes only to a class that
+    has led the smoothed probabilities, with at least ``switch_prob``, for ``min_dwell_s``.
+
+    ``update(probs, t, ticks)`` takes one model output covering ``ticks`` model frames (the EMA
+    weight is ``1 - (1 - ema_alpha) ** ticks``, so skipped frames count) and returns the
+    command's class index. It starts at ``still``.
+    """
+
+    def __init__(self, ema_alpha: float, min_dwell_s: float, switch_prob: float) -> None:
+        if not 0 < ema_alpha <= 1:
+            raise ValueError(f"ema_alpha must be in (0, 1], got {ema_alpha}")
+        if min_dwell_s < 0 or not 0 <= switch_prob <= 1:
+            raise ValueError(
+                f"expected min_dwell_s >= 0 and switch_prob in [0, 1], got {min_dwell_s}, {switch_prob}"
+            )
+        self.ema_alpha = ema_alpha
+        self.min_dwell_s = min_dwell_s
+        self.switch_prob = switch_prob
+        self.reset()
+
+    def reset(self) -> None:
+        self._probs: NDArray[np.float64] | None = None
+        self.label = _STILL
+        self._candidate: int | None = None
+        self._candidate_since = 0.0
+
+    @property
+    def probs(self) -> NDArray[np.float64]:
+        """The smoothed probabilities (certainly ``still`` before the first update)."""
+        return self._probs if self._probs is not None else np.eye(len(ACTIONS))[_STILL]
+
+    def update(self, probs: NDArray[np.floating], timestamp_s: float, ticks: int = 1) -> int:
+        p = np.asarray(probs, dtype=np.float64)
+        if p.shape != (len(ACTIONS),) or not np.isfinite(p).all():
+            raise ValueError(f"probs must be {len(ACTIONS)} finite numbers, got {p}")
+        self._probs = ema(self._probs, p, 1.0 - (1.0 - self.ema_alpha) ** max(ticks, 1))
+        best = int(np.argmax(self._probs))
+        if best == self.label or self._probs[best] < self.switch_prob:
+            self._candidate = None
+            return self.label
+        if self._candidate != best:
+            self._candidate, self._candidate_since = best, timestamp_s
+        if timestamp_s - self._candidate_since >= self.min_dwell_s - 1e-9:
+            self.label, self._candidate = best, None
+        return self.label
+
+
+class ActionRecognizer:
+    """Streaming recogniser of the navigator's locomotion command (see the module docstring)."""
+
+    def __init__(self, session: Any, config: RecognizerConfig) -> None:
+        self._session = session
+        self.config = config
+        self.info = model_info(session)
+        self._dt = 1.0 / self.info.fps
+        history = max(self.info.window, round(2.5 * self.info.fps))
+        self._frames: deque[NDArray[np.float64]] = deque(maxlen=history)
+        self._yaw = YawSmoother(alpha=config.yaw_alpha, rate_hz=self.info.fps)
+        self._filter = CommandFilter(config.ema_alpha, config.min_dwell_s, config.switch_prob)
+        self.reset()
+
+    @classmethod
+    def from_config(cls, config: RecognizerConfig) -> ActionRecognizer:
+        """Load the ONNX model named in the config with onnxruntime."""
+        return cls(open_session(config.model_path, config.threads), config)
+
+    @property
+    def session(self) -> Any:
+        """The onnxruntime session (benchmarks time the bare model call with it)."""
+        return self._session
+
+    @property
+    def fps(self) -> float:
+        """The model's frame rate (input is resampled to it)."""
+        return self.info.fps
+
+    def reset(self) -> None:
+        """Forget everything (a new navigator, or a long gap)."""
+        self._frames.clear()
+        self._yaw.reset()
+        self._last_t: float | None = None
+        self._last_j: NDArray[np.float64] | None = None
+        self._next_tick = 0.0
+        self._filter.reset()
+        self._speed = 0.0
+
+    def _estimate(self) -> ActionEstimate:
+        label = self._filter.label
+        return ActionEstimate(
+            label=ACTIONS[label],
+            probs={name: float(p) for name, p in zip(ACTIONS, self._filter.probs, strict=True)},
+            yaw_deg=self._yaw.yaw_deg,
+            speed_mps=self._speed if label != _STILL else 0.0,
+        )
+
+    def update(self, joints_m: NDArray[np.floating], timestamp_s: float) -> ActionEstimate:
+        """Add one skeleton (17, 3) metres (NaN = unknown) taken at ``timestamp_s``; the command now.
+
+        Raises :class:`InputError` (and changes nothing) for a wrong shape or a timestamp
+        that does not increase.
+        """
+        j = np.asarray(joints_m, dtype=np.float64)
+        if j.shape != (NUM_JOINTS, 3):
+            raise InputError(f"joints must have shape ({NUM_JOINTS}, 3), got {j.shape}")
+        t = float(timestamp_s)
+        if not math.isfinite(t):
+            raise InputError(f"timestamp must be a finite number, got {timestamp_s}")
+        if self._last_t is not None and t <= self._last_t:
+            raise InputError(f"timestamps must increase: got {t} after {self._last_t}")
+        if self._last_t is not None and t - self._last_t > self.config.max_gap_s:
+            log.info("no skeleton for %.2f s: recogniser starts afresh", t - self._last_t)
+            self.reset()
+        j = np.where(np.isfinite(j), j, np.nan)
+
+        ticks = 0
+        if self._last_t is None or self._last_j is None:
+            self._frames.append(j)
+            self._next_tick = t + self._dt
+            ticks = 1
+        else:
+            span = t - self._last_t
+            while self._next_tick <= t + 1e-9:
+                w = (self._next_tick - self._last_t) / span
+                self._frames.append(_interpolate(self._last_j, j, min(max(w, 0.0), 1.0)))
+                self._next_tick += self._dt
+                ticks += 1
+        self._last_t, self._last_j = t, j
+        self._yaw.update(raw_yaw_deg(j), t)
+        if ticks:
+            self._step(ticks, t)
+        return self._estimate()
+
+    def _window(self) -> NDArray[np.float64]:
+        frames = list(self._frames)[-self.info.window :]
+        if len(frames) < self.info.window:
+            frames = [frames[0]] * (self.info.window - len(frames)) + frames
+        return np.stack(frames)
+
+    def _step(self, ticks: int, t: float) -> None:
+        x = to_model_input(window_features(self._window(), self.info.fps))[None]
+        out = np.asarray(self._session.run(None, {self.info.input_name: x})[0][0], dtype=np.float64)
+        label = self._filter.update(out, t, ticks)
+        if label == _STILL:
+            self._speed = 0.0
+            return
+        raw = speed_mps(np.stack(list(self._frames)), self.info.fps, ACTIONS[label], self.config.speed)
+        w = 1.0 - (1.0 - self.config.speed_alpha) ** ticks
+        self._speed = raw if self._speed == 0.0 else w * raw + (1.0 - w) * self._speed
+
+
+def recognize_sequence(
+    recognizer: ActionRecognizer,
+    joints_m: NDArray[np.floating],
+    fps: float,
+    progress: Callable[[int], None] | None = None,
+) -> list[ActionEstimate]:
+    """Run the recogniser over a whole sequence (T, 17, 3) at ``fps``; one estimate per input frame.
+
+    The recogniser is reset first; ``progress(n)`` is called with the number of frames done.
+    """
+    arr = np.asarray(joints_m, dtype=np.float64)
+    if arr.ndim != 3 or arr.shape[1:] != (NUM_JOINTS, 3):
+        raise InputError(f"joints must have shape (T, {NUM_JOINTS}, 3), got {arr.shape}")
+    if not math.isfinite(fps) or fps <= 0:
+        raise InputError(f"fps must be a positive number, got {fps}")
+    recognizer.reset()
+    out: list[ActionEstimate] = []
+    for i, frame in enumerate(arr):
+        out.append(recognizer.update(frame, i / fps))
+        if progress is not None and (i + 1) % 100 == 0:
+            progress(100)
+    if progress is not None and len(out) % 100:
+        progress(len(out) % 100)
+    return out

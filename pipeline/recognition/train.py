@@ -1,0 +1,351 @@
+"""Training of the skeleton SlowFast action model on simulated users (torch; the ``train`` extra).
+
+Data: random routines from the simulator (``pipeline.sim``): random bodies, cadence,
+knee lift, step width, facing direction, gestures, weight shifts, turning on the
+spot and transitions at any moment. Each clean 3D sequence is seen by four
+virtual cameras above the walls; the projected 2D joints get pixel noise
+(white and slowly drifting, per camera), outliers and dropped joints, and are
+triangulated back with the triangulation stage's own weighted DLT
+(``pipeline.triangulation.dlt``), so the training skeletons carry the errors a
+real CAVE produces (fewer than two views = unknown joint, NaN). On top come
+whole-body gaps (everyone occluded for a moment).
+
+Windows of ``window`` frames ending at every other frame are labelled with their
+last frame's label (the streaming recogniser classifies the newest frame).
+Everything is deterministic for a seed. The model is exported to ONNX with a
+softmax output and metadata (window, fps, classes) that the recogniser reads.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import time
+import warnings
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pipeline.camera import look_at
+from pipeline.recognition.features import NUM_CHANNELS, to_model_input, window_features
+from pipeline.skeleton import ACTIONS
+from pipeline.triangulation.dlt import triangulate_linear
+
+log = logging.getLogger(__name__)
+
+LABEL_INDEX = {name: i for i, name in enumerate(ACTIONS)}
+
+
+@dataclass(frozen=True, slots=True)
+class NoiseConfig:
+    """Measurement faults of the simulated capture (per sequence, drawn uniformly in the ranges)."""
+
+    pixel_sigma_px: tuple[float, float] = (1.0, 6.0)
+    drift_sigma_px: tuple[float, float] = (0.0, 4.0)
+    drop_prob: tuple[float, float] = (0.0, 0.25)
+    outlier_prob: float = 0.01
+    outlier_px: float = 60.0
+    gap_prob_per_s: float = 0.05
+    focal_px: float = 1000.0
+    camera_height_m: float = 2.4
+    camera_distance_m: float = 1.7
+
+
+@dataclass(frozen=True, slots=True)
+class DataConfig:
+    """How many simulated routines, how long, and at which frame rate."""
+
+    sequences: int = 360
+    duration_s: float = 40.0
+    fps: float = 30.0
+    seed: int = 0
+    start_radius_m: float = 0.7
+    noise: NoiseConfig = field(default_factory=NoiseConfig)
+
+    def cache_key(self) -> str:
+        text = json.dumps(asdict(self), sort_keys=True)
+        return hashlib.sha1(text.encode()).hexdigest()[:12]
+
+
+@dataclass(frozen=True, slots=True)
+class TrainConfig:
+    """Optimisation settings."""
+
+    window: int = 32
+    epochs: int = 14
+    windows_per_epoch: int = 40_000
+    batch_size: int = 256
+    lr: float = 3e-3
+    weight_decay: float = 1e-3
+    label_smoothing: float = 0.05
+    slow_channels: int = 64
+    alpha: int = 4
+    seed: int = 0
+    threads: int = 2
+    validation_fraction: float = 0.1
+
+
+@dataclass(frozen=True, slots=True)
+class Dataset:
+    """Concatenated sequences: joints (N, 17, 3) NaN = unknown, labels (N,) int, starts (S + 1,) offsets."""
+
+    joints: NDArray[np.float32]
+    labels: NDArray[np.int64]
+    starts: NDArray[np.int64]
+    fps: float
+
+    def __post_init__(self) -> None:
+        if self.joints.shape[0] != self.labels.shape[0] or self.starts[-1] != self.labels.shape[0]:
+            raise ValueError(
+                f"joints {self.joints.shape}, labels {self.labels.shape} and starts end "
+                f"{self.starts[-1]} disagree"
+            )
+
+    @property
+    def num_sequences(self) -> int:
+        return len(self.starts) - 1
+
+    def subset(self, seqs: NDArray[np.int64]) -> Dataset:
+        parts = [slice(int(self.starts[s]), int(self.starts[s + 1])) for s in seqs]
+        lengths = np.array([p.stop - p.start for p in parts], dtype=np.int64)
+        return Dataset(
+            np.concatenate([self.joints[p] for p in parts]),
+            np.concatenate([self.labels[p] for p in parts]),
+            np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64),
+            self.fps,
+        )
+
+
+# ---------------------------------------------------------------- capture noise
+
+
+def cave_rig(noise: NoiseConfig) -> NDArray[np.float64]:
+    """(4, 3, 4) world-to-camera [R | t] of one camera above each wall looking at the centre."""
+    d, h = noise.camera_distance_m, noise.camera_height_m
+    eyes = [(0.0, d, h), (d, 0.0, h), (0.0, -d, h), (-d, 0.0, h)]
+    mats = []
+    for eye in eyes:
+        R, t = look_at(np.array(eye), np.array([0.0, 0.0, 1.0]))
+        mats.append(np.hstack([R, t[:, None]]))
+    return np.stack(mats)
+
+
+def _drift(rng: np.random.Generator, shape: tuple[int, ...], sigma: float, frames_corr: float) -> NDArray:
+    """AR(1) noise along axis 1 (time) with stationary std ``sigma``."""
+    a = float(np.exp(-1.0 / frames_corr))
+    eps = rng.normal(0.0, sigma * np.sqrt(1 - a * a), shape)
+    out = np.empty(shape)
+    out[:, 0] = rng.normal(0.0, sigma, (shape[0], *shape[2:]))
+    for i in range(1, shape[1]):
+        out[:, i] = a * out[:, i - 1] + eps[:, i]
+    return out
+
+
+def capture(
+    joints_m: NDArray[np.floating], rng: np.random.Generator, noise: NoiseConfig, fps: float
+) -> NDArray[np.float64]:
+    """Clean (T, 17, 3) -> what the CAVE measures: 2D noise through DLT triangulation, NaN gaps."""
+    clean = np.asarray(joints_m, dtype=np.float64)
+    t = clean.shape[0]
+    rt = cave_rig(noise)
+    c = rt.shape[0]
+    pts = clean.reshape(-1, 3)
+    cam = np.einsum("cij,nj->cni", rt[:, :, :3], pts) + rt[:, None, :, 3]  # (C, N, 3)
+    xy = cam[..., :2] / cam[..., 2:3]
+    sigma = rng.uniform(*noise.pixel_sigma_px) / noise.focal_px
+    drift = rng.uniform(*noise.drift_sigma_px) / noise.focal_px
+    xy = xy + rng.normal(0.0, sigma, xy.shape)
+    if drift > 0:
+        d = _drift(rng, (c, t, 17, 2), drift, frames_corr=0.5 * fps)
+        xy = xy + d.reshape(c, -1, 2)
+    outliers = rng.random(xy.shape[:2]) < noise.outlier_prob
+    xy[outliers] += rng.normal(0.0, noise.outlier_px / noise.focal_px, (int(outliers.sum()), 2))
+    weights = (rng.random(xy.shape[:2]) >= rng.uniform(*noise.drop_prob)).astype(np.float64)
+    weights *= rng.uniform(0.5, 1.0, weights.shape)  # detector confidences
+    out = triangulate_linear(rt, xy, weights).reshape(t, 17, 3)
+    # whole-body gaps: nobody tracked for 1-8 frames
+    n_gaps = rng.poisson(noise.gap_prob_per_s * t / fps)
+    for _ in range(n_gaps):
+        s = int(rng.integers(0, t))
+        out[s : s + int(rng.integers(1, 9))] = np.nan
+    return out
+
+
+# ---------------------------------------------------------------- data generation
+
+
+def generate(config: DataConfig, progress: Callable[[str], None] | None = None) -> Dataset:
+    """Simulate ``config.sequences`` random routines and capture them with noise."""
+    from pipeline.sim.body import sample_body
+    from pipeline.sim.motion import simulate_user
+    from pipeline.sim.script import random_script
+
+    rng = np.random.default_rng(config.seed)
+    joints, labels, lengths = [], [], []
+    t0 = time.monotonic()
+    for i in range(config.sequences):
+        body = sample_body(rng)
+        r = config.start_radius_m * np.sqrt(rng.random())
+        a = rng.uniform(0, 2 * np.pi)
+        script = random_script(rng, config.duration_s, start_xy_m=(r * np.cos(a), r * np.sin(a)))
+        motion = simulate_user(script, body, config.fps, seed=int(rng.integers(2**31)))
+        joints.append(capture(motion.joints_m, rng, config.noise, config.fps).astype(np.float32))
+        labels.append(np.array([LABEL_INDEX[str(x)] for x in motion.labels], dtype=np.int64))
+        lengths.append(len(labels[-1]))
+        if progress is not None and ((i + 1) % 20 == 0 or i + 1 == config.sequences):
+            progress(f"simulated {i + 1}/{config.sequences} routines ({time.monotonic() - t0:.0f} s)")
+    return Dataset(
+        np.concatenate(joints),
+        np.concatenate(labels),
+        np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64),
+        config.fps,
+    )
+
+
+def load_or_generate(
+    config: DataConfig, cache_dir: Path, progress: Callable[[str], None] | None = None
+) -> Dataset:
+    """The dataset from ``cache_dir/action-data-<key>.npz``, generated once."""
+    path = Path(cache_dir) / f"action-data-{config.cache_key()}.npz"
+    if path.is_file():
+        with np.load(path) as z:
+            return Dataset(z["joints"], z["labels"], z["starts"], float(z["fps"]))
+    data = generate(config, progress)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    np.savez(path, joints=data.joints, labels=data.labels, starts=data.starts, fps=data.fps)
+    return data
+
+
+def window_ends(data: Dataset, stride: int = 1) -> NDArray[np.int64]:
+    """Global indices of every ``stride``-th frame (each is the last frame of one window)."""
+    return np.concatenate(
+        [np.arange(data.starts[s], data.starts[s + 1], stride) for s in range(data.num_sequences)]
+    ).astype(np.int64)
+
+
+def gather_windows(data: Dataset, ends: NDArray[np.int64], window: int) -> NDArray[np.float32]:
+    """(B, window, 17, 3) windows ending at ``ends``; frames before a sequence's start repeat its first."""
+    seq = np.searchsorted(data.starts, ends, side="right") - 1
+    first = data.starts[seq]
+    idx = ends[:, None] - np.arange(window - 1, -1, -1)[None, :]
+    idx = np.maximum(idx, first[:, None])
+    return data.joints[idx]
+
+
+def batch_inputs(data: Dataset, ends: NDArray[np.int64], window: int) -> NDArray[np.float32]:
+    return to_model_input(window_features(gather_windows(data, ends, window), data.fps))
+
+
+# ---------------------------------------------------------------- training
+
+
+def train_model(
+    train: Dataset, val: Dataset, config: TrainConfig, progress: Callable[[str], None] | None = None
+) -> tuple[object, dict[str, object]]:
+    """Train the SlowFast network; returns (model in eval mode, metrics)."""
+    import torch
+    from torch import nn
+
+    from pipeline.recognition.model import SkeletonSlowFast, SlowFastConfig
+
+    torch.manual_seed(config.seed)
+    torch.set_num_threads(config.threads)
+    torch.use_deterministic_algorithms(True)
+    rng = np.random.default_rng(config.seed)
+    model = SkeletonSlowFast(
+        SlowFastConfig(
+            in_channels=NUM_CHANNELS,
+            num_classes=len(ACTIONS),
+            window=config.window,
+            alpha=config.alpha,
+            slow_channels=config.slow_channels,
+        )
+    )
+    ends_all = window_ends(train)
+    freq = np.bincount(train.labels, minlength=len(ACTIONS)) / len(train.labels)
+    inv = 1.0 / np.sqrt(np.maximum(freq, 1e-3))
+    class_w = torch.tensor(inv / inv.mean(), dtype=torch.float32)
+    loss_fn = nn.CrossEntropyLoss(weight=class_w, label_smoothing=config.label_smoothing)
+    opt = torch.optim.AdamW(model.parameters(), lr=config.lr, weight_decay=config.weight_decay)
+    steps_per_epoch = config.windows_per_epoch // config.batch_size
+    sched = torch.optim.lr_scheduler.OneCycleLR(
+        opt, max_lr=config.lr, total_steps=config.epochs * steps_per_epoch, pct_start=0.15
+    )
+    val_ends = window_ends(val, stride=3)
+    x_val = torch.from_numpy(batch_inputs(val, val_ends, config.window))
+    y_val = val.labels[val_ends]
+    history: list[dict[str, float]] = []
+    t0 = time.monotonic()
+    for epoch in range(config.epochs):
+        model.train()
+        ends = rng.choice(ends_all, size=steps_per_epoch * config.batch_size, replace=False)
+        total = 0.0
+        for b in range(steps_per_epoch):
+            e = ends[b * config.batch_size : (b + 1) * config.batch_size]
+            x = torch.from_numpy(batch_inputs(train, e, config.window))
+            y = torch.from_numpy(train.labels[e])
+            opt.zero_grad()
+            loss = loss_fn(model(x), y)
+            loss.backward()
+            opt.step()
+            sched.step()
+            total += loss.item()
+        model.eval()
+        with torch.no_grad():
+            pred = model(x_val).argmax(dim=1).numpy()
+        acc = float(np.mean(pred == y_val))
+        history.append({"epoch": epoch + 1, "loss": total / steps_per_epoch, "val_window_acc": acc})
+        if progress is not None:
+            progress(
+                f"epoch {epoch + 1}/{config.epochs}: loss {total / steps_per_epoch:.4f}, "
+                f"validation window accuracy {acc:.4f} ({time.monotonic() - t0:.0f} s)"
+            )
+    params = sum(p.numel() for p in model.parameters())
+    return model, {"history": history, "parameters": params, "train_s": time.monotonic() - t0}
+
+
+def export_onnx(
+    model: object, path: Path, window: int, fps: float, extra: dict[str, str] | None = None
+) -> None:
+    """Write the model with a softmax output ``probs`` (B, 4), input ``x`` (B, 119, window), metadata."""
+    import onnx
+    import torch
+    from torch import nn
+
+    class WithSoftmax(nn.Module):
+        def __init__(self, inner: nn.Module) -> None:
+            super().__init__()
+            self.inner = inner
+
+        def forward(self, x: torch.Tensor) -> torch.Tensor:
+            return torch.softmax(self.inner(x), dim=1)
+
+    if not isinstance(model, nn.Module):
+        raise TypeError(f"export_onnx takes the trained torch module, got {type(model).__name__}")
+    wrapped = WithSoftmax(model).eval()
+    dummy = torch.zeros(1, NUM_CHANNELS, window)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the TorchScript exporter's constant-folding notes
+        torch.onnx.export(
+            wrapped,
+            (dummy,),
+            str(path),
+            input_names=["x"],
+            output_names=["probs"],
+            dynamic_axes={"x": {0: "batch"}, "probs": {0: "batch"}},
+            opset_version=17,
+            dynamo=False,
+        )
+    proto = onnx.load(str(path))
+    meta = {"window": str(window), "fps": f"{fps:g}", "classes": ",".join(ACTIONS), "features": "v1"}
+    meta.update(extra or {})
+    for key, value in meta.items():
+        entry = proto.metadata_props.add()
+        entry.key, entry.value = key, value
+    onnx.checker.check_model(proto)
+    onnx.save(proto, str(path))

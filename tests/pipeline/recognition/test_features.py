@@ -1,0 +1,125 @@
+"""Pre-processing: the model's input does not depend on where the user stands or faces."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from pipeline.recognition.features import (
+    CHANNELS_PER_JOINT,
+    NUM_CHANNELS,
+    fill_unknown,
+    normalize_window,
+    to_model_input,
+    torso_length,
+    window_features,
+)
+from pipeline.skeleton import J
+
+from .conftest import rot_z, standing_pose
+
+
+def _marching(frames: int = 32, seed: int = 0) -> np.ndarray:
+    """A person facing +Y lifting knees alternately, with measurement noise and a few gaps."""
+    rng = np.random.default_rng(seed)
+    base = standing_pose()
+    t = np.arange(frames) / 30.0
+    seq = np.repeat(base[None], frames, axis=0)
+    lift = 0.15 * np.sin(2 * np.pi * 0.9 * t)
+    for side, sign in (("l", 1.0), ("r", -1.0)):
+        up = np.clip(sign * lift, 0.0, None)
+        seq[:, J[f"{side}_knee"], 2] += up
+        seq[:, J[f"{side}_knee"], 1] += up
+        seq[:, J[f"{side}_ankle"], 2] += up
+    seq += rng.normal(0.0, 0.01, seq.shape)
+    seq[4:7, J["l_wrist"]] = np.nan
+    seq[10, J["r_knee"]] = np.nan
+    return seq
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    yaw=st.floats(-180.0, 180.0),
+    dx=st.floats(-1.5, 1.5),
+    dy=st.floats(-1.5, 1.5),
+    dz=st.floats(-0.2, 0.2),
+)
+def test_translating_and_rotating_the_input_changes_nothing(
+    yaw: float, dx: float, dy: float, dz: float
+) -> None:
+    seq = _marching()
+    moved = seq @ rot_z(yaw).T + np.array([dx, dy, dz])
+    a, b = window_features(seq, 30.0), window_features(moved, 30.0)
+    np.testing.assert_allclose(a, b, atol=1e-4, err_msg=f"features changed for yaw {yaw}, shift {dx, dy, dz}")
+
+
+@pytest.mark.parametrize("scale", [0.85, 1.1])
+def test_scaling_the_body_changes_nothing(scale: float) -> None:
+    seq = _marching()
+    np.testing.assert_allclose(window_features(seq, 30.0), window_features(seq * scale, 30.0), atol=1e-4)
+
+
+def test_normalised_person_faces_plus_y_and_is_pelvis_centred() -> None:
+    seq = _marching() @ rot_z(123.0).T + np.array([0.7, -0.4, 0.0])
+    norm = normalize_window(seq)
+    hips = 0.5 * (norm[:, J["l_hip"]] + norm[:, J["r_hip"]])
+    assert np.abs(np.nanmean(hips, axis=0)).max() < 1e-9, "the window's mean pelvis is the origin"
+    # facing +Y: the left shoulder is at -X, the nose in front (+Y)
+    assert np.nanmean(norm[:, J["l_shoulder"], 0]) < -0.3
+    assert np.nanmean(norm[:, J["r_shoulder"], 0]) > 0.3
+    assert np.nanmean(norm[:, J["nose"], 1]) > 0.1
+    assert torso_length(seq) == pytest.approx(0.5, abs=0.02)
+
+
+def test_unknown_joints_take_the_last_known_value_and_are_flagged() -> None:
+    seq = np.repeat(standing_pose()[None], 6, axis=0)
+    seq[:, J["l_wrist"], 0] = np.arange(6) * 0.01
+    seq[2:4, J["l_wrist"]] = np.nan  # gap: frames 2-3 hold frame 1
+    seq[:2, J["r_wrist"]] = np.nan  # unknown at the start: the first known value
+    seq[:, J["nose"]] = np.nan  # never known: zero
+    filled, known = fill_unknown(seq)
+    assert np.isfinite(filled).all()
+    np.testing.assert_allclose(filled[2:4, J["l_wrist"]], seq[[1, 1], J["l_wrist"]])
+    np.testing.assert_allclose(filled[:2, J["r_wrist"]], seq[[2, 2], J["r_wrist"]])
+    np.testing.assert_array_equal(filled[:, J["nose"]], 0.0)
+    assert not known[2:4, J["l_wrist"]].any() and known[[0, 1, 4, 5], J["l_wrist"]].all()
+    feats = window_features(seq, 30.0)
+    np.testing.assert_array_equal(feats[..., 6], known.astype(np.float32), err_msg="channel 7 is the mask")
+    assert np.isfinite(feats).all()
+
+
+def test_velocity_channels_are_per_second_and_zero_across_gaps() -> None:
+    seq = np.repeat(standing_pose()[None], 8, axis=0)
+    seq[:, J["l_wrist"], 2] += np.arange(8) * 0.01  # 0.3 m/s upwards at 30 fps
+    seq[5, J["l_wrist"]] = np.nan
+    feats = window_features(seq, 30.0)
+    torso = torso_length(seq)
+    vz = feats[:, J["l_wrist"], 5]
+    np.testing.assert_allclose(vz[[1, 2, 3, 4, 7]], 0.3 / torso, rtol=1e-3)
+    assert vz[0] == 0 and vz[5] == 0 and vz[6] == 0, "no velocity into, out of or at a gap"
+
+
+def test_batches_give_the_same_features_as_single_windows() -> None:
+    a, b = _marching(seed=1), _marching(seed=2) @ rot_z(40.0).T
+    batch = window_features(np.stack([a, b]), 30.0)
+    np.testing.assert_allclose(batch[0], window_features(a, 30.0), atol=1e-6)
+    np.testing.assert_allclose(batch[1], window_features(b, 30.0), atol=1e-6)
+    x = to_model_input(batch)
+    assert x.shape == (2, NUM_CHANNELS, 32)
+    np.testing.assert_array_equal(x[1, J["l_knee"] * CHANNELS_PER_JOINT + 2], batch[1, :, J["l_knee"], 2])
+
+
+@pytest.mark.parametrize(
+    ("shape", "match"),
+    [((32, 16, 3), r"\(\.\.\., 17, 3\)"), ((17, 3), r"time axis"), ((32, 17, 2), r"\(\.\.\., 17, 3\)")],
+)
+def test_bad_shapes_are_rejected(shape: tuple[int, ...], match: str) -> None:
+    with pytest.raises(ValueError, match=match):
+        window_features(np.zeros(shape), 30.0)
+
+
+def test_bad_fps_is_rejected() -> None:
+    with pytest.raises(ValueError, match="fps"):
+        window_features(_marching(), 0.0)
