@@ -1,1 +1,31 @@
-"""emitter stage."""
+"""Emitter stage: protocol-v1 UDP datagrams (and optional OSC) to the CAVE workstations."""
+
+from pipeline.emitter.protocol import (
+    OSC_ADDRESS,
+    PROTOCOL_VERSION,
+    STATES,
+    LocomotionCommand,
+    encode,
+    heartbeat_message,
+    locomotion_message,
+    validate_datagram,
+)
+from pipeline.emitter.receiver import ReceiverStats, open_receiver_socket, receive
+from pipeline.emitter.udp import EmitterConfig, UdpEmitter, resolve_endpoint
+
+__all__ = [
+    "OSC_ADDRESS",
+    "PROTOCOL_VERSION",
+    "STATES",
+    "EmitterConfig",
+    "LocomotionCommand",
+    "ReceiverStats",
+    "UdpEmitter",
+    "encode",
+    "heartbeat_message",
+    "locomotion_message",
+    "open_receiver_socket",
+    "receive",
+    "resolve_endpoint",
+    "validate_datagram",
+]

@@ -1,1 +1,31 @@
-"""runtime stage."""
+"""Runtime stage: the live, asynchronous multi-process pipeline (processes and shared memory).
+
+The web app uses :class:`Pipeline` (start/stop, status, navigator, workstations,
+events, snapshots); ``cavewalk bench`` and ``scripts/soak.py`` measure it.
+"""
+
+from pipeline.runtime.config import RuntimeConfig
+from pipeline.runtime.pipeline import (
+    SOURCES,
+    Pipeline,
+    PipelineEvent,
+    PipelineStatus,
+    SimFactory,
+    fusion_factory_from_settings,
+)
+from pipeline.runtime.stages import Fusion, FusionFactory, PoseStage, PoseStageFactory, SimWorldFactory
+
+__all__ = [
+    "SOURCES",
+    "Fusion",
+    "FusionFactory",
+    "Pipeline",
+    "PipelineEvent",
+    "PipelineStatus",
+    "PoseStage",
+    "PoseStageFactory",
+    "RuntimeConfig",
+    "SimFactory",
+    "SimWorldFactory",
+    "fusion_factory_from_settings",
+]

@@ -1,0 +1,148 @@
+"""UDP protocol v1 (SPEC.md): the datagrams and their validator.
+
+One UTF-8 JSON object per datagram::
+
+    {"v": 1, "type": "locomotion", "seq", "ts", "user_id", "action", "confidence",
+     "yaw_deg", "speed_mps", "position_m": [x, y, z]}
+    {"v": 1, "type": "heartbeat", "seq", "ts", "state"}
+
+``ts`` is Unix time in seconds: for ``locomotion`` the capture time of the camera
+frames the command was computed from (so a receiver sees the age of what it gets),
+for ``heartbeat`` the time it was sent.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from typing import Any
+
+from pipeline.errors import InputError
+from pipeline.skeleton import ACTIONS
+
+PROTOCOL_VERSION = 1
+STATES = ("stopped", "starting", "running", "error")
+OSC_ADDRESS = "/cave/locomotion"
+MAX_DATAGRAM_BYTES = 1400  # stays inside one Ethernet frame
+
+_LOCOMOTION_KEYS = {"v", "type", "seq", "ts", "user_id", "action", "confidence", "yaw_deg",
+                    "speed_mps", "position_m"}
+_HEARTBEAT_KEYS = {"v", "type", "seq", "ts", "state"}
+
+
+@dataclass(frozen=True, slots=True)
+class LocomotionCommand:
+    """The navigator's command for one frame.
+
+    timestamp_s: capture time of the frames it came from, ``time.monotonic()`` seconds.
+    position_m: (x, y, z) floor position in the CAVE frame, metres.
+    """
+
+    user_id: int
+    action: str
+    confidence: float
+    yaw_deg: float
+    speed_mps: float
+    position_m: tuple[float, float, float]
+    timestamp_s: float
+
+    def __post_init__(self) -> None:
+        if self.action not in ACTIONS:
+            raise ValueError(f"action must be one of {ACTIONS}, got {self.action!r}")
+        if len(self.position_m) != 3:
+            raise ValueError(f"position_m must have 3 values, got {len(self.position_m)}")
+
+
+def _finite(x: float, nd: int) -> float:
+    x = float(x)
+    return round(x, nd) if math.isfinite(x) else 0.0
+
+
+def locomotion_message(cmd: LocomotionCommand, seq: int, ts_unix: float) -> dict[str, Any]:
+    return {
+        "v": PROTOCOL_VERSION,
+        "type": "locomotion",
+        "seq": int(seq),
+        "ts": round(float(ts_unix), 6),
+        "user_id": int(cmd.user_id),
+        "action": cmd.action,
+        "confidence": _finite(min(max(cmd.confidence, 0.0), 1.0), 4),
+        "yaw_deg": _finite(cmd.yaw_deg, 2),
+        "speed_mps": _finite(cmd.speed_mps, 3),
+        "position_m": [_finite(v, 4) for v in cmd.position_m],
+    }
+
+
+def heartbeat_message(state: str, seq: int, ts_unix: float) -> dict[str, Any]:
+    if state not in STATES:
+        raise ValueError(f"state must be one of {STATES}, got {state!r}")
+    return {"v": PROTOCOL_VERSION, "type": "heartbeat", "seq": int(seq), "ts": round(float(ts_unix), 6),
+            "state": state}
+
+
+def encode(message: dict[str, Any]) -> bytes:
+    data = json.dumps(message, separators=(",", ":"), allow_nan=False).encode("utf-8")
+    if len(data) > MAX_DATAGRAM_BYTES:
+        raise ValueError(f"datagram of {len(data)} bytes exceeds {MAX_DATAGRAM_BYTES}")
+    return data
+
+
+def _number(msg: dict[str, Any], key: str) -> float:
+    value = msg[key]
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise InputError(f"{key}: expected a finite number, got {value!r}")
+    return float(value)
+
+
+def _integer(msg: dict[str, Any], key: str, minimum: int) -> int:
+    value = msg[key]
+    if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
+        raise InputError(f"{key}: expected an integer >= {minimum}, got {value!r}")
+    return value
+
+
+def validate_datagram(data: bytes | str | dict[str, Any]) -> dict[str, Any]:
+    """The datagram as a dict if it follows protocol v1; :class:`InputError` saying why not."""
+    if isinstance(data, dict):
+        msg = data
+    else:
+        try:
+            text = data.decode("utf-8") if isinstance(data, bytes) else data
+            msg = json.loads(text)
+        except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise InputError(f"not UTF-8 JSON: {exc}") from None
+    if not isinstance(msg, dict):
+        raise InputError(f"expected a JSON object, got {type(msg).__name__}")
+    if msg.get("v") != PROTOCOL_VERSION:
+        raise InputError(f"v: expected {PROTOCOL_VERSION}, got {msg.get('v')!r}")
+    kind = msg.get("type")
+    keys = {"locomotion": _LOCOMOTION_KEYS, "heartbeat": _HEARTBEAT_KEYS}.get(kind)  # type: ignore[arg-type]
+    if keys is None:
+        raise InputError(f"type: expected 'locomotion' or 'heartbeat', got {kind!r}")
+    if missing := keys - msg.keys():
+        raise InputError(f"{kind}: missing keys {sorted(missing)}")
+    if extra := msg.keys() - keys:
+        raise InputError(f"{kind}: unknown keys {sorted(extra)}")
+    _integer(msg, "seq", 0)
+    if _number(msg, "ts") <= 0:
+        raise InputError(f"ts: expected Unix seconds > 0, got {msg['ts']!r}")
+    if kind == "heartbeat":
+        if msg["state"] not in STATES:
+            raise InputError(f"state: expected one of {STATES}, got {msg['state']!r}")
+        return msg
+    _integer(msg, "user_id", 0)
+    if msg["action"] not in ACTIONS:
+        raise InputError(f"action: expected one of {ACTIONS}, got {msg['action']!r}")
+    if not 0.0 <= _number(msg, "confidence") <= 1.0:
+        raise InputError(f"confidence: expected a number in [0, 1], got {msg['confidence']!r}")
+    if not -180.0 <= _number(msg, "yaw_deg") <= 180.0:
+        raise InputError(f"yaw_deg: expected a number in [-180, 180], got {msg['yaw_deg']!r}")
+    if _number(msg, "speed_mps") < 0:
+        raise InputError(f"speed_mps: expected a number >= 0, got {msg['speed_mps']!r}")
+    pos = msg["position_m"]
+    if not isinstance(pos, list) or len(pos) != 3:
+        raise InputError(f"position_m: expected [x, y, z], got {pos!r}")
+    for i in range(3):
+        _number({f"position_m[{i}]": pos[i]}, f"position_m[{i}]")
+    return msg

@@ -1,0 +1,207 @@
+"""The emitter: protocol-v1 datagrams to every workstation, optionally OSC as well.
+
+``submit()`` hands the emitter the navigator's newest command (or None when no
+navigator is tracked); a new command goes out at once, and a background thread
+repeats the current one so that ``locomotion`` arrives at ``rate_hz`` while a
+navigator is tracked, and sends a ``heartbeat`` every ``heartbeat_s`` always.
+``seq`` counts per destination. Unicast, broadcast and multicast addresses all work
+(the socket has SO_BROADCAST and a multicast TTL).
+"""
+
+from __future__ import annotations
+
+import ipaddress
+import logging
+import socket
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from pipeline.emitter.protocol import (
+    OSC_ADDRESS,
+    LocomotionCommand,
+    encode,
+    heartbeat_message,
+    locomotion_message,
+)
+from pipeline.errors import InputError
+
+log = logging.getLogger(__name__)
+
+Endpoint = tuple[str, int]
+
+
+@dataclass(frozen=True, slots=True)
+class EmitterConfig:
+    rate_hz: float = 60.0
+    heartbeat_s: float = 1.0
+    multicast_ttl: int = 1
+    stale_after_s: float = 0.5  # a command older than this is no longer repeated
+
+    def __post_init__(self) -> None:
+        if self.rate_hz <= 0 or self.heartbeat_s <= 0 or self.stale_after_s <= 0:
+            raise ValueError(f"rates and periods must be > 0, got {self}")
+        if not 0 <= self.multicast_ttl <= 255:
+            raise ValueError(f"multicast_ttl must be 0-255, got {self.multicast_ttl}")
+
+
+def resolve_endpoint(host: str, port: int) -> Endpoint:
+    """(IPv4 address, port) for a host name or address; :class:`InputError` when it does not resolve."""
+    if not 1 <= int(port) <= 65535:
+        raise InputError(f"workstation {host}:{port}: port must be 1-65535")
+    try:
+        infos = socket.getaddrinfo(host, int(port), socket.AF_INET, socket.SOCK_DGRAM)
+    except (socket.gaierror, UnicodeError) as exc:
+        raise InputError(f"workstation {host}:{port}: cannot resolve {host!r} ({exc})") from None
+    return str(infos[0][4][0]), int(port)
+
+
+def is_multicast(address: str) -> bool:
+    try:
+        return ipaddress.ip_address(address).is_multicast
+    except ValueError:
+        return False
+
+
+class UdpEmitter:
+    """Sends the locomotion stream; thread-safe; ``start()``/``stop()`` run the repeat thread."""
+
+    def __init__(self, config: EmitterConfig, endpoints: list[Endpoint] | None = None,
+                 osc_endpoints: list[Endpoint] | None = None,
+                 on_sent: Callable[[float], None] | None = None) -> None:
+        self.config = config
+        self._lock = threading.Lock()
+        self._sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self._sock.setsockopt(socket.SOL_SOCKET, socket.SO_BROADCAST, 1)
+        self._sock.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_TTL, config.multicast_ttl)
+        self._endpoints: list[Endpoint] = []
+        self._seq: dict[Endpoint, int] = {}
+        self._osc: list[object] = []
+        self._command: LocomotionCommand | None = None
+        self._command_at = 0.0
+        self._last_loco = 0.0
+        self._last_beat = 0.0
+        self._state = "stopped"
+        self._offset = time.time() - time.monotonic()  # monotonic -> Unix seconds
+        self._on_sent = on_sent
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self.sent = 0
+        self.errors = 0
+        self.set_endpoints(endpoints or [])
+        if osc_endpoints:
+            self.set_osc_endpoints(osc_endpoints)
+
+    # -- configuration -------------------------------------------------------------------
+    def set_endpoints(self, endpoints: list[Endpoint]) -> None:
+        """Replace the destinations (resolved first; on error nothing changes)."""
+        resolved = [resolve_endpoint(h, p) for h, p in endpoints]
+        with self._lock:
+            self._endpoints = list(dict.fromkeys(resolved))
+            self._seq = {ep: self._seq.get(ep, 0) for ep in self._endpoints}
+
+    @property
+    def endpoints(self) -> list[Endpoint]:
+        with self._lock:
+            return list(self._endpoints)
+
+    def set_osc_endpoints(self, endpoints: list[Endpoint]) -> None:
+        from pythonosc.udp_client import SimpleUDPClient
+
+        resolved = [resolve_endpoint(h, p) for h, p in endpoints]
+        clients: list[object] = [SimpleUDPClient(h, p, allow_broadcast=True) for h, p in resolved]
+        with self._lock:
+            self._osc = clients
+
+    def set_state(self, state: str) -> None:
+        heartbeat_message(state, 0, 1.0)  # validates the state name
+        with self._lock:
+            self._state = state
+
+    # -- sending --------------------------------------------------------------------------
+    def submit(self, command: LocomotionCommand | None) -> None:
+        """The newest navigator command (None = no navigator): sent now, then repeated at the rate."""
+        with self._lock:
+            self._command = command
+            if command is None:
+                return
+            now = time.monotonic()
+            self._command_at = now
+            if now - self._last_loco >= 0.5 / self.config.rate_hz:
+                self._send_locomotion(command, now)
+                if self._on_sent is not None:
+                    self._on_sent(now - command.timestamp_s)
+
+    def _send(self, build: Callable[[int], bytes]) -> None:
+        for ep in self._endpoints:
+            seq = self._seq[ep]
+            try:
+                self._sock.sendto(build(seq), ep)
+            except OSError as exc:  # an unreachable host must not stop the others
+                self.errors += 1
+                log.debug("send to %s:%d failed: %s", ep[0], ep[1], exc)
+            self._seq[ep] = seq + 1
+            self.sent += 1
+
+    def _send_locomotion(self, cmd: LocomotionCommand, now: float) -> None:
+        ts = cmd.timestamp_s + self._offset
+        self._send(lambda seq: encode(locomotion_message(cmd, seq, ts)))
+        for client in self._osc:
+            try:
+                client.send_message(OSC_ADDRESS, [  # type: ignore[attr-defined]
+                    int(cmd.user_id), cmd.action, float(cmd.confidence), float(cmd.yaw_deg),
+                    float(cmd.speed_mps), *(float(v) for v in cmd.position_m), float(ts)])
+            except OSError as exc:
+                self.errors += 1
+                log.debug("OSC send failed: %s", exc)
+        self._last_loco = now
+
+    def _send_heartbeat(self, now: float) -> None:
+        ts = now + self._offset
+        state = self._state
+        self._send(lambda seq: encode(heartbeat_message(state, seq, ts)))
+        self._last_beat = now
+
+    def tick(self, now: float | None = None) -> None:
+        """Send what is due at ``now``: a repeated locomotion and/or a heartbeat."""
+        now = time.monotonic() if now is None else now
+        with self._lock:
+            cmd = self._command
+            if cmd is not None and now - self._command_at > self.config.stale_after_s:
+                cmd = self._command = None
+            if cmd is not None and now - self._last_loco >= 1.0 / self.config.rate_hz:
+                self._send_locomotion(cmd, now)
+            if now - self._last_beat >= self.config.heartbeat_s:
+                self._send_heartbeat(now)
+
+    def _run(self) -> None:
+        period = 1.0 / self.config.rate_hz
+        while not self._stop.is_set():
+            try:
+                self.tick()
+            except Exception:  # the stream must outlive one bad tick
+                log.exception("emitter tick failed")
+            with self._lock:
+                now = time.monotonic()
+                wait = self._last_beat + self.config.heartbeat_s - now
+                if self._command is not None:
+                    wait = min(wait, self._last_loco + period - now)
+            self._stop.wait(max(0.001, wait))
+
+    def start(self) -> None:
+        if self._thread is not None:
+            return
+        self._stop.clear()
+        self._thread = threading.Thread(target=self._run, name="cavewalk-emitter", daemon=True)
+        self._thread.start()
+
+    def stop(self) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=2.0)
+            self._thread = None
+
+    def close(self) -> None:
+        self.stop()
+        self._sock.close()

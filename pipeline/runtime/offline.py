@@ -1,0 +1,189 @@
+"""The offline pipeline over synchronised video files (``cavewalk process``).
+
+:class:`SyncedVideos` reads one frame of every video per step. :class:`OfflinePipeline`
+turns each multi-view frame into a :class:`FrameResult` in :meth:`OfflinePipeline.step`:
+detection + tracking now; the later stages (triangulation, recognition) plug in as
+``FrameStage`` callables that take the result so far and return it completed.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Protocol
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from pipeline.errors import InputError, SourceError
+from pipeline.results import FrameResult, ResultsWriter
+from pipeline.tracking.stage import DetectAndTrack, StepTimings
+
+log = logging.getLogger(__name__)
+
+U8 = NDArray[np.uint8]
+
+
+class FrameStage(Protocol):
+    """A later stage: completes a frame's result (people3d, navigator, action)."""
+
+    def __call__(self, result: FrameResult) -> FrameResult: ...
+
+
+def parse_named_paths(items: Sequence[str], what: str = "video") -> dict[str, Path]:
+    """``["cam01=a.mp4", ...]`` -> {"cam01": Path("a.mp4")}; InputError on a malformed or repeated item."""
+    out: dict[str, Path] = {}
+    for item in items:
+        name, sep, path = item.partition("=")
+        name, path = name.strip(), path.strip()
+        if not sep or not name or not path:
+            raise InputError(f"--{what} {item!r}: expected NAME=PATH, e.g. cam01=videos/cam01.mp4")
+        if name in out:
+            raise InputError(f"--{what}: camera {name!r} given twice")
+        out[name] = Path(path).expanduser()
+    if not out:
+        raise InputError(f"give at least one --{what} NAME=PATH")
+    return out
+
+
+@dataclass(frozen=True, slots=True)
+class VideoInfo:
+    camera: str
+    path: Path
+    frame_count: int  # as the container reports it (may be 0 when unknown)
+    fps: float
+    image_size: tuple[int, int]
+
+
+class SyncedVideos:
+    """Synchronised video files, one per camera, read frame by frame in step.
+
+    Raises InputError for a missing file and SourceError for one OpenCV cannot decode.
+    """
+
+    def __init__(self, videos: Mapping[str, Path]) -> None:
+        self._caps: dict[str, cv2.VideoCapture] = {}
+        self.info: dict[str, VideoInfo] = {}
+        try:
+            for cam, path in videos.items():
+                if not path.is_file():
+                    raise InputError(f"camera {cam}: video file not found: {path}")
+                cap = cv2.VideoCapture(str(path))
+                ok, frame = cap.read() if cap.isOpened() else (False, None)
+                if not ok or frame is None:
+                    cap.release()
+                    raise SourceError(
+                        f"camera {cam}: cannot decode video {path} (not a video OpenCV can read)")
+                cap.set(cv2.CAP_PROP_POS_FRAMES, 0)
+                self._caps[cam] = cap
+                self.info[cam] = VideoInfo(
+                    cam, path, int(cap.get(cv2.CAP_PROP_FRAME_COUNT) or 0),
+                    float(cap.get(cv2.CAP_PROP_FPS) or 0.0), (int(frame.shape[1]), int(frame.shape[0])),
+                )
+        except BaseException:
+            self.close()
+            raise
+
+    @property
+    def cameras(self) -> tuple[str, ...]:
+        return tuple(self._caps)
+
+    @property
+    def fps(self) -> float:
+        rates = [i.fps for i in self.info.values() if i.fps > 0]
+        return min(rates) if rates else 30.0
+
+    @property
+    def frame_count(self) -> int:
+        """Frames all videos have (as their containers report)."""
+        counts = [i.frame_count for i in self.info.values()]
+        return min(counts) if counts and min(counts) > 0 else 0
+
+    def __iter__(self) -> Iterator[list[U8]]:
+        """Multi-view frames (images in camera order) until the shortest video ends."""
+        while True:
+            frames = []
+            for cap in self._caps.values():
+                ok, frame = cap.read()
+                if not ok or frame is None:
+                    return
+                frames.append(frame)
+            yield frames
+
+    def close(self) -> None:
+        for cap in self._caps.values():
+            cap.release()
+        self._caps.clear()
+
+    def __enter__(self) -> SyncedVideos:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+@dataclass(slots=True)
+class RunSummary:
+    """What a run did: frames, frames per camera with a tracked person, per-frame timings."""
+
+    frames: int = 0
+    timings: list[StepTimings] = field(default_factory=list)
+    track_frames: dict[str, dict[int, int]] = field(default_factory=dict)  # camera -> id -> frames
+    wall_s: float = 0.0
+
+    def median_ms(self) -> float:
+        return float(np.median([t.total_s for t in self.timings]) * 1e3) if self.timings else float("nan")
+
+
+class OfflinePipeline:
+    """Detection + tracking (+ later stages) over multi-view frames, results to JSON Lines."""
+
+    def __init__(self, detect_track: DetectAndTrack, stages: Sequence[FrameStage] = ()) -> None:
+        self.detect_track = detect_track
+        self.stages = tuple(stages)
+
+    def step(self, frame_index: int, timestamp_s: float,
+             images: Sequence[U8]) -> tuple[FrameResult, StepTimings]:
+        """One multi-view frame (images in camera order) -> its result."""
+        views, timings = self.detect_track.step(images, frame_index, timestamp_s)
+        result = FrameResult(frame_index, timestamp_s, views=views)
+        for stage in self.stages:
+            result = stage(result)
+        return result, timings
+
+    def run(
+        self,
+        videos: SyncedVideos,
+        writer: ResultsWriter,
+        max_frames: int | None = None,
+        progress: Callable[[int, int, RunSummary], None] | None = None,
+    ) -> RunSummary:
+        """Process the videos (all frames, or the first ``max_frames``), writing one line per frame."""
+        if tuple(videos.cameras) != tuple(self.detect_track.cameras):
+            raise InputError(f"videos {list(videos.cameras)} and tracker cameras "
+                             f"{list(self.detect_track.cameras)} differ")
+        total = videos.frame_count
+        if max_frames is not None:
+            total = min(max_frames, total or max_frames)
+        summary = RunSummary(track_frames={c: {} for c in videos.cameras})
+        fps = videos.fps
+        t0 = time.perf_counter()
+        for k, images in enumerate(videos):
+            if max_frames is not None and k >= max_frames:
+                break
+            result, timings = self.step(k, k / fps, images)
+            writer.write(result)
+            summary.frames += 1
+            summary.timings.append(timings)
+            for view in result.views:
+                counts = summary.track_frames[view.camera]
+                for tid in view.track_ids.tolist():
+                    counts[tid] = counts.get(tid, 0) + 1
+            if progress is not None:
+                progress(k + 1, total, summary)
+        summary.wall_s = time.perf_counter() - t0
+        return summary

@@ -1,0 +1,632 @@
+"""The live pipeline's façade: start/stop, status, navigator, workstations, events, snapshots.
+
+Topology (one process per box; frames in shared memory, small results in bounded queues)::
+
+    capture cam01 ─┐ shm ring
+    capture cam02 ─┼──────────> detect (grouping + batched pose) ──q──> fuse ──q──> main: collector
+    ...           ─┘                                                                 └─> emitter (UDP/OSC)
+    simulator ───────────────────────────────────────────────────q──> fuse ──q──> (same)
+
+Everything here is thread-safe and returns quickly; the work happens in the worker
+processes and in two threads of the main process (collector, supervision).
+"""
+
+from __future__ import annotations
+
+import gc
+import logging
+import math
+import multiprocessing as mp
+import threading
+import time
+from collections import deque
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any, Literal, Protocol
+
+import numpy as np
+
+from pipeline.camera import Camera
+from pipeline.emitter.protocol import LocomotionCommand
+from pipeline.emitter.udp import EmitterConfig, UdpEmitter
+from pipeline.errors import InputError, SourceError
+from pipeline.results import FrameResult, action_record, person_record
+from pipeline.runtime.config import RuntimeConfig
+from pipeline.runtime.messages import FusedFrame, SetNavigator, WorkerEvent, put_latest
+from pipeline.runtime.metrics import RuntimeMetrics
+from pipeline.runtime.shm import FrameRing, RingSpec
+from pipeline.runtime.snapshot import render_snapshot
+from pipeline.runtime.stages import FusionFactory
+from pipeline.runtime.supervisor import Supervisor, WorkerDef, drain
+from pipeline.runtime.workers import CaptureSpec, DetectSpec, capture_loop, detect_loop, fuse_loop, sim_loop
+from pipeline.sources import source_kind
+
+log = logging.getLogger(__name__)
+
+SourceName = Literal["simulator", "cameras", "videos"]
+State = Literal["stopped", "starting", "running", "error"]
+SOURCES: tuple[str, ...] = ("simulator", "cameras", "videos")
+QUEUE_SIZE = 2
+EVENT_LOG_SIZE = 2000
+
+
+class SimFactory(Protocol):
+    """Builds the simulator inside its worker; tells the main process its virtual cameras."""
+
+    cameras: tuple[Camera, ...]
+    fps: float
+
+    def __call__(self) -> Any: ...
+
+
+@dataclass(frozen=True, slots=True)
+class PipelineEvent:
+    """Something for the session log.
+
+    timestamp_s: Unix time. kind: ``state``, ``action``, ``navigator``, ``worker`` or ``camera``.
+    """
+
+    timestamp_s: float
+    kind: str
+    message: str
+    data: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass(frozen=True, slots=True)
+class PipelineStatus:
+    """A snapshot of the live pipeline (plain values, ready for JSON).
+
+    latency_ms: {stage: {"p50", "p95", "p99"}} for capture, detect, fuse, emit, end_to_end.
+    cameras: [{"name", "ok", "fps", "last_error"}]. people: [{"user_id", "position_m", "reproj_px"}].
+    action: {"label", "probs", "yaw_deg", "speed_mps"} or None.
+    people3d: [{"user_id", "joints": [[x, y, z] or None] x 17, "reproj_px"}] for the 3D view.
+    dropped: frames the sources delivered that no stage processed (multi-view frames).
+    """
+
+    state: State
+    source: str | None
+    fps: float
+    dropped: int
+    processed: int
+    latency_ms: dict[str, dict[str, float]]
+    cameras: tuple[dict[str, Any], ...]
+    people: tuple[dict[str, Any], ...]
+    navigator: int | None
+    navigator_mode: str
+    action: dict[str, Any] | None
+    people3d: tuple[dict[str, Any], ...]
+    frame_index: int
+    last_error: str | None = None
+    workstations: tuple[tuple[str, int], ...] = ()
+    emitted: int = 0
+
+    def to_dict(self) -> dict[str, Any]:
+        return {name: getattr(self, name) for name in self.__dataclass_fields__}
+
+
+@dataclass
+class _Camera:
+    name: str
+    ring: FrameRing | None = None
+    ok: bool = False
+    fps: float = 0.0
+    last_error: str | None = None
+    ended: bool = False
+    last_seq: int = -1
+    last_sample_s: float = 0.0
+    last_index: int = -1
+    first_index: int | None = None
+
+
+@dataclass
+class _Run:
+    source: str
+    cameras: dict[str, _Camera]
+    events_q: Any
+    supervisor: Supervisor
+    out_q: Any = None
+    control_q: Any = None
+    stop: threading.Event = field(default_factory=threading.Event)
+    threads: list[threading.Thread] = field(default_factory=list)
+    metrics: RuntimeMetrics = field(default_factory=RuntimeMetrics)
+    first_source_index: int | None = None
+    last_source_index: int = -1
+    latest: FusedFrame | None = None
+
+
+class Pipeline:
+    """The live recognition pipeline (see the module docstring)."""
+
+    def __init__(self, config: RuntimeConfig, cameras_calibrated: list[Camera] | None, *,
+                 camera_sources: dict[str, str] | None = None,
+                 pose_factory: Callable[[], Any] | None = None,
+                 fusion: FusionFactory | None = None,
+                 sim_factory: SimFactory | None = None,
+                 workstations: Sequence[tuple[str, int]] = ()) -> None:
+        self.config = config
+        self.cameras_calibrated = list(cameras_calibrated) if cameras_calibrated else None
+        self.camera_sources = dict(camera_sources or {})
+        self.pose_factory = pose_factory
+        self.fusion = fusion or FusionFactory(cameras=None, camera_names=())
+        self.sim_factory = sim_factory
+        self._lock = threading.RLock()
+        self._state: State = "stopped"
+        self._last_error: str | None = None
+        self._run: _Run | None = None
+        self._events: deque[PipelineEvent] = deque(maxlen=EVENT_LOG_SIZE)
+        self._last_action: str | None = None
+        self._snapshots: dict[str, tuple[float, bytes]] = {}
+        self.emitter = UdpEmitter(
+            EmitterConfig(rate_hz=config.emit_rate_hz, heartbeat_s=config.heartbeat_s),
+            list(workstations), list(config.osc) or None,
+        )
+        self.emitter.set_state("stopped")
+        self.emitter.start()
+
+    # ----------------------------------------------------------------------------- factories
+    @classmethod
+    def from_settings(cls, settings: Any, cameras_calibrated: list[Camera] | None = None,
+                      sim_factory: SimFactory | None = None) -> Pipeline:
+        """Build from the app's settings (duck-typed; pipeline never imports app).
+
+        Reads ``runtime``, ``pose``, ``recognition``, ``cameras``, ``workstations`` and, when
+        present, ``tracking``/``triangulation``; the pose model is ``settings.pose_model_path``.
+        """
+        from pipeline.runtime.stages import PoseStageFactory
+
+        config = RuntimeConfig.from_settings(settings.runtime)
+        pose_factory = PoseStageFactory.from_settings(settings.pose, settings.pose_model_path)
+        fusion = fusion_factory_from_settings(settings, cameras_calibrated)
+        endpoints = [_split_endpoint(w) for w in settings.workstations]
+        sources = {c.name: c.source for c in settings.cameras}
+        return cls(config, cameras_calibrated, camera_sources=sources, pose_factory=pose_factory,
+                   fusion=fusion, sim_factory=sim_factory, workstations=endpoints)
+
+    # ---------------------------------------------------------------------------- lifecycle
+    def start(self, source: SourceName, videos: dict[str, Path] | None = None) -> None:
+        """Start (or restart) on ``source``. Bad input raises a CavewalkError and changes nothing."""
+        if source not in SOURCES:
+            raise InputError(f"source must be one of {', '.join(SOURCES)}, got {source!r}")
+        with self._lock:
+            plan = self._plan(source, videos)  # validates before anything is stopped
+            if self._run is not None:
+                self._stop_locked()
+                gc.collect()
+            self._launch(source, plan)
+
+    def _plan(self, source: str, videos: dict[str, Path] | None) -> dict[str, str]:
+        """camera name -> source URI for the capture workers ({} for the simulator)."""
+        if source == "simulator":
+            if self.sim_factory is None:
+                raise SourceError("the simulator is not available in this pipeline")
+            return {}
+        if source == "cameras":
+            plan = {n: u for n, u in self.camera_sources.items() if source_kind(u) != "sim"}
+            if not plan:
+                raise SourceError("no camera has a real source in the settings (all are 'sim'); "
+                                  "set cameras[].source to a device index, URL, video or folder")
+            for name, uri in plan.items():
+                if source_kind(uri) in ("video", "folder") and not Path(uri).expanduser().exists():
+                    raise SourceError(f"camera {name}: source {uri!r} not found")
+        else:
+            if not videos:
+                raise InputError("the videos source needs at least one video (camera name -> file)")
+            plan = {}
+            for name, path in videos.items():
+                if not Path(path).is_file():
+                    raise InputError(f"camera {name}: video not found: {path}")
+                plan[name] = str(path)
+        if self.cameras_calibrated is not None:
+            known = {c.name for c in self.cameras_calibrated}
+            unknown = sorted(set(plan) - known)
+            if unknown:
+                raise InputError(f"cameras {unknown} are not in the calibration (it has {sorted(known)})")
+        if self.pose_factory is None:
+            raise SourceError("no pose detector configured for image sources")
+        for name, uri in plan.items():
+            if source_kind(uri) == "video":
+                _probe_video(name, Path(uri), self.config.max_frame_bytes)
+        return plan
+
+    def _launch(self, source: str, plan: dict[str, str]) -> None:
+        ctx = mp.get_context(self.config.start_method)
+        if self.config.start_method == "forkserver":
+            ctx.set_forkserver_preload(["pipeline.runtime.workers", "numpy", "cv2"])
+        events_q = ctx.Queue(maxsize=1000)
+        run = _Run(source=source, cameras={}, events_q=events_q, supervisor=Supervisor(ctx, events_q))
+        self._state = "starting"
+        self._last_error = None
+        self._last_action = None
+        self._snapshots.clear()
+        self.emitter.set_state("starting")
+        self._event("state", f"starting ({source})", {"state": "starting", "source": source})
+        try:
+            if source == "simulator":
+                sim = self.sim_factory
+                assert sim is not None  # checked in _plan
+                run.cameras = {c.name: _Camera(c.name, ok=True) for c in sim.cameras}
+                fusion = replace(self.fusion, cameras=tuple(sim.cameras),
+                                 camera_names=tuple(c.name for c in sim.cameras))
+
+                def build_sim() -> list[WorkerDef]:
+                    run.out_q, run.control_q = ctx.Queue(maxsize=QUEUE_SIZE), ctx.Queue(maxsize=16)
+                    det_q = ctx.Queue(maxsize=QUEUE_SIZE)
+                    return [("simulator", sim_loop, (sim, sim.fps, det_q)),
+                            ("fuse", fuse_loop, (fusion, det_q, run.out_q, run.control_q))]
+
+                run.supervisor.add_group("chain", build_sim)
+            else:
+                self._launch_images(ctx, run, plan)
+        except BaseException:
+            self._teardown(run)
+            self._state = "error"
+            raise
+        for target, name in ((self._collect, "collector"), (self._supervise, "supervision")):
+            t = threading.Thread(target=target, args=(run,), name=f"cavewalk-{name}", daemon=True)
+            run.threads.append(t)
+        self._run = run
+        for t in run.threads:
+            t.start()
+
+    def _launch_images(self, ctx: Any, run: _Run, plan: dict[str, str]) -> None:
+        names = tuple(plan)
+        start_s = time.monotonic() + 0.5  # one trigger for every file source: they stay in step
+        pace = self.config.video_pace_fps
+        for name, uri in plan.items():
+            ring = FrameRing.create(self.config.ring_slots, _capacity(uri, self.config.max_frame_bytes), name)
+            run.cameras[name] = _Camera(name, ring)
+            kind = source_kind(uri)
+            file_like = kind in ("video", "folder")
+            pace_fps = (None if pace == 0 else pace or _native_fps(uri, kind)) if file_like else None
+            spec = CaptureSpec(name, uri, pace_fps=pace_fps,
+                               loop=self.config.video_loop if file_like else False,
+                               start_s=start_s, retry_s=self.config.camera_retry_s)
+            run.supervisor.add_group(f"capture-{name}", _capture_group(spec, ring.spec))
+        calibrated = None
+        if self.cameras_calibrated is not None:
+            calibrated = tuple(c for c in self.cameras_calibrated if c.name in plan)
+            if len(calibrated) < 2:
+                calibrated = None
+        fusion = replace(self.fusion, cameras=calibrated, camera_names=names)
+        dspec = DetectSpec(names, self.config.target_fps, self.config.grouper)
+        rings = tuple(run.cameras[n].ring.spec for n in names)  # type: ignore[union-attr]
+        pose = self.pose_factory
+
+        def build_chain() -> list[WorkerDef]:
+            run.out_q, run.control_q = ctx.Queue(maxsize=QUEUE_SIZE), ctx.Queue(maxsize=16)
+            det_q = ctx.Queue(maxsize=QUEUE_SIZE)
+            return [("detect", detect_loop, (dspec, rings, pose, det_q)),
+                    ("fuse", fuse_loop, (fusion, det_q, run.out_q, run.control_q))]
+
+        run.supervisor.add_group("chain", build_chain)
+
+    def stop(self) -> None:
+        """Stop every worker, free the shared memory; the heartbeat goes on with state ``stopped``."""
+        with self._lock:
+            if self._run is None:
+                return
+            self._stop_locked()
+            self._state = "stopped"
+            self.emitter.set_state("stopped")
+            self._event("state", "stopped", {"state": "stopped"})
+        gc.collect()  # frees the run's named semaphores now, not at some later collection
+
+    def _stop_locked(self) -> None:
+        run = self._run
+        self._run = None
+        if run is None:
+            return
+        self.emitter.submit(None)
+        self._teardown(run)
+
+    def _teardown(self, run: _Run) -> None:
+        run.stop.set()
+        run.supervisor.stop()
+        for t in run.threads:
+            if t is not threading.current_thread():
+                t.join(timeout=2.0)
+        for q in (run.out_q, run.control_q, run.events_q):
+            if q is not None:
+                drain(q)
+                q.close()
+                q.cancel_join_thread()
+        for cam in run.cameras.values():
+            if cam.ring is not None:
+                cam.ring.unlink()
+                cam.ring = None
+        # queues and events hold named semaphores (in /dev/shm under forkserver) until collected
+        run.out_q = run.control_q = run.events_q = None
+        run.threads = []
+        run.latest = None
+
+    def close(self) -> None:
+        """Stop the pipeline and the emitter (the heartbeat ends too)."""
+        self.stop()
+        self.emitter.close()
+
+    # ---------------------------------------------------------------------- main-process threads
+    def _collect(self, run: _Run) -> None:
+        import queue as _queue
+
+        while not run.stop.is_set():
+            q = run.out_q
+            if q is None:
+                run.stop.wait(0.05)
+                continue
+            try:
+                fused = q.get(timeout=0.1)
+            except (_queue.Empty, OSError, ValueError):
+                continue
+            except Exception:  # a message cut by a crashed worker; the chain is rebuilt
+                log.exception("bad message from the fusion worker")
+                continue
+            if isinstance(fused, FusedFrame):
+                try:
+                    self._on_result(run, fused)
+                except Exception:
+                    log.exception("handling a result failed")
+
+    def _on_result(self, run: _Run, fused: FusedFrame) -> None:
+        result, det = fused.result, fused.detected
+        cmd = _command(result)
+        self.emitter.submit(cmd)
+        sent = time.monotonic()
+        ms = {
+            "capture": det.detect_start_s - det.timestamp_s,
+            "detect": det.detect_end_s - det.detect_start_s,
+            "fuse": fused.fuse_end_s - det.detect_end_s,
+            "emit": sent - fused.fuse_end_s,
+            "end_to_end": sent - det.timestamp_s,
+        }
+        if run.first_source_index is None:
+            run.first_source_index = det.source_index
+        run.last_source_index = max(run.last_source_index, det.source_index)
+        run.metrics.frame(sent, {k: v * 1000.0 for k, v in ms.items()}, 0)
+        run.latest = fused
+        with self._lock:
+            if self._run is run and self._state == "starting":
+                self._state = "running"
+                self.emitter.set_state("running")
+                self._event("state", "running", {"state": "running", "source": run.source})
+            for change in fused.navigator_changes:
+                self._event("navigator", f"navigator {change.previous} -> {change.current} ({change.reason})",
+                            {"previous": change.previous, "current": change.current, "mode": change.mode})
+            label = result.action.label if result.action is not None else None
+            if label != self._last_action:
+                self._event("action", f"action {self._last_action} -> {label}",
+                            {"previous": self._last_action, "label": label, "user_id": result.navigator,
+                             "action": action_record(result.action)})
+                self._last_action = label
+
+    def _supervise(self, run: _Run) -> None:
+        while not run.stop.is_set():
+            for ev in drain(run.events_q):
+                if isinstance(ev, WorkerEvent):
+                    run.supervisor.note_event(ev)
+                    self._on_worker_event(run, ev)
+            for ev in run.supervisor.check():
+                self._on_worker_event(run, ev)
+            self._sample_cameras(run)
+            run.stop.wait(0.1)
+
+    def _on_worker_event(self, run: _Run, ev: WorkerEvent) -> None:
+        cam_name = ev.worker.removeprefix("capture-")
+        cam = run.cameras.get(cam_name) if ev.worker.startswith("capture-") else None
+        if ev.kind in ("started", "stopped"):
+            log.debug("%s %s", ev.worker, ev.kind)
+            return
+        if cam is not None and ev.kind in ("camera_lost", "error"):
+            cam.ok, cam.last_error = False, ev.message.splitlines()[0] if ev.message else ev.kind
+        if cam is not None and ev.kind == "camera_ok":
+            cam.ok = True
+        if cam is not None and ev.kind == "ended":
+            cam.ended, cam.ok, cam.last_error = True, False, "source ended"
+        kind = "camera" if cam is not None or ev.worker.startswith("capture-") else "worker"
+        if ev.kind == "error":
+            log.warning("%s: %s", ev.worker, ev.message)
+            with self._lock:
+                self._last_error = f"{ev.worker}: {ev.message.splitlines()[0] if ev.message else 'error'}"
+        with self._lock:
+            self._event(kind, f"{ev.worker}: {ev.kind} {ev.message}".strip(),
+                        {"worker": ev.worker, "kind": ev.kind, "message": ev.message})
+
+    def _sample_cameras(self, run: _Run) -> None:
+        now = time.monotonic()
+        gone = self.config.grouper.gone_after_s
+        for cam in run.cameras.values():
+            if cam.ring is None:  # the simulator's virtual cameras
+                cam.ok = run.supervisor.group_alive("chain")
+                cam.fps = run.metrics.fps.rate(now)
+                continue
+            seq = cam.ring.latest_seq
+            if seq < 0:
+                continue
+            if cam.last_sample_s and now - cam.last_sample_s >= 0.5:
+                cam.fps = (seq - cam.last_seq) / (now - cam.last_sample_s)
+                cam.last_seq, cam.last_sample_s = seq, now
+            elif not cam.last_sample_s:
+                cam.last_seq, cam.last_sample_s = seq, now
+            ts = cam.ring.timestamp_of(seq)
+            fresh = ts is not None and now - ts <= gone
+            if fresh and not cam.ok and not cam.ended:
+                cam.ok = True
+            elif not fresh and cam.ok:
+                cam.ok = False
+                cam.last_error = cam.last_error or f"no frame for {gone:.1f} s"
+
+    # --------------------------------------------------------------------------------- queries
+    def status(self) -> PipelineStatus:
+        with self._lock:
+            run, state, error = self._run, self._state, self._last_error
+        if run is None:
+            return PipelineStatus(state, None, 0.0, 0, 0, RuntimeMetrics().latency_summary(), (), (),
+                                  None, "auto", None, (), -1, error, tuple(self.emitter.endpoints),
+                                  self.emitter.sent)
+        now = time.monotonic()
+        latest = run.latest
+        result = latest.result if latest is not None else FrameResult(-1, 0.0)
+        processed = run.metrics.processed
+        produced = (run.last_source_index - run.first_source_index + 1
+                    if run.first_source_index is not None else 0)
+        people = tuple({"user_id": p.user_id, "position_m": [_f(v) for v in p.position_m],
+                        "reproj_px": _f(p.reproj_px)} for p in result.people3d)
+        return PipelineStatus(
+            state=state, source=run.source, fps=round(run.metrics.fps.rate(now), 2),
+            dropped=max(0, produced - processed), processed=processed,
+            latency_ms=run.metrics.latency_summary(),
+            cameras=tuple({"name": c.name, "ok": c.ok, "fps": round(c.fps, 2), "last_error": c.last_error}
+                          for c in run.cameras.values()),
+            people=people, navigator=result.navigator,
+            navigator_mode=latest.navigator_mode if latest is not None else "auto",
+            action=action_record(result.action), people3d=tuple(person_record(p) for p in result.people3d),
+            frame_index=result.frame_index, last_error=error,
+            workstations=tuple(self.emitter.endpoints), emitted=self.emitter.sent,
+        )
+
+    def latency_samples(self) -> dict[str, list[float]]:
+        """The raw latency window of every stage (ms), for benchmarks."""
+        run = self._run
+        return {} if run is None else {k: w.values() for k, w in run.metrics.latency.items()}
+
+    def worker_pids(self) -> list[int]:
+        run = self._run
+        return [] if run is None else run.supervisor.pids()
+
+    def set_navigator(self, user_id: int | None) -> None:
+        """Choose the navigator (None = automatic). InputError for a user not tracked now."""
+        with self._lock:
+            run = self._run
+            if run is None:
+                raise InputError("the pipeline is not running")
+            if user_id is not None:
+                if isinstance(user_id, bool) or not isinstance(user_id, int):
+                    raise InputError(f"user_id must be an integer or null, got {user_id!r}")
+                people = run.latest.result.people3d if run.latest is not None else ()
+                tracked = sorted(p.user_id for p in people)
+                if user_id not in tracked:
+                    raise InputError(f"user {user_id} is not tracked (tracked users: "
+                                     f"{', '.join(map(str, tracked)) or 'none'})")
+            if run.control_q is not None:
+                put_latest(run.control_q, SetNavigator(user_id))
+
+    def set_workstations(self, endpoints: list[tuple[str, int]]) -> None:
+        """Replace the UDP destinations; InputError (nothing changes) for one that does not resolve."""
+        self.emitter.set_endpoints(list(endpoints))
+        with self._lock:
+            self._event("state", f"workstations: {endpoints}", {"workstations": [list(e) for e in endpoints]})
+
+    def drain_events(self) -> list[PipelineEvent]:
+        with self._lock:
+            out = list(self._events)
+            self._events.clear()
+            return out
+
+    def _event(self, kind: str, message: str, data: dict[str, Any]) -> None:
+        self._events.append(PipelineEvent(time.time(), kind, message, data))
+
+    def snapshot_jpeg(self, camera: str) -> bytes | None:
+        """The camera's newest frame with skeletons drawn (encoded at most every snapshot_interval_s)."""
+        run = self._run
+        if run is None or camera not in run.cameras:
+            return None
+        now = time.monotonic()
+        cached = self._snapshots.get(camera)
+        if cached is not None and now - cached[0] < self.config.snapshot_interval_s:
+            return cached[1]
+        cam = run.cameras[camera]
+        latest = run.latest
+        views = latest.detected.views if latest is not None else ()
+        view = next((v for v in views if v.camera == camera), None)
+        image = None
+        if cam.ring is not None:
+            slot = cam.ring.read_latest()
+            if slot is None:
+                return None
+            image = slot.image
+        elif view is None:
+            return None
+        data = render_snapshot(image, view, self.config.snapshot_long_side)
+        self._snapshots[camera] = (now, data)
+        return data
+
+
+# ------------------------------------------------------------------------------------ helpers
+def fusion_factory_from_settings(settings: Any, cameras: list[Camera] | None) -> FusionFactory:
+    """The fusion stage's configs from the settings sections that exist (others: their defaults)."""
+    from pipeline.recognition.recognizer import RecognizerConfig
+    from pipeline.tracking.ocsort import OCSortConfig
+
+    tracking = OCSortConfig.from_settings(settings.tracking) if hasattr(settings, "tracking") else None
+    recognition = RecognizerConfig.from_settings(settings.recognition)
+    return FusionFactory(cameras=tuple(cameras) if cameras else None, camera_names=(), tracking=tracking,
+                         recognition=recognition)
+
+
+def _command(result: FrameResult) -> LocomotionCommand | None:
+    if result.navigator is None or result.action is None:
+        return None
+    person = next((p for p in result.people3d if p.user_id == result.navigator), None)
+    pos = person.position_m if person is not None else np.zeros(3)
+    return LocomotionCommand(
+        user_id=int(result.navigator), action=result.action.label, confidence=result.action.confidence,
+        yaw_deg=float(result.action.yaw_deg), speed_mps=float(result.action.speed_mps),
+        position_m=(float(pos[0]), float(pos[1]), float(pos[2])), timestamp_s=result.timestamp_s,
+    )
+
+
+def _capture_group(spec: CaptureSpec, ring: RingSpec) -> Callable[[], list[WorkerDef]]:
+    def build() -> list[WorkerDef]:
+        return [(f"capture-{spec.camera}", capture_loop, (spec, ring))]
+
+    return build
+
+
+def _f(x: float) -> float | None:
+    return round(float(x), 4) if math.isfinite(float(x)) else None
+
+
+def _split_endpoint(value: str) -> tuple[str, int]:
+    host, _, port = value.rpartition(":")
+    return host.strip("[]"), int(port)
+
+
+def _probe_video(name: str, path: Path, max_bytes: int) -> None:
+    import cv2
+
+    cap = cv2.VideoCapture(str(path))
+    try:
+        if not cap.isOpened():
+            raise SourceError(f"camera {name}: cannot open video {path}")
+        w, h = int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)), int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT))
+        if w * h * 3 > max_bytes:
+            raise SourceError(f"camera {name}: {w}x{h} frames exceed the ring slots ({max_bytes} bytes)")
+    finally:
+        cap.release()
+
+
+def _capacity(uri: str, max_bytes: int) -> int:
+    """Slot size: a video's own frame size (its first frame may be padded: +16 rows), else the maximum."""
+    if source_kind(uri) != "video":
+        return max_bytes
+    import cv2
+
+    cap = cv2.VideoCapture(uri)
+    try:
+        w, h = int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)), int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT))
+    finally:
+        cap.release()
+    return min(max_bytes, (w + 16) * (h + 16) * 3) if w > 0 and h > 0 else max_bytes
+
+
+def _native_fps(uri: str, kind: str) -> float | None:
+    if kind != "video":
+        return 30.0
+    import cv2
+
+    cap = cv2.VideoCapture(uri)
+    try:
+        fps = float(cap.get(cv2.CAP_PROP_FPS) or 0.0)
+    finally:
+        cap.release()
+    return fps if fps > 0 else 30.0

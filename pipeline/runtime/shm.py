@@ -1,0 +1,177 @@
+"""Shared-memory ring buffers for camera frames (no pickled arrays between processes).
+
+One ring per camera: ``slots`` fixed-size slots of ``capacity_bytes`` each, behind a
+small int64/float64 header. The capture process is the only writer; readers take the
+newest complete frame. A slot's sequence number is set to -1 while it is written and
+to the frame's sequence number after, so a reader that copied a slot while the
+writer lapped it sees the mismatch and drops the copy (a seqlock).
+
+The main process creates (and finally unlinks) every segment; workers attach with
+:meth:`FrameRing.attach`, which keeps them out of Python's resource tracker so a
+worker's exit never unlinks a segment that the others still use.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import secrets
+from dataclasses import dataclass
+from multiprocessing import resource_tracker, shared_memory
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pipeline.errors import SourceError
+
+SHM_PREFIX = "cavewalk_"
+_GLOBAL_WORDS = 2  # [latest seq, writer generation]
+_SLOT_WORDS = 8  # [seq, ts (float64 bits), height, width, channels, frame index, nbytes, reserved]
+
+
+@dataclass(frozen=True, slots=True)
+class RingSpec:
+    """What a process needs to attach to a ring (small and picklable)."""
+
+    shm_name: str
+    slots: int
+    capacity_bytes: int
+
+    def __post_init__(self) -> None:
+        if self.slots < 2:
+            raise ValueError(f"a ring needs >= 2 slots, got {self.slots}")
+        if self.capacity_bytes <= 0:
+            raise ValueError(f"capacity_bytes must be > 0, got {self.capacity_bytes}")
+
+    @property
+    def header_bytes(self) -> int:
+        return 8 * (_GLOBAL_WORDS + _SLOT_WORDS * self.slots)
+
+    @property
+    def total_bytes(self) -> int:
+        return self.header_bytes + self.slots * self.capacity_bytes
+
+
+@dataclass(frozen=True, slots=True)
+class SlotFrame:
+    """A frame read from a ring: its sequence number, capture time, camera frame index and pixels."""
+
+    seq: int
+    timestamp_s: float
+    index: int
+    image: NDArray[np.uint8]
+
+
+class FrameRing:
+    """A ring of frames in one shared-memory segment."""
+
+    def __init__(self, spec: RingSpec, shm: shared_memory.SharedMemory, owner: bool) -> None:
+        self.spec = spec
+        self._shm = shm
+        self.owner = owner
+        self._buf: memoryview = shm.buf  # type: ignore[assignment]
+        self._words = np.ndarray((_GLOBAL_WORDS + _SLOT_WORDS * spec.slots,), dtype=np.int64,
+                                 buffer=self._buf[: spec.header_bytes])
+        self._ts = self._words.view(np.float64)
+
+    @classmethod
+    def create(cls, slots: int, capacity_bytes: int, tag: str = "") -> FrameRing:
+        """A new, empty ring (the caller owns it and must :meth:`unlink` it)."""
+        safe = "".join(ch for ch in tag if ch.isalnum())[:12]
+        name = f"{SHM_PREFIX}{safe}_{secrets.token_hex(4)}"
+        spec = RingSpec(name, slots, capacity_bytes)
+        shm = shared_memory.SharedMemory(name=name, create=True, size=spec.total_bytes)
+        ring = cls(spec, shm, owner=True)
+        ring._words[:] = 0
+        ring._words[0] = -1
+        ring._words[_GLOBAL_WORDS::_SLOT_WORDS] = -1
+        return ring
+
+    @classmethod
+    def attach(cls, spec: RingSpec) -> FrameRing:
+        """Attach to an existing ring without registering it with the resource tracker."""
+        original = resource_tracker.register
+        resource_tracker.register = lambda *a, **k: None  # type: ignore[assignment]
+        try:
+            shm = shared_memory.SharedMemory(name=spec.shm_name, create=False)
+        except FileNotFoundError as exc:
+            raise SourceError(f"shared-memory ring {spec.shm_name} does not exist") from exc
+        finally:
+            resource_tracker.register = original  # type: ignore[assignment]
+        return cls(spec, shm, owner=False)
+
+    def _slot_base(self, slot: int) -> int:
+        return _GLOBAL_WORDS + _SLOT_WORDS * slot
+
+    def _data(self, slot: int, nbytes: int) -> NDArray[np.uint8]:
+        start = self.spec.header_bytes + slot * self.spec.capacity_bytes
+        return np.ndarray((nbytes,), dtype=np.uint8, buffer=self._buf[start: start + nbytes])
+
+    @property
+    def latest_seq(self) -> int:
+        """Sequence number of the newest complete frame (-1 before the first)."""
+        return int(self._words[0])
+
+    def write(self, image: NDArray[np.uint8], timestamp_s: float, index: int) -> int:
+        """Store a frame in the next slot; returns its sequence number."""
+        if image.dtype != np.uint8 or image.ndim != 3:
+            raise ValueError(f"frames must be (H, W, C) uint8, got {image.shape} {image.dtype}")
+        if image.nbytes > self.spec.capacity_bytes:
+            raise SourceError(f"frame of {image.shape} ({image.nbytes} bytes) exceeds the ring's slot "
+                              f"capacity of {self.spec.capacity_bytes} bytes")
+        seq = self.latest_seq + 1
+        slot = seq % self.spec.slots
+        base = self._slot_base(slot)
+        self._words[base] = -1
+        self._data(slot, image.nbytes)[:] = np.ascontiguousarray(image).reshape(-1)
+        h, w, c = image.shape
+        self._ts[base + 1] = timestamp_s
+        self._words[base + 2: base + 7] = (h, w, c, index, image.nbytes)
+        self._words[base] = seq
+        self._words[0] = seq
+        return seq
+
+    def timestamp_of(self, seq: int) -> float | None:
+        """Capture time of frame ``seq`` from the header (None if not in the ring)."""
+        base = self._slot_base(seq % self.spec.slots)
+        if int(self._words[base]) != seq:
+            return None
+        ts = float(self._ts[base + 1])
+        return ts if int(self._words[base]) == seq else None
+
+    def read_latest(self, after_seq: int = -1) -> SlotFrame | None:
+        """A copy of the newest frame if it is newer than ``after_seq``, else None."""
+        for _ in range(3):
+            seq = self.latest_seq
+            if seq < 0 or seq <= after_seq:
+                return None
+            frame = self.read_seq(seq)
+            if frame is not None:
+                return frame
+        return None
+
+    def read_seq(self, seq: int) -> SlotFrame | None:
+        """A copy of frame ``seq`` if it is still in the ring and intact, else None."""
+        slot = seq % self.spec.slots
+        base = self._slot_base(slot)
+        if int(self._words[base]) != seq:
+            return None
+        ts = float(self._ts[base + 1])
+        h, w, c, index, nbytes = (int(v) for v in self._words[base + 2: base + 7])
+        image = self._data(slot, nbytes).copy().reshape(h, w, c)
+        if int(self._words[base]) != seq:  # overwritten while copying
+            return None
+        return SlotFrame(seq, ts, index, image)
+
+    def close(self) -> None:
+        """Detach (every process); the owner also unlinks with :meth:`unlink`."""
+        self._words = None  # type: ignore[assignment]
+        self._ts = None  # type: ignore[assignment]
+        self._buf = None  # type: ignore[assignment]
+        with contextlib.suppress(BufferError):  # a view still alive; the mapping goes with the process
+            self._shm.close()
+
+    def unlink(self) -> None:
+        """Remove the segment (owner only; safe to call twice)."""
+        self.close()
+        with contextlib.suppress(FileNotFoundError):
+            self._shm.unlink()

@@ -1,0 +1,269 @@
+"""The worker processes' main functions: capture, pose detection, fusion, simulator.
+
+Each runs inside :func:`worker_main`, which ignores SIGINT (the main process decides
+when to stop), catches any error at the loop boundary and reports it as a typed
+:class:`WorkerEvent`, and always sends a ``stopped`` event (the end marker) in
+``finally``. Every loop also ends when the main process disappears, so no worker is
+ever orphaned.
+"""
+
+from __future__ import annotations
+
+import logging
+import multiprocessing
+import os
+import signal
+import time
+import traceback
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+from pipeline.errors import CavewalkError, SourceError
+from pipeline.runtime.messages import (
+    DetectedFrame,
+    FusedFrame,
+    SetNavigator,
+    WorkerEvent,
+    WorkerEventKind,
+    drain_latest,
+    put_latest,
+)
+from pipeline.runtime.metrics import AdaptiveRate, ema
+from pipeline.runtime.shm import FrameRing, RingSpec
+from pipeline.sources.grouper import FrameRef, GrouperConfig, MultiViewGrouper
+
+log = logging.getLogger(__name__)
+
+POLL_S = 0.002  # how often an idle stage looks for new input
+
+
+@dataclass(frozen=True, slots=True)
+class CaptureSpec:
+    """One camera's capture worker: what to open and how to pace it."""
+
+    camera: str
+    uri: str
+    pace_fps: float | None = None
+    loop: bool = False
+    start_s: float | None = None
+    retry_s: float = 1.0
+
+
+@dataclass(frozen=True, slots=True)
+class DetectSpec:
+    cameras: tuple[str, ...]
+    target_fps: float
+    grouper: GrouperConfig = field(default_factory=GrouperConfig)
+
+
+class _Ctx:
+    """What every worker loop needs: its name, the event queue, the stop flag, the parent's pid."""
+
+    def __init__(self, name: str, events: Any, stop: Any, parent_pid: int) -> None:
+        self.name = name
+        self.events = events
+        self.stop = stop
+        self.parent_pid = parent_pid
+        self.terminated = False
+        self._parent = multiprocessing.parent_process()
+        self._parent_checked = 0.0
+        self._parent_alive = True
+
+    def parent_alive(self) -> bool:
+        """Whether the main process still runs (checked at most every 0.25 s)."""
+        now = time.monotonic()
+        if now - self._parent_checked > 0.25:
+            self._parent_checked = now
+            if self._parent is not None:
+                self._parent_alive = self._parent.is_alive()
+            else:
+                self._parent_alive = _pid_alive(self.parent_pid)
+        return self._parent_alive
+
+    def running(self) -> bool:
+        return not self.terminated and not self.stop.is_set() and self.parent_alive()
+
+    def report(self, kind: WorkerEventKind, message: str = "") -> None:
+        put_latest(self.events, WorkerEvent(self.name, kind, message, time.time(), os.getpid()))
+
+
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def worker_main(name: str, body: Callable[..., None], events: Any, stop: Any, parent_pid: int,
+                *args: Any) -> None:
+    """Process entry point: run ``body(ctx, *args)`` with the error/end-marker discipline."""
+    ctx = _Ctx(name, events, stop, parent_pid)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, lambda *_: setattr(ctx, "terminated", True))
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)-7s %(processName)s %(name)s: "
+                        "%(message)s", datefmt="%H:%M:%S")
+    ctx.report("started")
+    code = 0
+    try:
+        body(ctx, *args)
+    except CavewalkError as exc:
+        ctx.report("error", str(exc))
+        code = 1
+    except Exception as exc:  # the loop boundary: report, never die silently
+        ctx.report("error", f"{type(exc).__name__}: {exc}\n{traceback.format_exc(limit=6)}")
+        code = 1
+    finally:
+        ctx.report("stopped")
+        time.sleep(0.05)  # let the queue's feeder thread flush the end marker
+    if code:
+        raise SystemExit(code)
+
+
+# ------------------------------------------------------------------------------------ capture
+def capture_loop(ctx: _Ctx, spec: CaptureSpec, ring_spec: RingSpec) -> None:
+    """Open the camera, copy each frame into its ring; retry a camera that fails or vanishes."""
+    from pipeline.sources import open_source
+
+    ring = FrameRing.attach(ring_spec)
+    lost = False
+    try:
+        while ctx.running():
+            try:
+                source = open_source(spec.uri, spec.camera, pace_fps=spec.pace_fps, loop=spec.loop,
+                                     start_s=spec.start_s)
+            except SourceError as exc:
+                if not lost:
+                    ctx.report("camera_lost", str(exc))
+                    lost = True
+                ctx.stop.wait(spec.retry_s)
+                continue
+            try:
+                while ctx.running():
+                    frame = source.read()
+                    if frame is None:
+                        ctx.report("ended", f"camera {spec.camera}: source ended")
+                        return
+                    if lost:
+                        ctx.report("camera_ok", f"camera {spec.camera} delivers again")
+                        lost = False
+                    ring.write(frame.image, frame.timestamp_s, frame.index)
+            except SourceError as exc:
+                ctx.report("camera_lost", str(exc))
+                lost = True
+                ctx.stop.wait(spec.retry_s)
+            finally:
+                source.close()
+    finally:
+        ring.close()
+
+
+# ------------------------------------------------------------------------------------- detect
+def detect_loop(ctx: _Ctx, spec: DetectSpec, ring_specs: tuple[RingSpec, ...],
+                stage_factory: Callable[[], Any], out_q: Any) -> None:
+    """Group the newest frames of the cameras, detect people in them in one batch, hand on."""
+    rings = {cam: FrameRing.attach(rs) for cam, rs in zip(spec.cameras, ring_specs, strict=True)}
+    try:
+        stage = stage_factory()
+        grouper = MultiViewGrouper(list(spec.cameras), spec.grouper)
+        rate = AdaptiveRate(spec.target_fps)
+        busy: float | None = None
+        next_at = 0.0
+        frame_index = 0
+        while ctx.running():
+            now = time.monotonic()
+            for cam, ring in rings.items():
+                seq = ring.latest_seq
+                if seq >= 0:
+                    ts = ring.timestamp_of(seq)  # the header only; pixels are copied for the group
+                    if ts is not None:
+                        grouper.offer(FrameRef(cam, seq, ts), now)
+            if now < next_at:
+                ctx.stop.wait(min(POLL_S, next_at - now))
+                continue
+            group = grouper.poll(now)
+            if group is None:
+                ctx.stop.wait(POLL_S)
+                continue
+            images, cams, stamps, indices = [], [], [], []
+            for m in group.members:
+                slot = rings[m.camera].read_seq(m.seq) or rings[m.camera].read_latest(m.seq - 1)
+                if slot is not None:
+                    images.append(slot.image)
+                    cams.append(m.camera)
+                    stamps.append(slot.timestamp_s)
+                    indices.append(slot.index)
+            if not images:
+                continue
+            t0 = time.monotonic()
+            views = stage.detect(images, cams, frame_index, min(stamps))
+            t1 = time.monotonic()
+            busy = ema(busy, t1 - t0)
+            next_at = t0 + rate.period_s(busy)
+            dropped = sum(group.skipped.values()) / max(1, len(spec.cameras))
+            missing = tuple(c for c in spec.cameras if c not in cams)
+            put_latest(out_q, DetectedFrame(frame_index, min(stamps), tuple(views), t0, t1, missing, dropped,
+                                            max(indices)))
+            frame_index += 1
+    finally:
+        for ring in rings.values():
+            ring.close()
+
+
+# ------------------------------------------------------------------------------------- fusion
+def fuse_loop(ctx: _Ctx, fusion_factory: Callable[[], Any], in_q: Any, out_q: Any, control_q: Any) -> None:
+    """Tracking, triangulation, navigator and recognition on the newest detected frame."""
+    import queue as _queue
+
+    fusion = fusion_factory()
+    while ctx.running():
+        while True:
+            try:
+                msg = control_q.get_nowait()
+            except _queue.Empty:
+                break
+            if isinstance(msg, SetNavigator):
+                try:
+                    fusion.set_navigator(msg.user_id)
+                except CavewalkError as exc:  # the user left between the request and now
+                    ctx.report("info", f"navigator not changed: {exc}")
+        try:
+            first = in_q.get(timeout=0.05)
+        except _queue.Empty:
+            continue
+        item, skipped = drain_latest(in_q, first)
+        if not isinstance(item, DetectedFrame):
+            continue
+        result = fusion.update(item)
+        put_latest(out_q, FusedFrame(result, item, time.monotonic(), fusion.mode, skipped,
+                                     fusion.take_changes()))
+
+
+# ---------------------------------------------------------------------------------- simulator
+def sim_loop(ctx: _Ctx, sim_factory: Callable[[], Any], fps: float, out_q: Any) -> None:
+    """The simulator in place of capture and pose: its virtual cameras' detections, paced at ``fps``."""
+    from pipeline.sources.opencv import Pacer
+
+    world = sim_factory()
+    pacer = Pacer(fps)
+    frame_index = 0
+    while ctx.running():
+        pacer.wait_for(frame_index)
+        t0 = time.monotonic()
+        sim_frame = world.step(timestamp_s=t0)
+        t1 = time.monotonic()
+        views = tuple(_restamp(v, frame_index) for v in sim_frame.views)
+        put_latest(out_q, DetectedFrame(frame_index, t0, views, t0, t1, source_index=frame_index))
+        frame_index += 1
+        due = pacer.due_slot(time.monotonic())
+        if due > frame_index:  # fell behind: skip, never build a backlog
+            frame_index = due
+
+
+def _restamp(view: Any, frame_index: int) -> Any:
+    from dataclasses import replace
+
+    return view if view.frame_index == frame_index else replace(view, frame_index=frame_index)

@@ -1,0 +1,192 @@
+"""Sources read with OpenCV: live cameras (device index, RTSP/HTTP URL), video files, image folders.
+
+Paced sources deliver frame ``k`` at ``start_s + k / pace_fps`` on ``time.monotonic()``;
+several sources given the same ``start_s`` stay in step, like cameras on one trigger.
+A paced source that falls behind its clock skips the frames it missed (a live camera
+does not wait either) and counts them in ``skipped``.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from pipeline.errors import SourceError
+from pipeline.sources.types import CapturedFrame
+
+log = logging.getLogger(__name__)
+
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
+
+
+class Pacer:
+    """Real-time schedule: slot k is due at ``start_s + k / fps``."""
+
+    def __init__(self, fps: float, start_s: float | None = None) -> None:
+        if fps <= 0:
+            raise ValueError(f"pace fps must be > 0, got {fps}")
+        self.period_s = 1.0 / fps
+        self.start_s = time.monotonic() if start_s is None else start_s
+
+    def due_slot(self, now: float) -> int:
+        """The slot whose time has most recently come (-1 before the start)."""
+        return int(np.floor((now - self.start_s) / self.period_s + 1e-9))
+
+    def wait_for(self, slot: int) -> float:
+        """Sleep until slot ``slot`` is due; returns the time it was due."""
+        due = self.start_s + slot * self.period_s
+        delay = due - time.monotonic()
+        if delay > 0:
+            time.sleep(delay)
+        return due
+
+
+class VideoFileSource:
+    """A video file, once or looping, paced in real time or read flat out (``pace_fps=None``)."""
+
+    def __init__(self, name: str, path: Path, *, loop: bool = False, pace_fps: float | None = None,
+                 start_s: float | None = None, drop_late: bool = True) -> None:
+        path = Path(path)
+        if not path.is_file():
+            raise SourceError(f"camera {name}: video file not found: {path}")
+        self.name = name
+        self.path = path
+        self.loop = loop
+        self.drop_late = drop_late
+        self._cap = cv2.VideoCapture(str(path))
+        if not self._cap.isOpened():
+            raise SourceError(f"camera {name}: cannot open video {path}")
+        fps = float(self._cap.get(cv2.CAP_PROP_FPS) or 0.0)
+        self._fps = fps if fps > 0 else None
+        self.frame_count = int(self._cap.get(cv2.CAP_PROP_FRAME_COUNT) or 0)
+        self._pacer = Pacer(pace_fps, start_s) if pace_fps else None
+        self._next = 0  # next delivery slot (paced) / frame counter (flat out)
+        self.skipped = 0
+        self.loops = 0
+
+    @property
+    def nominal_fps(self) -> float | None:
+        return self._fps
+
+    def _grab(self) -> bool:
+        if self._cap.grab():
+            return True
+        if not self.loop:
+            return False
+        self.loops += 1
+        self._cap.set(cv2.CAP_PROP_POS_FRAMES, 0)
+        return bool(self._cap.grab())
+
+    def read(self) -> CapturedFrame | None:
+        if self._cap is None:
+            return None
+        if self._pacer is not None:
+            due = self._pacer.due_slot(time.monotonic())
+            if self.drop_late and due > self._next:  # behind the clock: skip what was missed
+                for _ in range(due - self._next):
+                    if not self._grab():
+                        return None
+                    self.skipped += 1
+                self._next = due
+            self._pacer.wait_for(self._next)
+        if not self._grab():
+            return None
+        ok, image = self._cap.retrieve()
+        if not ok or image is None:
+            return None
+        frame = CapturedFrame(self.name, self._next, time.monotonic(), _bgr(image))
+        self._next += 1
+        return frame
+
+    def close(self) -> None:
+        if self._cap is not None:
+            self._cap.release()
+            self._cap = None
+
+
+class ImageFolderSource:
+    """The images of a folder in name order, as frames (paced or flat out, once or looping)."""
+
+    def __init__(self, name: str, folder: Path, *, loop: bool = False, pace_fps: float | None = None,
+                 start_s: float | None = None) -> None:
+        folder = Path(folder)
+        if not folder.is_dir():
+            raise SourceError(f"camera {name}: image folder not found: {folder}")
+        self.files = sorted(p for p in folder.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)
+        if not self.files:
+            raise SourceError(f"camera {name}: no images ({', '.join(IMAGE_SUFFIXES)}) in {folder}")
+        self.name = name
+        self.loop = loop
+        self._pace_fps = pace_fps
+        self._pacer = Pacer(pace_fps, start_s) if pace_fps else None
+        self._next = 0
+        self._closed = False
+
+    @property
+    def nominal_fps(self) -> float | None:
+        return self._pace_fps
+
+    def read(self) -> CapturedFrame | None:
+        if self._closed:
+            return None
+        if self._next >= len(self.files) and not self.loop:
+            return None
+        if self._pacer is not None:
+            self._pacer.wait_for(self._next)
+        path = self.files[self._next % len(self.files)]
+        image = cv2.imread(str(path), cv2.IMREAD_COLOR)
+        if image is None:
+            raise SourceError(f"camera {self.name}: cannot read image {path}")
+        frame = CapturedFrame(self.name, self._next, time.monotonic(), _bgr(image))
+        self._next += 1
+        return frame
+
+    def close(self) -> None:
+        self._closed = True
+
+
+class CameraSource:
+    """A live camera: an OpenCV device index or a stream URL (rtsp://, http://)."""
+
+    def __init__(self, name: str, device: int | str, *, open_timeout_s: float = 5.0) -> None:
+        self.name = name
+        self.device = device
+        self._cap = cv2.VideoCapture(device)
+        if not self._cap.isOpened():
+            self._cap.release()
+            raise SourceError(f"camera {name}: cannot open {device!r}")
+        fps = float(self._cap.get(cv2.CAP_PROP_FPS) or 0.0)
+        self._fps = fps if fps > 0 else None
+        self._index = 0
+        self._timeout_s = open_timeout_s
+
+    @property
+    def nominal_fps(self) -> float | None:
+        return self._fps
+
+    def read(self) -> CapturedFrame | None:
+        if self._cap is None:
+            return None
+        ok, image = self._cap.read()
+        if not ok or image is None:
+            raise SourceError(f"camera {self.name}: {self.device!r} stopped delivering frames")
+        frame = CapturedFrame(self.name, self._index, time.monotonic(), _bgr(image))
+        self._index += 1
+        return frame
+
+    def close(self) -> None:
+        if self._cap is not None:
+            self._cap.release()
+            self._cap = None
+
+
+def _bgr(image: np.ndarray) -> np.ndarray:
+    if image.ndim == 2:
+        return cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
+    if image.shape[2] == 4:
+        return cv2.cvtColor(image, cv2.COLOR_BGRA2BGR)
+    return np.ascontiguousarray(image, dtype=np.uint8)

@@ -1,0 +1,69 @@
+"""What a source hands on: one captured image of one camera, with its capture time."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+from numpy.typing import NDArray
+
+U8 = NDArray[np.uint8]
+
+
+@dataclass(frozen=True, slots=True)
+class CapturedFrame:
+    """One image of one camera.
+
+    camera: camera name.
+    index: running index of this camera's frames (0, 1, 2, ...; gaps where frames were skipped).
+    timestamp_s: capture time, seconds on ``time.monotonic()`` (one clock for every process).
+    image: (H, W, 3) uint8 BGR image.
+    """
+
+    camera: str
+    index: int
+    timestamp_s: float
+    image: U8
+
+    def __post_init__(self) -> None:
+        if self.image.ndim != 3 or self.image.shape[2] != 3 or self.image.dtype != np.uint8:
+            raise ValueError(
+                f"{self.camera}: image must be (H, W, 3) uint8, got {self.image.shape} {self.image.dtype}"
+            )
+        if self.index < 0:
+            raise ValueError(f"{self.camera}: index must be >= 0, got {self.index}")
+
+    @property
+    def image_size(self) -> tuple[int, int]:
+        """(width, height) in pixels."""
+        return int(self.image.shape[1]), int(self.image.shape[0])
+
+
+@runtime_checkable
+class FrameSource(Protocol):
+    """A camera, a video file or an image folder, read frame by frame.
+
+    ``read()`` blocks until the next frame is due (paced sources) and returns None once
+    the source has ended; it raises :class:`pipeline.errors.SourceError` when the device
+    fails. ``close()`` releases the device and may be called twice.
+    """
+
+    name: str
+
+    def read(self) -> CapturedFrame | None: ...
+
+    def close(self) -> None: ...
+
+    @property
+    def nominal_fps(self) -> float | None: ...
+
+
+def iter_frames(source: FrameSource) -> Iterator[CapturedFrame]:
+    """All frames of a source until it ends (closes it at the end)."""
+    try:
+        while (frame := source.read()) is not None:
+            yield frame
+    finally:
+        source.close()
