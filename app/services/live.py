@@ -224,8 +224,7 @@ class PipelineService:
                     raise PipelineUnavailable(f"the pipeline cannot be built: {exc}") from exc
             else:
                 self._pipeline.stop()
-            self._pipeline.start(source, videos)
-            self._events.record("pipeline", {"state": "starting", "source": source})
+            self._pipeline.start(source, videos)  # it reports its own state changes as events
             self._ensure_thread()
         self.poll_once()
 
@@ -234,7 +233,6 @@ class PipelineService:
             if self._pipeline is None:
                 return
             self._pipeline.stop()
-            self._events.record("pipeline", {"state": "stopped"})
         self.poll_once()
 
     def set_navigator(self, user_id: int | None) -> tuple[int | None, Literal["auto", "manual"]]:
@@ -246,18 +244,14 @@ class PipelineService:
                     raise UnknownUser(
                         f"no person with user_id {user_id} is tracked now (tracked: {ids or 'nobody'})"
                     )
-            if self._pipeline is None:
+            if self._pipeline is None or self._snapshot["state"] not in ("running", "starting"):
                 if user_id is None:
-                    return None, "auto"
+                    return None, "auto"  # nothing runs: automatic is what it will start with
                 raise UnknownUser("the pipeline is not running")
             try:
                 self._pipeline.set_navigator(user_id)
             except InputError as exc:  # the pipeline's own, newer view of who is tracked
                 raise UnknownUser(str(exc)) from exc
-            self._events.record(
-                "navigator",
-                {"user_id": user_id, "mode": "manual" if user_id is not None else "auto", "by": "operator"},
-            )
         self.poll_once()
         snap = self.snapshot()
         mode: Literal["auto", "manual"] = "manual" if user_id is not None else "auto"

@@ -4,29 +4,51 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable
-from typing import Any
 
 from sqlalchemy.orm import Session
 
 from app.core.config import Settings
+from app.db.repositories import active_calibration_run
 from app.services.live import PipelineFacade
 
 log = logging.getLogger(__name__)
 
 
+def simulator_factory(settings: Settings) -> object | None:
+    """The simulator source of the settings (None when the simulator is not installed)."""
+    try:
+        from app.services.sim_source import SimWorldFactory
+
+        sim = settings.sim
+        return SimWorldFactory.from_parts(
+            settings.cave.geometry(), sim.camera_preset, sim.fps, sim.bystanders, sim.seed
+        )
+    except ImportError as exc:
+        log.warning("no simulator source: %s", exc)
+        return None
+
+
 def runtime_factory(
     settings: Settings, session_factory: Callable[[], Session]
 ) -> tuple[Callable[[], PipelineFacade] | None, str]:
-    """(a function that builds the pipeline, "") or (None, why it cannot be built)."""
+    """(a function that builds the pipeline, "") or (None, why it cannot be built).
+
+    The pipeline gets the active calibration's cameras (for the real cameras and videos)
+    and the simulator's own cameras for the simulator source.
+    """
     try:
-        import pipeline.runtime as runtime
+        from pipeline.runtime import Pipeline
     except ImportError as exc:
         return None, f"pipeline.runtime cannot be imported: {exc}"
-    pipeline_cls: Any = getattr(runtime, "Pipeline", None)
-    if pipeline_cls is None:
-        return None, "pipeline.runtime has no Pipeline yet"
 
     def build() -> PipelineFacade:
-        raise NotImplementedError
+        from app.services.calibration import cameras_from_result
+
+        with session_factory() as db:
+            run = active_calibration_run(db)
+            cameras = cameras_from_result(run.result) if run is not None and run.result else None
+        sim = simulator_factory(settings)
+        pipeline: PipelineFacade = Pipeline.from_settings(settings, cameras, sim_factory=sim)  # type: ignore[arg-type]
+        return pipeline
 
     return build, ""
