@@ -52,8 +52,14 @@ class BodyParams:
             if not np.isfinite(v) or v <= 0:
                 raise InputError(f"body {name} must be a positive number, got {v}")
             object.__setattr__(self, name, v)
-        order = ("ankle_height_m", "knee_height_m", "hip_height_m", "shoulder_height_m", "ear_height_m",
-                 "height_m")
+        order = (
+            "ankle_height_m",
+            "knee_height_m",
+            "hip_height_m",
+            "shoulder_height_m",
+            "ear_height_m",
+            "height_m",
+        )
         heights = [values[n] for n in order]
         if any(a >= b for a, b in itertools.pairwise(heights)):
             raise InputError(f"body joint heights must increase {' < '.join(order)}, got {heights}")
@@ -147,6 +153,7 @@ class MotionStyle:
     toe_out_deg: knee direction outward of straight ahead. blend_s: transition time.
     cadence_drift: relative slow wandering of cadence within a segment.
     forward_ankle_frac: forward travel of the lifted ankle relative to its rise.
+    knee_flex_deg: knee bend when standing.
     """
 
     cadence_steps_per_s: float = 1.8
@@ -171,6 +178,7 @@ class MotionStyle:
     blend_s: float = 0.25
     cadence_drift: float = 0.03
     forward_ankle_frac: float = 0.15
+    knee_flex_deg: float = 8.0
 
     def __post_init__(self) -> None:
         if self.rest_arms not in REST_ARMS:
@@ -214,6 +222,7 @@ def sample_style(rng: np.random.Generator) -> MotionStyle:
         blend_s=float(u(0.1, 0.4)),
         cadence_drift=float(u(0.0, 0.06)),
         forward_ankle_frac=float(u(0.0, 0.35)),
+        knee_flex_deg=float(u(4.0, 14.0)),
     )
 
 
@@ -283,10 +292,12 @@ def arm_reach(upper_m: float, fore_m: float, elbow_flex_rad: F64) -> F64:
 
 # Face keypoints in the head frame (x right, y forward, z up; origin between the ears), metres,
 # for a 1.75 m person: nose, l_eye, r_eye, l_ear, r_ear.
-FACE_OFFSETS_M = np.array([
-    [0.0, 0.105, -0.035],
-    [-0.033, 0.088, 0.0],
-    [0.033, 0.088, 0.0],
-    [-0.075, 0.0, 0.0],
-    [0.075, 0.0, 0.0],
-])
+FACE_OFFSETS_M = np.array(
+    [
+        [0.0, 0.105, -0.035],
+        [-0.033, 0.088, 0.0],
+        [0.033, 0.088, 0.0],
+        [-0.075, 0.0, 0.0],
+        [0.075, 0.0, 0.0],
+    ]
+)

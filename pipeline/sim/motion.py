@@ -75,6 +75,8 @@ F64 = NDArray[np.float64]
 # Virtual distance covered per recognised step (intended speed = cadence x this).
 STEP_LENGTH_M: dict[str, float] = {"forward": 0.4, "left": 0.3, "right": 0.3}
 _MODES = ("forward", "left", "right", "turn")
+MIN_FADE_OUT_S = 0.3
+CLASP_BLEND_S = 0.6
 _ARM_GESTURES = ("point", "wave", "cross_arms", "hands_on_hips", "touch_face")
 _GESTURE_WEIGHTS = np.array([0.25, 0.15, 0.15, 0.1, 0.1, 0.25])  # in GESTURES order
 
@@ -133,8 +135,8 @@ def smoothstep(x: F64) -> F64:
 
 
 def _bump(s: F64) -> F64:
-    """sin(pi s) on (0, 1), 0 elsewhere: the lift profile of one step."""
-    return np.where((s > 0.0) & (s < 1.0), np.sin(np.pi * np.clip(s, 0.0, 1.0)), 0.0)
+    """sin^2(pi s) on (0, 1), 0 elsewhere: the lift profile of one step (starts and lands softly)."""
+    return np.where((s > 0.0) & (s < 1.0), np.sin(np.pi * np.clip(s, 0.0, 1.0)) ** 2, 0.0)
 
 
 def _noise(rng: np.random.Generator, t: F64, f_lo: float, f_hi: float, n: int = 3) -> F64:
@@ -146,16 +148,18 @@ def _noise(rng: np.random.Generator, t: F64, f_lo: float, f_hi: float, n: int = 
     return out
 
 
-def _ramp(active: NDArray[np.bool_], frames_per_blend: F64) -> F64:
-    """Causal linear ramp towards ``active`` (1/n per frame up, the same rate back down), smoothstepped."""
+def _ramp(active: NDArray[np.bool_], frames_per_blend: F64, min_down_frames: float = 1.0) -> F64:
+    """Causal linear ramp towards ``active``, smoothstepped: up at 1/n per frame (n = the
+    segment's blend), back down at the same rate but over at least ``min_down_frames``."""
     out = np.zeros(active.shape[0])
-    level, rate = 0.0, 1.0
+    level, down = 0.0, 1.0
     for i, on in enumerate(active.tolist()):
         if on:
-            rate = 1.0 / max(1.0, float(frames_per_blend[i]))
-            level = min(1.0, level + rate)
+            n = max(1.0, float(frames_per_blend[i]))
+            down = 1.0 / max(n, min_down_frames)
+            level = min(1.0, level + 1.0 / n)
         else:
-            level = max(0.0, level - rate)
+            level = max(0.0, level - down)
         out[i] = level
     return smoothstep(out)
 
@@ -286,15 +290,25 @@ def simulate_user(
             return float(value)
         return float(np.clip(default * r_seg.uniform(0.9, 1.1), lo, hi))
 
-    cad_k = np.array([
-        own(s.cadence_steps_per_s, style.cadence_steps_per_s * (0.8 if s.action == "turn" else 1.0), 1.0, 2.6)
-        for s in segs
-    ])
-    lift_k = np.array([
-        own(s.knee_lift_m, style.knee_lift_m * (1.0 if s.action == "forward" else 0.7), 0.04, 0.25)
-        if s.action != "turn" else own(s.knee_lift_m, 0.04, 0.02, 0.08)
-        for s in segs
-    ])
+    cad_k = np.array(
+        [
+            own(
+                s.cadence_steps_per_s,
+                style.cadence_steps_per_s * (0.8 if s.action == "turn" else 1.0),
+                1.0,
+                2.6,
+            )
+            for s in segs
+        ]
+    )
+    lift_k = np.array(
+        [
+            own(s.knee_lift_m, style.knee_lift_m * (1.0 if s.action == "forward" else 0.7), 0.04, 0.25)
+            if s.action != "turn"
+            else own(s.knee_lift_m, 0.04, 0.02, 0.08)
+            for s in segs
+        ]
+    )
     width_k = np.array([own(s.step_width_m, style.side_step_m, 0.08, 0.4) for s in segs])
     blend_k = np.array([own(s.blend_s, style.blend_s, 0.05, 0.5) for s in segs])
     travel_k = np.array([s.travel_mps for s in segs])
@@ -308,7 +322,8 @@ def simulate_user(
 
     # Motion amplitudes with causal blends.
     blend_frames = blend_k[k] * fps
-    amp = {m: _ramp(action == m, blend_frames) for m in _MODES}
+    # a step under way is finished, not cut: motions fade out over at least MIN_FADE_OUT_S
+    amp = {m: _ramp(action == m, blend_frames, MIN_FADE_OUT_S * fps) for m in _MODES}
     a_f, a_l, a_r, a_t = amp["forward"], amp["left"], amp["right"], amp["turn"]
     a_side = a_l + a_r
     a_move = np.clip(a_f + a_side + a_t, 0.0, 1.0)
@@ -361,11 +376,12 @@ def simulate_user(
     lift_s = _ffill(lift_k[k], (action == "left") | (action == "right"), style.knee_lift_m * 0.7)
     width_s = _ffill(width_k[k], (action == "left") | (action == "right"), style.side_step_m)
     side_shift = np.zeros(n_frames)
+    follow = 0.5 - 0.5 * np.cos(2 * np.pi * h)  # the pelvis follows smoothly, most when the foot is out
     for sign, a_dir in ((-1, a_l), (1, a_r)):
         lift[sign] += a_dir * lift_s * mult * prof_lead
         lift[-sign] += a_dir * lift_s * style.side_trail_frac * prof_trail
         dx[sign] += sign * a_dir * width_s * out
-        side_shift += sign * a_dir * out
+        side_shift += sign * a_dir * follow
     # turning on the spot: small alternating lifts
     lift_t = _ffill(lift_k[k], action == "turn", 0.04) * mult * a_t
     lift[-1] += lift_t * prof_l
@@ -383,7 +399,13 @@ def simulate_user(
     # Pelvis.
     px = sway_x + 0.035 * ws + 0.02 * a_f * sin_g + width_s * style.side_shift_frac * side_shift
     py = sway_y - 0.01 * dip / 0.07
-    pz = body.hip_height_m - 0.004 - dip - 0.005 * a_f * (1 - np.cos(4 * np.pi * phi))
+    flex0 = np.radians(style.knee_flex_deg)
+    leg_drop = (
+        body.thigh_m
+        + body.shin_m
+        - np.sqrt(body.thigh_m**2 + body.shin_m**2 + 2 * body.thigh_m * body.shin_m * np.cos(flex0))
+    )
+    pz = body.hip_height_m - leg_drop - dip - 0.005 * a_f * (1 - np.cos(4 * np.pi * phi))
     pelvis = np.stack([px, py, pz], -1)
     pelvis_twist = -np.radians(4.0) * a_f * sin_g
     pelvis_roll = -np.radians(2.5) * ws
@@ -405,8 +427,10 @@ def simulate_user(
     roll = np.radians(3.0) * side_shift - 0.5 * pelvis_roll
     r_trunk = rot_z(twist) @ rot_x(-lean) @ rot_y(roll)
     neck = pelvis + apply(r_trunk, np.array([0.0, 0.0, body.torso_m]))
-    shoulders = {c: pelvis + apply(r_trunk, np.array([c * body.shoulder_width_m / 2, 0.0, body.torso_m]))
-                 for c in (-1, 1)}
+    shoulders = {
+        c: pelvis + apply(r_trunk, np.array([c * body.shoulder_width_m / 2, 0.0, body.torso_m]))
+        for c in (-1, 1)
+    }
     g_look = np.zeros(n_frames)
     for g in gestures:
         if g.kind == "look_around":
@@ -427,15 +451,21 @@ def simulate_user(
         s = shoulders[c]
         swing = c * np.radians(style.arm_swing_deg) * a_f * sin_g
         abduct = np.radians(6.0) + np.radians(14.0) * np.clip(c * side_shift, 0.0, None)
-        direction = np.stack([c * np.sin(abduct) * np.ones(n_frames), np.sin(swing) * np.cos(abduct),
-                              -np.cos(swing) * np.cos(abduct)], -1)
+        direction = np.stack(
+            [
+                c * np.sin(abduct) * np.ones(n_frames),
+                np.sin(swing) * np.cos(abduct),
+                -np.cos(swing) * np.cos(abduct),
+            ],
+            -1,
+        )
         flex = np.radians(style.elbow_flex_deg) + 0.5 * np.clip(swing, 0.0, None)
         direction = apply(r_trunk, direction)
         target = s + direction * arm_reach(ua, fa, flex)[:, None]
-        pole = np.broadcast_to(np.array([c * 0.3, -1.0, 0.0]), target.shape).copy()
+        pole = np.broadcast_to(np.array([c * 0.4, -1.0, 0.0]), target.shape).copy()
         if style.rest_arms == "clasped":
             clasp = pelvis + apply(r_trunk, np.array([c * 0.035, 0.17, -0.03]))
-            w_c = a_still[:, None]
+            w_c = _ramp(action == "still", np.full(n_frames, CLASP_BLEND_S * fps))[:, None]
             target = (1 - w_c) * target + w_c * clasp
             pole = (1 - w_c) * pole + w_c * np.array([c * 1.0, -0.5, -0.2])
         for g in gestures:
@@ -445,15 +475,20 @@ def simulate_user(
             if g.kind == "point":
                 d = np.array([c * np.sin(g.a) * np.cos(g.b), np.cos(g.a) * np.cos(g.b), np.sin(g.b)])
                 g_target = s + apply(r_trunk, d) * arm_reach(ua, fa, np.radians(5.0))
-                g_pole = np.array([c * 0.5, 0.0, -1.0])
+                g_pole = np.array([c * 0.6, -0.4, -1.0])
             elif g.kind == "wave":
                 wobble = 0.07 * np.sin(2 * np.pi * g.a * (t - g.t0))
                 off = np.stack([c * (0.22 + wobble), np.full(n_frames, 0.08), np.full(n_frames, 0.33)], -1)
                 g_target = s + apply(r_trunk, off * body.height_m / 1.75)
-                g_pole = np.array([c * 1.0, 0.0, -1.0])
+                g_pole = np.array([c * 1.0, -0.6, -0.6])
             elif g.kind == "cross_arms":
-                off = np.array([-c * (body.shoulder_width_m / 2 - 0.04) - c * body.shoulder_width_m / 2,
-                                0.16 if c < 0 else 0.2, -0.27 if c < 0 else -0.23])
+                off = np.array(
+                    [
+                        -c * (body.shoulder_width_m / 2 - 0.04) - c * body.shoulder_width_m / 2,
+                        0.16 if c < 0 else 0.2,
+                        -0.27 if c < 0 else -0.23,
+                    ]
+                )
                 g_target = s + apply(r_trunk, off)
                 g_pole = np.array([c * 1.0, 0.2, -1.0])
             elif g.kind == "hands_on_hips":

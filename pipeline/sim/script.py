@@ -195,7 +195,7 @@ def script_from_dict(data: object, source: str = "script") -> MotionScript:
     for i, item in enumerate(raw):
         where = f"{source}: segment {i + 1}"
         if not isinstance(item, dict):
-            raise InputError(f"{where}: expected an object like {{\"action\": \"still\", \"duration_s\": 3}}")
+            raise InputError(f'{where}: expected an object like {{"action": "still", "duration_s": 3}}')
         bad = sorted(set(item) - _SEGMENT_KEYS)
         if bad:
             raise InputError(f"{where}: unknown key(s) {bad}; allowed: {sorted(_SEGMENT_KEYS)}")
@@ -240,7 +240,11 @@ def save_script(path: str | Path, script: MotionScript) -> None:
 
 
 DEFAULT_ACTION_WEIGHTS: dict[str, float] = {
-    "still": 0.3, "forward": 0.3, "left": 0.15, "right": 0.15, "turn": 0.1,
+    "still": 0.3,
+    "forward": 0.3,
+    "left": 0.15,
+    "right": 0.15,
+    "turn": 0.1,
 }
 
 
@@ -270,8 +274,9 @@ def random_script(
     weights = dict(action_weights or DEFAULT_ACTION_WEIGHTS)
     bad = [a for a in weights if a not in SEGMENT_ACTIONS]
     if bad or not weights or min(weights.values()) < 0 or sum(weights.values()) <= 0:
-        raise InputError(f"action_weights must map actions of {SEGMENT_ACTIONS} to weights >= 0, "
-                         f"got {weights}")
+        raise InputError(
+            f"action_weights must map actions of {SEGMENT_ACTIONS} to weights >= 0, got {weights}"
+        )
     actions = list(weights)
     probs = np.array([weights[a] for a in actions], dtype=np.float64)
     probs /= probs.sum()
@@ -294,8 +299,9 @@ def random_script(
         if action in ("left", "right"):
             seg_kwargs["knee_lift_m"] = float(rng.uniform(0.04, 0.18))
             seg_kwargs["step_width_m"] = float(rng.uniform(0.12, 0.35))
-        if action == "turn":
-            seg_kwargs["turn_deg"] = float(rng.choice([-1.0, 1.0]) * rng.uniform(20.0, 180.0))
+        if action == "turn":  # people turn on the spot at up to ~150 deg/s
+            max_turn = float(np.clip(150.0 * dur, 20.0, 180.0))
+            seg_kwargs["turn_deg"] = float(rng.choice([-1.0, 1.0]) * rng.uniform(20.0, max_turn))
         elif action == "forward" and rng.random() < 0.2:
             seg_kwargs["turn_deg"] = float(rng.uniform(-45.0, 45.0))  # steering while marching
         seg_kwargs["blend_s"] = float(rng.uniform(0.1, 0.4))

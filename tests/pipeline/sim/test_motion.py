@@ -61,15 +61,16 @@ def test_forward_ankles_alternate_at_the_scripted_cadence(cadence: float, seed: 
 @pytest.mark.parametrize("yaw", [0.0, 90.0, -135.0, 180.0, 33.0])
 @pytest.mark.parametrize("direction", ["left", "right"])
 def test_side_steps_go_towards_the_side_relative_to_yaw(yaw: float, direction: str) -> None:
-    script = MotionScript((Segment("still", 1.0), Segment(direction, 5.0)), start_xy_m=(0.3, -0.2),
-                          start_yaw_deg=yaw)
+    script = MotionScript(
+        (Segment("still", 1.0), Segment(direction, 5.0)), start_xy_m=(0.3, -0.2), start_yaw_deg=yaw
+    )
     m = simulate_user(script, body_from_height(1.75), fps=FPS, seed=3)
     right = np.array([np.cos(np.radians(yaw)), np.sin(np.radians(yaw))])  # the user's right, CAVE frame
     sign = -1.0 if direction == "left" else 1.0
     lead = J["l_ankle"] if direction == "left" else J["r_ankle"]
     trail = J["r_ankle"] if direction == "left" else J["l_ankle"]
     ref = m.joints_m[: int(FPS), :, :2].mean(axis=0)  # the still second
-    side = m.joints_m[int(1.5 * FPS):, :, :2]
+    side = m.joints_m[int(1.5 * FPS) :, :, :2]
     lead_out = ((side[:, lead] - ref[lead]) @ right) * sign
     trail_out = ((side[:, trail] - ref[trail]) @ right) * sign
     hip_idx = [J["l_hip"], J["r_hip"]]
@@ -78,7 +79,7 @@ def test_side_steps_go_towards_the_side_relative_to_yaw(yaw: float, direction: s
     assert lead_out.min() > -0.05, "the leading foot crossed to the other side"
     assert abs(trail_out).max() < 0.1, "the trailing foot should stay roughly in place"
     assert (hips * sign).mean() > 0.01, "the pelvis does not follow the side step"
-    assert set(m.labels[int(1.0 * FPS):]) == {direction}
+    assert set(m.labels[int(1.0 * FPS) :]) == {direction}
 
 
 def test_labels_yaw_and_speed_follow_the_script() -> None:
@@ -171,8 +172,12 @@ def test_to_sequence_round_trips_through_the_npz_file(tmp_path: Path) -> None:
     assert np.allclose(seq.joints_m, m.joints_m, atol=1e-5)
 
 
-GOOD = {"segments": [{"action": "still", "duration_s": 1}, {"action": "forward", "duration_s": 2,
-                                                            "cadence_steps_per_s": 1.8}]}
+GOOD = {
+    "segments": [
+        {"action": "still", "duration_s": 1},
+        {"action": "forward", "duration_s": 2, "cadence_steps_per_s": 1.8},
+    ]
+}
 
 
 @pytest.mark.parametrize(
@@ -186,8 +191,11 @@ GOOD = {"segments": [{"action": "still", "duration_s": 1}, {"action": "forward",
         ('{"segments": [{"action": "still"}]}', "segment 1: missing 'duration_s'"),
         ('{"segments": [{"action": "still", "duration_s": -2}]}', "duration_s must be > 0"),
         ('{"segments": [{"action": "still", "duration_s": "3"}]}', "duration_s must be a number"),
-        ('{"segments": [{"action": "still", "duration_s": 1}, {"action": "forward", "duration_s": 1, '
-         '"cadence_steps_per_s": 9}]}', "segment 2: cadence_steps_per_s must be in"),
+        (
+            '{"segments": [{"action": "still", "duration_s": 1}, {"action": "forward", "duration_s": 1, '
+            '"cadence_steps_per_s": 9}]}',
+            "segment 2: cadence_steps_per_s must be in",
+        ),
         ('{"segments": [{"action": "left", "duration_s": 1, "speed": 2}]}', "unknown key"),
         ('{"segments": [{"action": "forward", "duration_s": 1, "gestures": ["wave"]}]}', "only for still"),
         ('{"segments": [{"action": "still", "duration_s": 1, "gestures": ["dance"]}]}', "unknown gesture"),

@@ -1,0 +1,96 @@
+"""The simulated CAVE scene: virtual cameras placed as in the paper (one above each wall).
+
+Presets (intrinsics as the devices ship them, approximately):
+
+- ``kinect_color``: Kinect-v2-like colour camera, 1920x1080, fx = fy = 1060 (84 x 54 deg).
+- ``depth``: Azure-Kinect-like depth camera (NFOV), 640x576, fx = fy = 505 (65 x 59 deg).
+
+Both have a small radial-tangential distortion, as a calibrated real lens does.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pipeline.camera import Camera, intrinsics, look_at
+from pipeline.cave import CaveGeometry
+from pipeline.errors import InputError
+
+F64 = NDArray[np.float64]
+
+
+@dataclass(frozen=True, slots=True)
+class CameraPreset:
+    """Intrinsics of a camera model: image (width, height), focal length, distortion."""
+
+    name: str
+    image_size: tuple[int, int]
+    focal_px: float
+    dist: tuple[float, float, float, float, float]
+
+    def K(self) -> F64:
+        w, h = self.image_size
+        return intrinsics(self.focal_px, self.focal_px, (w - 1) / 2.0, (h - 1) / 2.0)
+
+
+PRESETS: dict[str, CameraPreset] = {
+    "kinect_color": CameraPreset("kinect_color", (1920, 1080), 1060.0, (0.04, -0.06, 0.0005, -0.0003, 0.02)),
+    "depth": CameraPreset("depth", (640, 576), 505.0, (0.06, -0.12, 0.0002, 0.0001, 0.04)),
+}
+
+CAMERA_HEIGHT_M = 2.3
+TARGET_HEIGHT_M = 1.0
+INSET_M = 0.15  # cameras hang this far inside the wall plane
+
+
+def camera_positions(cave: CaveGeometry, count: int, height_m: float = CAMERA_HEIGHT_M) -> list[F64]:
+    """Camera centres: above the top-edge centre of each wall, then above the walls' corners."""
+    top = cave.height_m
+    z = min(height_m, top - 0.05) if top > 0.5 else height_m
+    spots: list[F64] = []
+    for wall in cave.walls:
+        c = wall.corners_m
+        mid = (c[0] + c[1]) / 2.0
+        p = mid + wall.normal * INSET_M
+        spots.append(np.array([p[0], p[1], z]))
+    for wall in cave.walls:
+        c = wall.corners_m[0]
+        xy = c[:2] - INSET_M * np.sign(c[:2])
+        spots.append(np.array([xy[0], xy[1], z]))
+    if not 1 <= count <= len(spots):
+        raise InputError(f"camera count must be 1..{len(spots)} for this CAVE, got {count}")
+    return spots[:count]
+
+
+def default_cameras(
+    cave: CaveGeometry,
+    preset: str = "kinect_color",
+    count: int = 4,
+    *,
+    height_m: float = CAMERA_HEIGHT_M,
+    target_height_m: float = TARGET_HEIGHT_M,
+    rng: np.random.Generator | None = None,
+    jitter_m: float = 0.0,
+    jitter_deg: float = 0.0,
+) -> list[Camera]:
+    """One camera above each wall looking at the CAVE centre at ``target_height_m``; named cam01...
+
+    With ``rng``, each camera's position and aim are jittered by up to ``jitter_m`` / ``jitter_deg``
+    (a real installation is never exactly where the plan says).
+    """
+    if preset not in PRESETS:
+        raise InputError(f"unknown camera preset {preset!r}; presets are {', '.join(PRESETS)}")
+    p = PRESETS[preset]
+    cams = []
+    for i, eye in enumerate(camera_positions(cave, count, height_m)):
+        target = np.array([0.0, 0.0, target_height_m])
+        if rng is not None:
+            eye = eye + rng.uniform(-jitter_m, jitter_m, 3)
+            dist = np.linalg.norm(target - eye)
+            target = target + rng.uniform(-1.0, 1.0, 3) * dist * np.tan(np.radians(jitter_deg))
+        R, t = look_at(eye, target)
+        cams.append(Camera(f"cam{i + 1:02d}", p.image_size, p.K(), np.asarray(p.dist), R, t))
+    return cams
