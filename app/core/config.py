@@ -129,9 +129,18 @@ class RecognitionSettings(_Section):
 
 
 class RuntimeSettings(_Section):
+    """The live pipeline (see pipeline.runtime.config.RuntimeConfig)."""
+
     target_fps: float = Field(30.0, gt=0)
     emit_rate_hz: float = Field(60.0, gt=0)
     heartbeat_s: float = Field(1.0, gt=0)
+    video_pace_fps: float | None = Field(None, ge=0)  # None = the videos' own rate, 0 = flat out
+    video_loop: bool = True
+    group_tolerance_s: float = Field(0.02, ge=0)  # frames this close in time form one multi-view frame
+    group_max_wait_s: float = Field(0.015, ge=0)  # how long to wait for a late camera
+    camera_gone_s: float = Field(1.0, gt=0)  # a camera silent this long is reported and not waited for
+    camera_retry_s: float = Field(1.0, gt=0)
+    osc: list[str] = Field(default_factory=list)  # HOST:PORT destinations of /cave/locomotion (OSC)
 
 
 class SimSettings(_Section):

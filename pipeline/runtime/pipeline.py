@@ -54,8 +54,11 @@ EVENT_LOG_SIZE = 2000
 class SimFactory(Protocol):
     """Builds the simulator inside its worker; tells the main process its virtual cameras."""
 
-    cameras: tuple[Camera, ...]
-    fps: float
+    @property
+    def cameras(self) -> tuple[Camera, ...]: ...
+
+    @property
+    def fps(self) -> float: ...
 
     def __call__(self) -> Any: ...
 
@@ -131,6 +134,7 @@ class _Run:
     threads: list[threading.Thread] = field(default_factory=list)
     metrics: RuntimeMetrics = field(default_factory=RuntimeMetrics)
     first_source_index: int | None = None
+    produced_before: int = 0
     last_source_index: int = -1
     latest: FusedFrame | None = None
 
@@ -167,15 +171,16 @@ class Pipeline:
     # ----------------------------------------------------------------------------- factories
     @classmethod
     def from_settings(cls, settings: Any, cameras_calibrated: list[Camera] | None = None,
-                      sim_factory: SimFactory | None = None) -> Pipeline:
+                      sim_factory: SimFactory | None = None, config: RuntimeConfig | None = None) -> Pipeline:
         """Build from the app's settings (duck-typed; pipeline never imports app).
 
         Reads ``runtime``, ``pose``, ``recognition``, ``cameras``, ``workstations`` and, when
         present, ``tracking``/``triangulation``; the pose model is ``settings.pose_model_path``.
+        ``config`` replaces the runtime section (benchmarks).
         """
         from pipeline.runtime.stages import PoseStageFactory
 
-        config = RuntimeConfig.from_settings(settings.runtime)
+        config = config or RuntimeConfig.from_settings(settings.runtime)
         pose_factory = PoseStageFactory.from_settings(settings.pose, settings.pose_model_path)
         fusion = fusion_factory_from_settings(settings, cameras_calibrated)
         endpoints = [_split_endpoint(w) for w in settings.workstations]
@@ -234,7 +239,8 @@ class Pipeline:
         if self.config.start_method == "forkserver":
             ctx.set_forkserver_preload(["pipeline.runtime.workers", "numpy", "cv2"])
         events_q = ctx.Queue(maxsize=1000)
-        run = _Run(source=source, cameras={}, events_q=events_q, supervisor=Supervisor(ctx, events_q))
+        run = _Run(source=source, cameras={}, events_q=events_q, supervisor=Supervisor(ctx, events_q),
+                   metrics=RuntimeMetrics(self.config.latency_window))
         self._state = "starting"
         self._last_error = None
         self._last_action = None
@@ -381,6 +387,10 @@ class Pipeline:
         }
         if run.first_source_index is None:
             run.first_source_index = det.source_index
+        elif det.source_index + 5 < run.last_source_index:  # the source restarted from frame 0
+            run.produced_before += run.last_source_index - run.first_source_index + 1
+            run.first_source_index = det.source_index
+            run.last_source_index = det.source_index
         run.last_source_index = max(run.last_source_index, det.source_index)
         run.metrics.frame(sent, {k: v * 1000.0 for k, v in ms.items()}, 0)
         run.latest = fused
@@ -467,8 +477,8 @@ class Pipeline:
         latest = run.latest
         result = latest.result if latest is not None else FrameResult(-1, 0.0)
         processed = run.metrics.processed
-        produced = (run.last_source_index - run.first_source_index + 1
-                    if run.first_source_index is not None else 0)
+        produced = run.produced_before + (run.last_source_index - run.first_source_index + 1
+                                          if run.first_source_index is not None else 0)
         people = tuple({"user_id": p.user_id, "position_m": [_f(v) for v in p.position_m],
                         "reproj_px": _f(p.reproj_px)} for p in result.people3d)
         return PipelineStatus(
@@ -488,6 +498,15 @@ class Pipeline:
         """The raw latency window of every stage (ms), for benchmarks."""
         run = self._run
         return {} if run is None else {k: w.values() for k, w in run.metrics.latency.items()}
+
+    def reset_metrics(self) -> None:
+        """Start the latency windows and the frame counters afresh (benchmarks skip the warm-up)."""
+        run = self._run
+        if run is not None:
+            run.metrics = RuntimeMetrics(self.config.latency_window)
+            run.first_source_index = None
+            run.last_source_index = -1
+            run.produced_before = 0
 
     def worker_pids(self) -> list[int]:
         run = self._run

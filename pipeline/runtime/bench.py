@@ -1,0 +1,170 @@
+"""Benchmarks of the live pipeline: throughput, drops, per-stage and end-to-end latency, CPU, memory.
+
+Each scenario runs the real :class:`Pipeline` (real worker processes, shared memory,
+UDP to a receiver on 127.0.0.1), waits until it runs, discards the warm-up, then
+measures for ``duration_s``. Used by ``cavewalk bench`` and ``scripts/soak.py``.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from pipeline.emitter.receiver import ReceiverStats, open_receiver_socket, receive
+from pipeline.errors import SourceError
+from pipeline.runtime.metrics import percentiles
+from pipeline.runtime.pipeline import Pipeline
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True, slots=True)
+class Scenario:
+    """One benchmark run: a name, how to build the pipeline, what to start."""
+
+    name: str
+    build: Callable[[], Pipeline]
+    source: str
+    videos: dict[str, Path] | None = None
+    notes: str = ""
+
+
+class ProcessSampler:
+    """CPU (percent of one core, summed over the main process and its workers) and memory (RSS, MB)."""
+
+    def __init__(self) -> None:
+        import psutil
+
+        self._psutil = psutil
+        self._me = psutil.Process(os.getpid())
+        self._last: dict[int, float] = {}
+        self._t = time.monotonic()
+        self.cpu_samples: list[float] = []
+        self.rss_samples_mb: list[float] = []
+        self.sample()
+        self.cpu_samples.clear()
+
+    def _procs(self) -> list[Any]:
+        try:
+            return [self._me, *self._me.children(recursive=True)]
+        except self._psutil.Error:
+            return [self._me]
+
+    def sample(self) -> None:
+        now = time.monotonic()
+        cpu_total = 0.0
+        rss = 0.0
+        seen: dict[int, float] = {}
+        for p in self._procs():
+            try:
+                t = p.cpu_times()
+                used = t.user + t.system
+                rss += p.memory_info().rss
+            except self._psutil.Error:
+                continue
+            seen[p.pid] = used
+            cpu_total += used - self._last.get(p.pid, used if p.pid not in self._last else 0.0)
+        dt = now - self._t
+        if dt > 0 and self._last:
+            self.cpu_samples.append(100.0 * cpu_total / dt)
+        self._last, self._t = seen, now
+        self.rss_samples_mb.append(rss / 1e6)
+
+
+def run_scenario(scenario: Scenario, duration_s: float, warmup_timeout_s: float = 90.0,
+                 warmup_s: float = 2.0, progress: Callable[[str], None] = log.info) -> dict[str, Any]:
+    """Run one scenario and return its figures (see the module docstring)."""
+    sock = open_receiver_socket(0, "127.0.0.1")
+    port = sock.getsockname()[1]
+    pipeline = scenario.build()
+    stats_box: dict[str, ReceiverStats] = {}
+    stop_rx = threading.Event()
+    rx = threading.Thread(target=lambda: stats_box.update(s=receive(sock, should_stop=stop_rx.is_set)),
+                          daemon=True)
+    try:
+        pipeline.set_workstations([("127.0.0.1", port)])
+        pipeline.start(scenario.source, scenario.videos)  # type: ignore[arg-type]
+        t0 = time.monotonic()
+        while pipeline.status().processed < 3:
+            if time.monotonic() - t0 > warmup_timeout_s:
+                raise SourceError(f"{scenario.name}: no results after {warmup_timeout_s:.0f} s "
+                                  f"({pipeline.status().last_error or 'no error reported'})")
+            time.sleep(0.2)
+        progress(f"[{scenario.name}] running after {time.monotonic() - t0:.1f} s; "
+                 f"warming up {warmup_s:.0f} s")
+        time.sleep(warmup_s)
+        pipeline.reset_metrics()
+        rx.start()
+        sampler = ProcessSampler()
+        start = time.monotonic()
+        s0 = pipeline.status()
+        next_report = start + 1.0
+        while (now := time.monotonic()) - start < duration_s:
+            time.sleep(min(0.25, max(0.0, next_report - now)))
+            if time.monotonic() >= next_report:
+                sampler.sample()
+                st = pipeline.status()
+                e2e = st.latency_ms["end_to_end"]
+                progress(f"[{scenario.name}] {time.monotonic() - start:5.1f}/{duration_s:.0f} s  "
+                         f"{st.fps:5.1f} fps  processed {st.processed - s0.processed}  dropped "
+                         f"{st.dropped - s0.dropped}  e2e p95 {e2e['p95']:.1f} ms  "
+                         f"cpu {sampler.cpu_samples[-1] if sampler.cpu_samples else 0:.0f} %")
+                next_report += 1.0
+        elapsed = time.monotonic() - start
+        s1 = pipeline.status()
+        samples = pipeline.latency_samples()
+        sampler.sample()
+    finally:
+        stop_rx.set()
+        pipeline.close()
+        if rx.is_alive():
+            rx.join(timeout=2.0)
+        sock.close()
+    processed = s1.processed - s0.processed
+    dropped = s1.dropped - s0.dropped
+    rx_stats = stats_box.get("s")
+    return {
+        "source": scenario.source,
+        "notes": scenario.notes,
+        "duration_s": round(elapsed, 2),
+        "processed_frames": processed,
+        "processed_fps": round(processed / elapsed, 2) if elapsed > 0 else 0.0,
+        "dropped_frames": dropped,
+        "dropped_fraction": round(dropped / (processed + dropped), 4) if processed + dropped else 0.0,
+        "latency_ms": {stage: {k: round(v, 3) for k, v in percentiles(vals).items()}
+                       for stage, vals in samples.items()},
+        "latency_samples": {stage: len(vals) for stage, vals in samples.items()},
+        "cpu_percent": _summary(sampler.cpu_samples),
+        "rss_mb": _summary(sampler.rss_samples_mb),
+        "cameras": list(s1.cameras),
+        "receiver": rx_stats.summary() if rx_stats is not None else None,
+    }
+
+
+def _summary(values: list[float]) -> dict[str, float]:
+    if not values:
+        return {"mean": float("nan"), "max": float("nan")}
+    arr = np.asarray(values)
+    return {"mean": round(float(arr.mean()), 1), "max": round(float(arr.max()), 1)}
+
+
+def machine_info() -> dict[str, Any]:
+    import platform
+
+    import psutil
+
+    return {
+        "cpus": os.cpu_count(),
+        "load_avg": [round(v, 2) for v in os.getloadavg()],
+        "memory_gb": round(psutil.virtual_memory().total / 1e9, 1),
+        "python": platform.python_version(),
+        "platform": platform.platform(),
+    }
