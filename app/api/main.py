@@ -22,6 +22,8 @@ ROUTE_MODULES: tuple[str, ...] = (
     "app.api.routes.participants",
     "app.api.routes.sessions",
     "app.api.routes.live",
+    "app.api.routes.study",
+    "app.api.routes.analysis",
 )
 
 

@@ -116,10 +116,15 @@ def effect_label(d: float | None) -> str | None:
     return EFFECT_LEVELS[-1][1]
 
 
+def is_constant(values: NDArray[np.float64]) -> bool:
+    """All values equal, up to floating-point noise (scores like 7 x 9.54 - 3 x 9.54)."""
+    return values.size == 0 or float(np.ptp(values)) <= 1e-9 * max(1.0, float(np.max(np.abs(values))))
+
+
 def shapiro(diff: NDArray[np.float64]) -> tuple[float | None, float | None]:
     from scipy.stats import shapiro as _shapiro
 
-    if diff.size < MIN_N or np.ptp(diff) == 0:
+    if diff.size < MIN_N or is_constant(diff):
         return None, None  # undefined for fewer than 3 values or constant data
     res = _shapiro(diff)
     return _num(res.statistic), _num(res.pvalue)
@@ -168,7 +173,7 @@ def cohens_dz(x: NDArray[np.float64], y: NDArray[np.float64]) -> tuple[float | N
     import pingouin as pg
 
     diff = x - y
-    if diff.size < 2 or np.std(diff, ddof=1) == 0:
+    if diff.size < 2 or is_constant(diff):
         return None, None
     d = float(pg.compute_effsize(x, y, paired=True, eftype="cohen_dz"))
     ci = pg.compute_esci(stat=d, nx=diff.size, ny=diff.size, paired=True, eftype="cohen", decimals=6)
@@ -232,8 +237,10 @@ def rm_anova(levels: Mapping[str, ArrayLike]) -> dict[str, Any]:
 
 def paired_test(cc: ArrayLike, ec: ArrayLike, alpha: float = 0.05) -> dict[str, Any]:
     """Compare the two conditions on paired values (index i = the same participant); EC - CC."""
-    a = np.asarray(cc, dtype=float)
-    b = np.asarray(ec, dtype=float)
+    # Rounded to 10 decimals so that floating-point noise in differences of scores (e.g. 0.1 + 0.2
+    # - 0.3) is not taken for a real difference by the zero and tie handling of the tests.
+    a = np.round(np.asarray(cc, dtype=float), 10)
+    b = np.round(np.asarray(ec, dtype=float), 10)
     if a.shape != b.shape or a.ndim != 1:
         raise ValueError(f"expected two 1-D arrays of equal length, got shapes {a.shape} and {b.shape}")
     dc, de = describe(a), describe(b)
@@ -262,7 +269,7 @@ def paired_test(cc: ArrayLike, ec: ArrayLike, alpha: float = 0.05) -> dict[str, 
             f"not enough data: {a.size} participant(s) with both conditions, at least {MIN_N} needed"
         )
         return out
-    diff = b - a
+    diff = np.round(b - a, 10)
     w, p_sw = shapiro(diff)
     out["shapiro_w"], out["shapiro_p"] = w, p_sw
     out["normal"] = bool(p_sw is not None and p_sw > alpha)
@@ -273,7 +280,7 @@ def paired_test(cc: ArrayLike, ec: ArrayLike, alpha: float = 0.05) -> dict[str, 
         return out
     wil = wilcoxon(b, a)
     out["wilcoxon"] = wil
-    if np.ptp(diff) > 0:
+    if not is_constant(diff):
         out["paired_t"] = paired_t(b, a)
         out["anova"] = rm_anova({"CC": a, "EC": b})
     if out["normal"]:
@@ -281,7 +288,7 @@ def paired_test(cc: ArrayLike, ec: ArrayLike, alpha: float = 0.05) -> dict[str, 
         out["df"] = out["paired_t"]["df"]
     elif wil is not None:
         out.update(test="wilcoxon", statistic=wil["statistic"], p=wil["p"], z=wil["z"], r=wil["r"])
-        if np.ptp(diff) == 0:
+        if is_constant(diff):
             out["note"] = "every paired difference is the same: Shapiro-Wilk and the t-test are undefined"
     return out
 

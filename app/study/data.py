@@ -54,6 +54,7 @@ class ResponseRecord:
     answers: Mapping[str, Any]
     scores: Mapping[str, float]
     created_at: datetime | None = None
+    pairwise: Mapping[str, str] | None = None  # NASA-TLX's 15 choices, when given
 
 
 @dataclass(frozen=True, slots=True)
@@ -107,7 +108,14 @@ def load_study(db: Session) -> StudyData:
     )
     responses = tuple(
         ResponseRecord(
-            r.id, r.session_id, r.instrument, r.phase, dict(r.answers), dict(r.scores), r.created_at
+            r.id,
+            r.session_id,
+            r.instrument,
+            r.phase,
+            dict(r.answers),
+            dict(r.scores),
+            r.created_at,
+            dict(r.pairwise) if r.pairwise is not None else None,
         )
         for r in db.scalars(select(QuestionnaireResponse).order_by(QuestionnaireResponse.id))
     )

@@ -1,0 +1,93 @@
+"""The study analysis: tests per measure, figures (PNG/SVG), the whole analysis as JSON, CSV export."""
+
+from __future__ import annotations
+
+from datetime import UTC, datetime
+from typing import Any
+
+from fastapi import APIRouter, HTTPException, Response, status
+from fastapi.responses import JSONResponse
+
+from app.api.deps import SessionDep, SettingsDep
+from app.schemas.study import AnalysisPublic
+from app.study.analysis import AnalysisConfig, analyse
+from app.study.data import load_events, load_study
+from app.study.design import DesignConfig, design_summary
+from app.study.figures import FORMATS, GROUPS, study_figure, timeline_figure
+from app.study.report import export_csv
+
+router = APIRouter(tags=["analysis"])
+
+_IMAGE_RESPONSES: dict[int | str, dict[str, Any]] = {
+    200: {"content": {mime: {} for mime in FORMATS.values()}, "description": "The figure."},
+    404: {"description": "Unknown figure, format or session."},
+}
+
+
+def _format(ext: str) -> str:
+    if ext not in FORMATS:
+        raise HTTPException(
+            status.HTTP_404_NOT_FOUND, f"unknown figure format {ext!r}; use one of {list(FORMATS)}"
+        )
+    return ext
+
+
+@router.get("/analysis", response_model=AnalysisPublic)
+def get_analysis(db: SessionDep, settings: SettingsDep) -> dict[str, Any]:
+    """Per measure: descriptives per condition, Shapiro-Wilk, the chosen paired test and Cohen's d."""
+    return analyse(load_study(db), AnalysisConfig.from_settings(settings))
+
+
+@router.get("/analysis.json")
+def get_analysis_json(db: SessionDep, settings: SettingsDep) -> JSONResponse:
+    """The whole analysis and the design summary as a downloadable JSON file."""
+    data = load_study(db)
+    body = {
+        "generated_at": datetime.now(UTC).isoformat(),
+        "analysis": analyse(data, AnalysisConfig.from_settings(settings)),
+        "design": design_summary(data, DesignConfig.from_settings(settings)),
+    }
+    return JSONResponse(
+        body, headers={"Content-Disposition": 'attachment; filename="cavewalk-analysis.json"'}
+    )
+
+
+@router.get("/analysis/figures/{name}.{ext}", response_class=Response, responses=_IMAGE_RESPONSES)
+def get_figure(name: str, ext: str, db: SessionDep, settings: SettingsDep) -> Response:
+    """The paper's bar chart for ``ssq``, ``ipq`` or ``tlx`` as ``png`` or ``svg``."""
+    fmt = _format(ext)
+    if name not in GROUPS:
+        raise HTTPException(status.HTTP_404_NOT_FOUND, f"unknown figure {name!r}; use one of {list(GROUPS)}")
+    data = load_study(db)
+    analysis = analyse(data, AnalysisConfig.from_settings(settings))
+    return Response(study_figure(data, analysis, name, fmt), media_type=FORMATS[fmt])
+
+
+@router.get(
+    "/analysis/sessions/{session_id}/timeline.{ext}", response_class=Response, responses=_IMAGE_RESPONSES
+)
+def get_timeline(session_id: int, ext: str, db: SessionDep) -> Response:
+    """The session's recognised actions over time (from its ``action`` events)."""
+    from app.db.models import StudySession
+
+    fmt = _format(ext)
+    session = db.get(StudySession, session_id)
+    if session is None:
+        raise HTTPException(status.HTTP_404_NOT_FOUND, f"study session {session_id} not found")
+    events = load_events(db, session_id, kind="action")
+    title = f"session {session_id} ({session.condition}): actions over time"
+    return Response(timeline_figure(events, title, fmt), media_type=FORMATS[fmt])
+
+
+@router.get(
+    "/export.csv",
+    response_class=Response,
+    responses={200: {"content": {"text/csv": {}}, "description": "Long format, one row per item."}},
+)
+def get_export(db: SessionDep) -> Response:
+    """Every questionnaire in long format: one row per participant x session x item (then scores)."""
+    return Response(
+        export_csv(load_study(db)),
+        media_type="text/csv; charset=utf-8",
+        headers={"Content-Disposition": 'attachment; filename="cavewalk-study.csv"'},
+    )

@@ -1,0 +1,58 @@
+"""The study design: questionnaire definitions, counterbalanced order, gaps and completeness."""
+
+from __future__ import annotations
+
+from typing import Annotated, Any
+
+from fastapi import APIRouter, Query
+
+from app.api.deps import SessionDep, SettingsDep
+from app.schemas.study import (
+    CompletenessPublic,
+    DesignPublic,
+    GapWarningPublic,
+    InstrumentPublic,
+    OrderPublic,
+)
+from app.study.data import load_study
+from app.study.design import (
+    DesignConfig,
+    completeness,
+    counterbalanced_orders,
+    design_summary,
+    gap_warnings,
+)
+from app.study.questionnaires import instrument_definitions
+
+router = APIRouter(tags=["study"])
+
+
+@router.get("/questionnaires/instruments", response_model=dict[str, InstrumentPublic])
+def instruments() -> dict[str, Any]:
+    """Every instrument's items, wording, anchors and ranges (what the questionnaire form shows)."""
+    return instrument_definitions()
+
+
+@router.get("/study/design", response_model=DesignPublic)
+def design(db: SessionDep, settings: SettingsDep) -> dict[str, Any]:
+    """Counterbalancing so far, the next participant's order, gap warnings and completeness."""
+    return design_summary(load_study(db), DesignConfig.from_settings(settings))
+
+
+@router.get("/study/order", response_model=list[OrderPublic])
+def order(n: Annotated[int, Query(ge=1, le=1000, description="Number of participants.")] = 20) -> list[Any]:
+    """A counterbalanced order of conditions for ``n`` participants (half CC first, half EC first)."""
+    return [{"participant": i + 1, "order": list(o)} for i, o in enumerate(counterbalanced_orders(n))]
+
+
+@router.get("/study/completeness", response_model=list[CompletenessPublic])
+def study_completeness(db: SessionDep) -> list[dict[str, Any]]:
+    """Per participant: conditions without a session and questionnaires still missing."""
+    return completeness(load_study(db))
+
+
+@router.get("/study/warnings", response_model=list[GapWarningPublic])
+def study_warnings(db: SessionDep, settings: SettingsDep) -> list[dict[str, Any]]:
+    """Sessions of one participant closer together than the minimum gap (settings: study.min_gap_days)."""
+    cfg = DesignConfig.from_settings(settings)
+    return [w.as_dict() for w in gap_warnings(load_study(db), cfg.min_gap_days)]
