@@ -34,6 +34,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "app.commands.data",
     "app.commands.recognize",
     "app.commands.serve",
+    "app.commands.study",
     "app.commands.runtime",
 )
 
