@@ -99,8 +99,8 @@ class PoseSettings(_Section):
     # images' aspect, so 1088x1920 portrait views run at 384x640, not padded to a square
     input_long_side: int = Field(640, ge=32, multiple_of=32)
     roi: bool = True  # ROI mode: run tracked views on crops around their tracks
-    roi_long_side: int = Field(256, ge=32, multiple_of=32)  # network long side for the crops
-    roi_margin: float = Field(0.2, ge=0, le=2)  # crop margin, fraction of the tracks' box size
+    roi_long_side: int = Field(320, ge=32, multiple_of=32)  # network long side of the crops
+    roi_margin: float = Field(0.1, ge=0, le=2)  # crop margin, fraction of the tracks' box size
     roi_full_every: int = Field(30, ge=1)  # a full-frame pass at least every this many frames
     score_threshold: float = Field(0.35, ge=0, le=1)
     nms_iou: float = Field(0.6, ge=0, le=1)
@@ -141,6 +141,18 @@ class RuntimeSettings(_Section):
     camera_gone_s: float = Field(1.0, gt=0)  # a camera silent this long is reported and not waited for
     camera_retry_s: float = Field(1.0, gt=0)
     osc: list[str] = Field(default_factory=list)  # HOST:PORT destinations of /cave/locomotion (OSC)
+
+
+class TrackingSettings(_Section):
+    """OC-SORT per camera view (pipeline.tracking.ocsort.OCSortConfig)."""
+
+    det_thresh: float = Field(0.3, ge=0, le=1)  # detections below neither match nor start tracks
+    max_age: int = Field(30, ge=1)  # frames a track survives unseen
+    min_hits: int = Field(3, ge=0)  # consecutive matches before a track is reported
+    iou_threshold: float = Field(0.3, ge=0, le=1)
+    delta_t: int = Field(3, ge=1)  # frames between the observations that give a direction (OCM)
+    inertia: float = Field(0.2, ge=0)  # weight of the direction-consistency cost (OCM)
+    history: int = Field(30, ge=1)  # recent observations (box + keypoints) kept per track
 
 
 class SimSettings(_Section):
@@ -240,6 +252,7 @@ class Settings(BaseSettings):
     server: ServerSettings = ServerSettings()
     paths: PathSettings = PathSettings()
     pose: PoseSettings = PoseSettings()
+    tracking: TrackingSettings = TrackingSettings()
     recognition: RecognitionSettings = RecognitionSettings()
     runtime: RuntimeSettings = RuntimeSettings()
     sim: SimSettings = SimSettings()

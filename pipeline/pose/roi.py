@@ -1,0 +1,148 @@
+"""Region-of-interest mode: run the pose model on crops around tracked people.
+
+Once people are tracked in a view, the next frame only needs to look where the
+tracker expects them. Each expected box (plus a margin) becomes a crop of a small,
+fixed network size; the crops of all views go into one batch. A full-frame pass runs
+every ``full_every`` frames (to find people who walk in) and right after a track
+was lost. A view with no track is looked at whole, at the crop size, in ROI frames.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pipeline.pose.preprocess import expand_to_aspect, net_size_for
+
+Region = tuple[float, float, float, float]
+
+
+class RoiSettingsLike(Protocol):
+    """The fields of ``app.core.config.PoseSettings`` read here."""
+
+    @property
+    def roi(self) -> bool: ...
+    @property
+    def roi_long_side(self) -> int: ...
+    @property
+    def roi_margin(self) -> float: ...
+    @property
+    def roi_full_every(self) -> int: ...
+
+
+@dataclass(frozen=True, slots=True)
+class RoiConfig:
+    """enabled: use crops at all. long_side: crop network height, px (multiple of 32).
+    margin: crop margin on each side, as a fraction of the expected box's larger side.
+    full_every: a full-frame pass at least every this many frames.
+    max_crops: more crops than this in a frame -> full frame instead.
+    min_aspect, max_aspect: bounds of the crop aspect w / h; within them a frame's crops
+    take the widest box-plus-margin aspect (so a person with arms out is not shrunk)."""
+
+    enabled: bool = True
+    long_side: int = 320
+    margin: float = 0.1
+    full_every: int = 30
+    max_crops: int = 12
+    min_aspect: float = 0.4
+    max_aspect: float = 1.0
+
+    def __post_init__(self) -> None:
+        if self.long_side <= 0 or self.long_side % 32:
+            raise ValueError(f"long_side must be a positive multiple of 32, got {self.long_side}")
+        if self.margin < 0 or self.full_every < 1 or self.max_crops < 1:
+            raise ValueError(
+                f"need margin >= 0, full_every >= 1, max_crops >= 1; got {self.margin}, "
+                f"{self.full_every}, {self.max_crops}")
+        if not 0 < self.min_aspect <= self.max_aspect:
+            raise ValueError(f"need 0 < min_aspect <= max_aspect, got {self.min_aspect}, {self.max_aspect}")
+
+    @classmethod
+    def from_settings(cls, pose: RoiSettingsLike) -> RoiConfig:
+        return cls(enabled=bool(pose.roi), long_side=int(pose.roi_long_side), margin=float(pose.roi_margin),
+                   full_every=int(pose.roi_full_every))
+
+    def net_size(self, boxes_xyxy: Sequence[NDArray[np.float64]]) -> tuple[int, int]:
+        """Network (w, h) for a batch of crops around these boxes: height ``long_side``,
+        width for the widest box plus margins (within the aspect bounds)."""
+        aspect = self.min_aspect
+        for b in boxes_xyxy:
+            w, h = float(b[2] - b[0]), float(b[3] - b[1])
+            pad = 2 * self.margin * max(w, h)
+            aspect = max(aspect, (w + pad) / max(h + pad, 1.0))
+        return net_size_for(min(aspect, self.max_aspect), self.long_side)
+
+
+@dataclass(frozen=True, slots=True)
+class RoiPlan:
+    """What the detector runs for one frame: jobs (image index, region or None) and the network size.
+
+    full: True for a full-frame pass (net_size None = the detector's full-frame size).
+    """
+
+    full: bool
+    jobs: tuple[tuple[int, Region | None], ...]
+    net_size: tuple[int, int] | None
+    reason: str
+
+
+def crop_region(box_xyxy: NDArray[np.float64], config: RoiConfig, image_size: tuple[int, int],
+                net_size: tuple[int, int]) -> Region:
+    """The crop around one expected box: margin added, grown to the aspect of ``net_size``,
+    kept within the image where it fits (a crop larger than the image is centred on it)."""
+    net_w, net_h = net_size
+    x1, y1, x2, y2 = expand_to_aspect(tuple(float(v) for v in box_xyxy[:4]),  # type: ignore[arg-type]
+                                      net_w / net_h, config.margin)
+    w, h = image_size
+    out = []
+    for lo, hi, size in ((x1, x2, w), (y1, y2, h)):
+        span = hi - lo
+        lo = (size - span) / 2.0 if span >= size else min(max(lo, 0.0), size - span)
+        out.append((lo, lo + span))
+    (x1, x2), (y1, y2) = out
+    return x1, y1, x2, y2
+
+
+class RoiScheduler:
+    """Decides per frame between a full-frame pass and crops around the expected boxes."""
+
+    def __init__(self, config: RoiConfig) -> None:
+        self.config = config
+        self._since_full: int | None = None  # frames since the last full pass; None = never
+        self._lost = False
+
+    def report(self, full: bool, lost_track: bool) -> None:
+        """After a frame: was it a full pass, and did a confirmed track go unmatched?"""
+        self._since_full = 0 if full else (self._since_full or 0) + 1
+        self._lost = lost_track
+
+    def plan(self, image_sizes: Sequence[tuple[int, int]],
+             expected: Sequence[Mapping[int, NDArray[np.float64]]]) -> RoiPlan:
+        """expected[i]: track id -> box the tracker expects in image i this frame."""
+        cfg = self.config
+        full = RoiPlan(True, tuple((i, None) for i in range(len(image_sizes))), None, "")
+        if not cfg.enabled:
+            return RoiPlan(True, full.jobs, None, "roi off")
+        if self._since_full is None:
+            return RoiPlan(True, full.jobs, None, "first frame")
+        if self._since_full + 1 >= cfg.full_every:
+            return RoiPlan(True, full.jobs, None, "periodic")
+        if self._lost:
+            return RoiPlan(True, full.jobs, None, "track lost")
+        if not any(expected):
+            return RoiPlan(True, full.jobs, None, "nobody tracked")
+        net_size = cfg.net_size([b for boxes in expected for b in boxes.values()])
+        jobs: list[tuple[int, Region | None]] = []
+        for i, boxes in enumerate(expected):
+            if not boxes:
+                jobs.append((i, None))  # the whole view, at crop size
+                continue
+            for tid in sorted(boxes):
+                jobs.append((i, crop_region(boxes[tid], cfg, image_sizes[i], net_size)))
+        if len(jobs) > cfg.max_crops:
+            return RoiPlan(True, full.jobs, None, "too many crops")
+        return RoiPlan(False, tuple(jobs), net_size, "roi")

@@ -1,0 +1,163 @@
+"""The real pose model on frames of the real Pose2Sim demo videos."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from pipeline.demo_data import DemoData
+from pipeline.errors import InputError, ModelError
+from pipeline.pose.decode import iou_matrix
+from pipeline.pose.detector import PoseDetector, PoseDetectorConfig
+from pipeline.pose.roi import RoiConfig, crop_region
+from pipeline.pose.types import ViewDetections
+from pipeline.skeleton import J
+
+FRAMES = (0, 60)
+
+
+def read_frame(path: Path, index: int) -> np.ndarray:
+    cap = cv2.VideoCapture(str(path))
+    cap.set(cv2.CAP_PROP_POS_FRAMES, index)
+    ok, frame = cap.read()
+    cap.release()
+    assert ok, f"{path} frame {index} must decode"
+    return frame
+
+
+@pytest.fixture(scope="module")
+def demo_frames(demo_data: DemoData) -> dict[int, tuple[list[str], list[np.ndarray]]]:
+    cams = list(demo_data.videos)
+    return {k: (cams, [read_frame(demo_data.videos[c], k) for c in cams]) for k in FRAMES}
+
+
+@pytest.fixture(scope="module")
+def detector(pose_model_path: Path) -> PoseDetector:
+    return PoseDetector.load(PoseDetectorConfig(pose_model_path, threads=2))
+
+
+def subject(view: ViewDetections) -> int:
+    """The main subject: the largest person in the view."""
+    b = view.boxes_xyxy
+    return int(np.argmax((b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1])))
+
+
+@pytest.mark.parametrize("frame", FRAMES)
+def test_subject_found_in_all_four_views_with_plausible_keypoints(
+    detector: PoseDetector, demo_frames: dict[int, tuple[list[str], list[np.ndarray]]], frame: int
+) -> None:
+    cams, images = demo_frames[frame]
+    batch = detector.detect(images, cams, frame, frame / 60)
+    assert [v.camera for v in batch.views] == cams
+    assert batch.letterboxes[0].net_size == (384, 640), "portrait views go in as 384x640, not a square"
+    for view, img in zip(batch.views, images, strict=True):
+        assert view.image_size == (img.shape[1], img.shape[0])
+        assert len(view) >= 1, f"{view.camera}: nobody found"
+        i = subject(view)
+        x1, y1, x2, y2 = view.boxes_xyxy[i]
+        assert view.box_scores[i] > 0.6, f"{view.camera}: subject score {view.box_scores[i]}"
+        assert y2 - y1 > 0.3 * img.shape[0], f"{view.camera}: the subject is a big person in the image"
+        kp, sc = view.keypoints_xy[i], view.keypoint_scores[i]
+        assert (sc > 0.5).sum() >= 12, f"{view.camera}: most keypoints visible, got {sc.round(2)}"
+        for side in ("l", "r"):
+            hip, knee, ankle = J[f"{side}_hip"], J[f"{side}_knee"], J[f"{side}_ankle"]
+            assert kp[ankle, 1] > kp[knee, 1] > kp[hip, 1], f"{view.camera}: {side} ankle, knee, hip order"
+        assert kp[J["nose"], 1] < kp[J["l_hip"], 1], f"{view.camera}: head above hips"
+        vis = kp[sc > 0.5]
+        tol = 0.05 * (y2 - y1)
+        inside = ((vis[:, 0] >= x1 - tol) & (vis[:, 0] <= x2 + tol) & (vis[:, 1] >= y1 - tol)
+                  & (vis[:, 1] <= y2 + tol))
+        assert inside.all(), f"{view.camera}: visible keypoints lie inside the box"
+
+
+def test_roi_crops_find_the_same_person(
+    detector: PoseDetector, demo_frames: dict[int, tuple[list[str], list[np.ndarray]]]
+) -> None:
+    cams, images = demo_frames[FRAMES[1]]
+    full = detector.detect(images, cams, 1, 0.0)
+    cfg = RoiConfig()
+    boxes = [view.boxes_xyxy[subject(view)].astype(np.float64) for view in full.views]
+    net = cfg.net_size(boxes)
+    assert net[1] == cfg.long_side and net[0] <= cfg.long_side
+    jobs = [(i, crop_region(b, cfg, v.image_size, net))
+            for i, (b, v) in enumerate(zip(boxes, full.views, strict=True))]
+    roi = detector.detect(images, cams, 1, 0.0, jobs=jobs, net_size=net)
+    assert roi.letterboxes[0].net_size == net
+    assert roi.letterboxes[0].scale > 0.9 * full.letterboxes[0].scale, "crops keep the full-frame resolution"
+    for f, r in zip(full.views, roi.views, strict=True):
+        i = subject(f)
+        assert len(r) >= 1, f"{r.camera}: subject lost in its crop"
+        iou = iou_matrix(f.boxes_xyxy[i:i + 1], r.boxes_xyxy)[0]
+        k = int(np.argmax(iou))
+        assert iou[k] > 0.8, f"{r.camera}: crop box {r.boxes_xyxy[k]} vs full {f.boxes_xyxy[i]}"
+        good = (f.keypoint_scores[i] > 0.7) & (r.keypoint_scores[k] > 0.7)
+        err = np.linalg.norm(f.keypoints_xy[i][good] - r.keypoints_xy[k][good], axis=1)
+        height = float(f.boxes_xyxy[i, 3] - f.boxes_xyxy[i, 1])
+        assert np.median(err) < 0.05 * height, f"{r.camera}: keypoints agree, median {np.median(err):.1f} px"
+
+
+def test_crop_cutting_a_person_drops_the_partial_detection(
+    detector: PoseDetector, demo_frames: dict[int, tuple[list[str], list[np.ndarray]]]
+) -> None:
+    cams, images = demo_frames[FRAMES[0]]
+    full = detector.detect(images[:1], cams[:1], 0, 0.0).views[0]
+    x1, y1, x2, y2 = full.boxes_xyxy[subject(full)]
+    # a crop holding only the upper half of the subject: the half person must not come out
+    top = (float(x1) - 50, float(y1) - 50, float(x2) + 50, float((y1 + y2) / 2))
+    cut = detector.detect(images[:1], cams[:1], 0, 0.0, jobs=[(0, top)], net_size=(256, 160)).views[0]
+    iou = iou_matrix(cut.boxes_xyxy, full.boxes_xyxy[subject(full)][None])
+    assert not (iou > 0.3).any(), f"a half person at the crop edge was kept: {cut.boxes_xyxy}"
+
+
+def test_missing_model_says_how_to_make_it(tmp_path: Path) -> None:
+    with pytest.raises(ModelError, match="cavewalk models prepare"):
+        PoseDetector.load(PoseDetectorConfig(tmp_path / "nope.onnx"))
+
+
+def test_a_file_that_is_not_a_model_is_a_model_error(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.onnx"
+    bad.write_bytes(b"not an onnx file")
+    with pytest.raises(ModelError, match="cannot load"):
+        PoseDetector.load(PoseDetectorConfig(bad))
+
+
+@pytest.mark.parametrize(
+    ("changes", "match"),
+    [
+        ({"input_long_side": 100}, "multiple of 32"),
+        ({"score_threshold": 1.5}, "score_threshold"),
+        ({"nms_iou": -0.1}, "nms_iou"),
+        ({"providers": ("tpu",)}, "providers"),
+        ({"providers": ()}, "providers"),
+        ({"threads": -1}, "threads"),
+    ],
+)
+def test_config_rejects_bad_values(changes: dict[str, object], match: str) -> None:
+    base = PoseDetectorConfig(Path("m.onnx"))
+    with pytest.raises(ValueError, match=match):
+        replace(base, **changes)  # type: ignore[arg-type]
+
+
+def test_cuda_requested_without_cuda_falls_back_to_cpu(pose_model_path: Path) -> None:
+    det = PoseDetector.load(PoseDetectorConfig(pose_model_path, providers=("cuda", "cpu"), threads=1))
+    assert det.providers[-1] == "CPUExecutionProvider"
+
+
+def test_bad_images_are_input_errors(detector: PoseDetector) -> None:
+    with pytest.raises(InputError, match="one image per camera"):
+        detector.detect([np.zeros((64, 64, 3), np.uint8)], ["a", "b"], 0, 0.0)
+    with pytest.raises(InputError, match="uint8 BGR"):
+        detector.detect([np.zeros((64, 64), np.uint8)], ["a"], 0, 0.0)
+    with pytest.raises(InputError, match="jobs must name images"):
+        detector.detect([np.zeros((64, 64, 3), np.uint8)], ["a"], 0, 0.0, jobs=[(3, None)])
+
+
+def test_an_empty_scene_gives_no_people(detector: PoseDetector) -> None:
+    grey = np.full((640, 360, 3), 114, np.uint8)
+    views = detector.detect([grey, grey], ["a", "b"], 7, 1.5).views
+    assert [len(v) for v in views] == [0, 0]
+    assert views[0].frame_index == 7 and views[0].timestamp_s == 1.5
