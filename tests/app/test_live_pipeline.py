@@ -1,0 +1,147 @@
+"""The app with the real runtime pipeline on the simulator source, served by uvicorn on a real socket.
+
+A real WebSocket client (``websockets``) reads the live status; httpx drives the API.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import httpx
+import pytest
+import uvicorn
+import websockets
+
+from app.core.config import Settings
+from app.main import create_app
+from tests.app.conftest import make_settings
+
+pytestmark = pytest.mark.slow
+
+
+class Served:
+    def __init__(self, settings: Settings) -> None:
+        self.settings = settings
+        self.base = f"http://127.0.0.1:{settings.server.port}"
+        self.app = create_app(settings, autostart="simulator")
+        config = uvicorn.Config(
+            self.app, host="127.0.0.1", port=settings.server.port, log_level="warning", ws="websockets"
+        )
+        self.server = uvicorn.Server(config)
+        self.thread = threading.Thread(target=self.server.run, daemon=True)
+
+    def __enter__(self) -> Served:
+        self.thread.start()
+        deadline = time.monotonic() + 30
+        while not self.server.started:
+            if time.monotonic() > deadline or not self.thread.is_alive():
+                raise RuntimeError("uvicorn did not start")
+            time.sleep(0.05)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.server.should_exit = True
+        self.thread.join(timeout=30)
+
+    def wait_status(self, predicate: Any, timeout_s: float = 40.0) -> dict[str, Any]:
+        deadline = time.monotonic() + timeout_s
+        status: dict[str, Any] = {}
+        while time.monotonic() < deadline:
+            status = httpx.get(f"{self.base}/api/v1/status").json()
+            if predicate(status):
+                return status
+            time.sleep(0.2)
+        raise AssertionError(f"status never matched; last: {status}")
+
+
+@pytest.fixture(scope="module")
+def served(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Served]:
+    settings = make_settings(Path(tmp_path_factory.mktemp("live")))
+    with Served(settings) as s:
+        yield s
+
+
+def test_websocket_streams_live_status_about_ten_times_a_second(served: Served) -> None:
+    served.wait_status(lambda s: s["state"] == "running" and len(s["people"]) >= 1)
+
+    async def read(seconds: float) -> list[dict[str, Any]]:
+        url = f"ws://127.0.0.1:{served.settings.server.port}/api/v1/ws/live"
+        out: list[dict[str, Any]] = []
+        async with websockets.connect(url) as ws:
+            end = time.monotonic() + seconds
+            while time.monotonic() < end:
+                out.append(json.loads(await ws.recv()))
+        return out
+
+    messages = asyncio.run(read(2.0))
+    assert 10 <= len(messages) <= 30, f"about 10 messages a second for 2 s, got {len(messages)}"
+    last = messages[-1]
+    assert last["type"] == "status" and last["state"] == "running" and last["source"] == "simulator"
+    assert last["fps"] > 5, last["fps"]
+    assert {"detect", "fuse"} <= set(last["latency_ms"]), last["latency_ms"]
+    assert all(p["position_m"] is None or len(p["position_m"]) == 3 for p in last["people"])
+    assert [c["name"] for c in last["cameras"]] == ["cam01", "cam02", "cam03", "cam04"]
+    assert len({m["ts"] for m in messages}) > 5, "the status changes while the simulator runs"
+
+
+def test_navigator_by_user_id_and_back_to_auto(served: Served) -> None:
+    status = served.wait_status(lambda s: len(s["people"]) >= 2)
+    ids = sorted(p["user_id"] for p in status["people"])
+    target = next(i for i in ids if i != status["navigator"])
+    r = httpx.put(f"{served.base}/api/v1/navigator", json={"user_id": target})
+    assert r.status_code == 200, r.text
+    assert r.json() == {"navigator": target, "mode": "manual"}
+    served.wait_status(lambda s: s["navigator"] == target and s["navigator_mode"] == "manual")
+    unknown = max(ids) + 100
+    r = httpx.put(f"{served.base}/api/v1/navigator", json={"user_id": unknown})
+    assert r.status_code == 404 and str(unknown) in r.json()["detail"]
+    # a rejected request leaves the navigator as it was
+    assert served.wait_status(lambda s: s["navigator"] == target)["navigator_mode"] == "manual"
+    r = httpx.put(f"{served.base}/api/v1/navigator", json={"mode": "auto"})
+    assert r.status_code == 200 and r.json()["mode"] == "auto"
+    served.wait_status(lambda s: s["navigator_mode"] == "auto")
+    r = httpx.put(f"{served.base}/api/v1/navigator", json={"user_id": None, "mode": "manual"})
+    assert r.status_code == 422
+
+
+def test_running_session_logs_pipeline_events_and_snapshots_are_jpeg(served: Served) -> None:
+    base = f"{served.base}/api/v1"
+    pid = httpx.post(f"{base}/participants", json={"code": "LIVE1"}).json()["id"]
+    sid = httpx.post(f"{base}/sessions", json={"participant_id": pid, "condition": "EC"}).json()["id"]
+    assert httpx.post(f"{base}/sessions/{sid}/start").status_code == 200
+    served.wait_status(lambda s: s["running_session_id"] == sid)
+    ids = [p["user_id"] for p in served.wait_status(lambda s: len(s["people"]) >= 1)["people"]]
+    httpx.put(f"{base}/navigator", json={"user_id": ids[0]})
+    httpx.put(f"{base}/navigator", json={"mode": "auto"})
+    time.sleep(0.5)
+    assert httpx.post(f"{base}/sessions/{sid}/stop").status_code == 200
+    events = httpx.get(f"{base}/sessions/{sid}/events").json()
+    kinds = [e["kind"] for e in events]
+    assert kinds[0] == "session" and kinds[-1] == "session", kinds
+    nav = [e["payload"] for e in events if e["kind"] == "navigator"]
+    assert any(p.get("mode") == "manual" for p in nav), f"the operator's choice is in the log: {nav}"
+    snap = httpx.get(f"{base}/cameras/cam01/snapshot.jpg")
+    assert snap.status_code == 200 and snap.content[:3] == b"\xff\xd8\xff", "a JPEG image"
+    assert httpx.get(f"{base}/cameras/nosuchcam/snapshot.jpg").status_code == 404
+
+
+def test_pipeline_stop_and_bad_start(served: Served) -> None:
+    base = f"{served.base}/api/v1"
+    r = httpx.post(
+        f"{base}/pipeline/start", json={"source": "videos", "videos": {"cam01": "/nonexistent.mp4"}}
+    )
+    assert r.status_code == 422 and "/nonexistent.mp4" in r.text
+    assert httpx.get(f"{base}/status").json()["state"] == "running", "a rejected start changes nothing"
+    r = httpx.post(f"{base}/pipeline/start", json={"source": "webcam"})
+    assert r.status_code == 422
+    r = httpx.post(f"{base}/pipeline/stop")
+    assert r.status_code == 200
+    served.wait_status(lambda s: s["state"] == "stopped")
+    assert httpx.post(f"{base}/pipeline/start", json={"source": "simulator"}).status_code == 200
+    served.wait_status(lambda s: s["state"] == "running")
