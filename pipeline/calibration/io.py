@@ -177,11 +177,21 @@ def _qca_camera(cam: ET.Element, path: Path, binning: float) -> Camera:
     cu = _attr(intr, "centerPointU", path, name) / scale - left
     cv = _attr(intr, "centerPointV", path, name) / scale - top
     # Distortion coefficients scaled as Pose2Sim's calib_qca_fun does.
-    dist = np.array(
-        [_attr(intr, k, path, name) for k in
-         ("radialDistortion1", "radialDistortion2", "tangentalDistortion1", "tangentalDistortion2")]
-        + [float(intr.get("radialDistortion3", 0.0))]
-    ) / scale
+    dist = (
+        np.array(
+            [
+                _attr(intr, k, path, name)
+                for k in (
+                    "radialDistortion1",
+                    "radialDistortion2",
+                    "tangentalDistortion1",
+                    "tangentalDistortion2",
+                )
+            ]
+            + [float(intr.get("radialDistortion3", 0.0))]
+        )
+        / scale
+    )
     rot = np.array([[_attr(tr, f"r{i}{j}", path, name) for j in (1, 2, 3)] for i in (1, 2, 3)])
     centre_m = np.array([_attr(tr, k, path, name) for k in ("x", "y", "z")]) / 1000.0
     # The transform holds the camera's position (mm) and, row-wise, its world-to-camera rotation

@@ -208,7 +208,7 @@ def render_wall_pattern(cave: CaveGeometry, layout: MarkerLayout, wall_name: str
         expected = np.array([[0, 0], [side, 0], [side, side], [0, side]], dtype=np.float64) + np.round(uv[0])
         if np.allclose(uv, expected, atol=1e-6):
             x0, y0 = round(float(uv[0, 0])), round(float(uv[0, 1]))
-            img[y0:y0 + side, x0:x0 + side] = tile
+            img[y0 : y0 + side, x0 : x0 + side] = tile
             continue
         # A marker that is not pixel-aligned (a layout from elsewhere): warp it into place.
         src = np.array([[0, 0], [side, 0], [side, side], [0, side]], dtype=np.float32) - 0.5

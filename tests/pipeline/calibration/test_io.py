@@ -28,8 +28,9 @@ def test_demo_qualisys_file_gives_four_plausible_cameras(demo_data: DemoData) ->
         w, h = cam.image_size
         assert 0 <= origin[0] < w and 0 <= origin[1] < h, f"{cam.name}: origin projects to {origin}"
         assert above[1] < origin[1] - 200, f"{cam.name}: +Z must point up in the image ({above} vs {origin})"
-        assert cam.rms_px == pytest.approx({"cam01": 0.402, "cam02": 0.444749,
-                                            "cam03": 0.450323, "cam04": 0.504772}[cam.name])
+        assert cam.rms_px == pytest.approx(
+            {"cam01": 0.402, "cam02": 0.444749, "cam03": 0.450323, "cam04": 0.504772}[cam.name]
+        )
 
 
 def test_demo_cameras_agree_on_a_point_they_all_see(demo_data: DemoData) -> None:
@@ -83,8 +84,9 @@ def _cameras(draw: st.DrawFn) -> list[Camera]:
 
 @settings(max_examples=25, deadline=None)
 @given(cams=_cameras())
-def test_calibration_saved_and_loaded_is_the_same(tmp_path_factory: pytest.TempPathFactory,
-                                                   cams: list[Camera]) -> None:
+def test_calibration_saved_and_loaded_is_the_same(
+    tmp_path_factory: pytest.TempPathFactory, cams: list[Camera]
+) -> None:
     d = tmp_path_factory.mktemp("calib")
     save_calibration(d / "c.json", cams)
     loaded = load_calibration(d / "c.json")
@@ -97,8 +99,10 @@ def test_calibration_saved_and_loaded_is_the_same(tmp_path_factory: pytest.TempP
         assert np.allclose(a.K, b.K) and np.allclose(a.dist[:4], b.dist[:4])
 
 
-_JSON_CAM = '{"name": "c1", "image_size": [640, 480], "K": [[500,0,320],[0,500,240],[0,0,1]], ' \
-            '"dist": [0,0,0,0,0], "R": [[1,0,0],[0,1,0],[0,0,1]], "t": [0,0,3]}'
+_JSON_CAM = (
+    '{"name": "c1", "image_size": [640, 480], "K": [[500,0,320],[0,500,240],[0,0,1]], '
+    '"dist": [0,0,0,0,0], "R": [[1,0,0],[0,1,0],[0,0,1]], "t": [0,0,3]}'
+)
 
 
 @pytest.mark.parametrize(
@@ -109,15 +113,21 @@ _JSON_CAM = '{"name": "c1", "image_size": [640, 480], "K": [[500,0,320],[0,500,2
         ("c.json", '{"cameras": []}', "holds no cameras"),
         ("c.json", '{"cameras": [{"name": "c1"}]}', "missing image_size"),
         ("c.json", '{"cameras": [' + _JSON_CAM.replace("[0,0,3]", "[0,0]") + "]}", "t: expected shape"),
-        ("c.json", '{"cameras": [' + _JSON_CAM.replace("[1,0,0],[0,1,0]", "[2,0,0],[0,1,0]") + "]}",
-         "not a rotation"),
+        (
+            "c.json",
+            '{"cameras": [' + _JSON_CAM.replace("[1,0,0],[0,1,0]", "[2,0,0],[0,1,0]") + "]}",
+            "not a rotation",
+        ),
         ("c.json", '{"cameras": [' + _JSON_CAM + "," + _JSON_CAM + "]}", "must be unique"),
         ("Calib.toml", "[cam_1\nsize=1", "not valid TOML"),
         ("Calib.toml", '[cam_1]\nname = "a"\nsize = [640.0, 480.0]\n', "missing matrix"),
         ("Calib.qca.txt", "<calibration><cameras>", "not valid Qualisys XML"),
         ("Calib.qca.txt", "<calibration><cameras></cameras></calibration>", "no <cameras><camera>"),
-        ("Calib.qca.txt", '<calibration><cameras><camera serial="c1" model="none"/></cameras></calibration>',
-         "lacks fov_video"),
+        (
+            "Calib.qca.txt",
+            '<calibration><cameras><camera serial="c1" model="none"/></cameras></calibration>',
+            "lacks fov_video",
+        ),
         ("calib.yaml", "cameras: []", "unknown format"),
     ],
 )
