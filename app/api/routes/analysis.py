@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 from datetime import UTC, datetime
-from typing import Any
+from typing import Annotated, Any
 
 from fastapi import APIRouter, HTTPException, Response, status
+from fastapi import Path as PathParam
 from fastapi.responses import JSONResponse
 
 from app.api.deps import SessionDep, SettingsDep
@@ -66,7 +67,9 @@ def get_figure(name: str, ext: str, db: SessionDep, settings: SettingsDep) -> Re
 @router.get(
     "/analysis/sessions/{session_id}/timeline.{ext}", response_class=Response, responses=_IMAGE_RESPONSES
 )
-def get_timeline(session_id: int, ext: str, db: SessionDep) -> Response:
+def get_timeline(
+    session_id: Annotated[int, PathParam(ge=1, le=2**63 - 1)], ext: str, db: SessionDep
+) -> Response:
     """The session's recognised actions over time (from its ``action`` events)."""
     from app.db.models import StudySession
 

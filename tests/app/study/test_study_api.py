@@ -151,6 +151,11 @@ def test_unknown_figures_are_404(client: TestClient, path: str) -> None:
     assert client.get(API + path).status_code == 404
 
 
+@pytest.mark.parametrize("session_id", ["0", "-3", "99999999999999999999999", "abc"])
+def test_bad_session_ids_are_422(client: TestClient, session_id: str) -> None:
+    assert client.get(f"{API}/analysis/sessions/{session_id}/timeline.png").status_code == 422
+
+
 def test_figures_with_an_empty_database(client: TestClient) -> None:
     r = client.get(f"{API}/analysis/figures/tlx.png")
     assert r.status_code == 200 and r.content.startswith(b"\x89PNG")
