@@ -102,6 +102,7 @@ def register(cli: typer.Typer) -> None:
         pipeline: the four real demo views paced at 30 fps (and flat out), and the simulator at 60 fps."""
         from pipeline.runtime.bench import machine_info, run_scenario
 
+        signal.signal(signal.SIGTERM, signal.default_int_handler)  # SIGTERM ends like Ctrl-C: clean stop
         if source not in ("demo", "sim", "both"):
             raise InputError(f"--source must be demo, sim or both, got {source!r}")
         if duration <= 0:

@@ -86,6 +86,7 @@ class UdpEmitter:
         self._offset = time.time() - time.monotonic()  # monotonic -> Unix seconds
         self._on_sent = on_sent
         self._stop = threading.Event()
+        self._wake = threading.Event()
         self._thread: threading.Thread | None = None
         self.sent = 0
         self.errors = 0
@@ -128,6 +129,7 @@ class UdpEmitter:
                 return
             now = time.monotonic()
             self._command_at = now
+            self._wake.set()  # the repeat thread may be sleeping until the next heartbeat
             if now - self._last_loco >= 0.5 / self.config.rate_hz:
                 self._send_locomotion(command, now)
                 if self._on_sent is not None:
@@ -187,7 +189,8 @@ class UdpEmitter:
                 wait = self._last_beat + self.config.heartbeat_s - now
                 if self._command is not None:
                     wait = min(wait, self._last_loco + period - now)
-            self._stop.wait(max(0.001, wait))
+            self._wake.wait(max(0.001, wait))
+            self._wake.clear()
 
     def start(self) -> None:
         if self._thread is not None:
@@ -198,6 +201,7 @@ class UdpEmitter:
 
     def stop(self) -> None:
         self._stop.set()
+        self._wake.set()
         if self._thread is not None:
             self._thread.join(timeout=2.0)
             self._thread = None

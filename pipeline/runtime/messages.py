@@ -80,12 +80,12 @@ def put_latest(q: Any, item: object, retries: int = 3) -> int:
             q.put_nowait(item)
             return dropped
         except queue.Full:
-            try:
-                q.get_nowait()
+            try:  # a short wait: the oldest item may still be in the feeder thread, not the pipe
+                q.get(timeout=0.01)
                 dropped += 1
             except queue.Empty:
                 pass
-    return dropped + 1
+    return dropped + 1  # the item itself could not be queued
 
 
 def drain_latest(q: Any, first: object) -> tuple[object, int]:

@@ -1,0 +1,172 @@
+"""The emitter on real sockets (127.0.0.1): the reference receiver and a python-osc server."""
+
+from __future__ import annotations
+
+import threading
+import time
+from typing import Any
+
+import pytest
+from pythonosc.dispatcher import Dispatcher
+from pythonosc.osc_server import ThreadingOSCUDPServer
+
+from pipeline.emitter import (
+    OSC_ADDRESS,
+    EmitterConfig,
+    LocomotionCommand,
+    ReceiverStats,
+    UdpEmitter,
+    open_receiver_socket,
+    receive,
+)
+from pipeline.errors import InputError
+
+
+def cmd(label: str = "forward", ts: float | None = None) -> LocomotionCommand:
+    return LocomotionCommand(2, label, 0.75, 30.0, 1.1, (0.5, -0.25, 0.0),
+                             time.monotonic() if ts is None else ts)
+
+
+class Listener:
+    """The reference receiver on an ephemeral port, in a thread, keeping every message."""
+
+    def __init__(self) -> None:
+        self.sock = open_receiver_socket(0, "127.0.0.1")
+        self.port = self.sock.getsockname()[1]
+        self.messages: list[dict[str, Any] | None] = []
+        self.stats: ReceiverStats | None = None
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        self.stats = receive(self.sock, on_message=lambda m, _d: self.messages.append(m),
+                             should_stop=self._stop.is_set)
+
+    def close(self) -> ReceiverStats:
+        self._stop.set()
+        self._thread.join(timeout=2)
+        self.sock.close()
+        assert self.stats is not None
+        return self.stats
+
+
+def test_datagrams_validate_and_arrive_in_order_at_the_rate() -> None:
+    rx_a, rx_b = Listener(), Listener()
+    emitter = UdpEmitter(EmitterConfig(rate_hz=60.0, heartbeat_s=0.25),
+                         [("127.0.0.1", rx_a.port), ("localhost", rx_b.port)])
+    emitter.set_state("running")
+    emitter.start()
+    try:
+        t0 = time.monotonic()
+        while time.monotonic() - t0 < 1.0:  # commands at 30 Hz; the emitter fills in to 60 Hz
+            emitter.submit(cmd("left" if time.monotonic() - t0 > 0.5 else "forward"))
+            time.sleep(1 / 30)
+    finally:
+        emitter.close()
+    for rx in (rx_a, rx_b):
+        stats = rx.close()
+        summary = stats.summary()
+        assert summary["invalid"] == 0, summary["errors"]
+        assert summary["dropped"] == 0 and summary["out_of_order"] == 0, summary
+        seqs = [m["seq"] for m in rx.messages if m is not None]
+        assert seqs == list(range(len(seqs))), "seq counts +1 per datagram per destination, from 0"
+        loco = [m for m in rx.messages if m is not None and m["type"] == "locomotion"]
+        beats = [m for m in rx.messages if m is not None and m["type"] == "heartbeat"]
+        assert 45 <= len(loco) <= 75, f"about 60 locomotion datagrams in 1 s, got {len(loco)}"
+        assert len(beats) >= 3, "a heartbeat every 0.25 s"
+        assert {m["action"] for m in loco} == {"forward", "left"}
+        assert all(b["state"] == "running" for b in beats)
+
+
+def test_no_locomotion_without_navigator_but_heartbeats_always() -> None:
+    rx = Listener()
+    emitter = UdpEmitter(EmitterConfig(rate_hz=60.0, heartbeat_s=0.1, stale_after_s=0.1),
+                         [("127.0.0.1", rx.port)])
+    emitter.start()
+    try:
+        emitter.submit(cmd())
+        emitter.submit(None)  # navigator lost
+        time.sleep(0.5)
+    finally:
+        emitter.close()
+    rx.close()
+    kinds = [m["type"] for m in rx.messages if m is not None]
+    assert kinds.count("locomotion") == 1, "only the command sent before the navigator was lost"
+    assert kinds.count("heartbeat") >= 3
+    assert all(m["state"] == "stopped" for m in rx.messages if m is not None and m["type"] == "heartbeat")
+
+
+def test_stale_command_stops_being_repeated() -> None:
+    rx = Listener()
+    emitter = UdpEmitter(EmitterConfig(rate_hz=100.0, heartbeat_s=10.0, stale_after_s=0.1),
+                         [("127.0.0.1", rx.port)])
+    emitter.start()
+    try:
+        emitter.submit(cmd())
+        time.sleep(0.6)
+    finally:
+        emitter.close()
+    rx.close()
+    loco = [m for m in rx.messages if m is not None and m["type"] == "locomotion"]
+    assert 2 <= len(loco) <= 25, f"repeated for ~0.1 s at 100 Hz, then silent; got {len(loco)}"
+
+
+def test_osc_server_receives_locomotion() -> None:
+    got: list[tuple[Any, ...]] = []
+    dispatcher = Dispatcher()
+    dispatcher.map(OSC_ADDRESS, lambda addr, *args: got.append((addr, *args)))
+    server = ThreadingOSCUDPServer(("127.0.0.1", 0), dispatcher)
+    port = server.server_address[1]
+    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread.start()
+    emitter = UdpEmitter(EmitterConfig(rate_hz=50.0), [], osc_endpoints=[("127.0.0.1", port)])
+    try:
+        for label in ("forward", "right", "still"):
+            emitter.submit(cmd(label))
+            time.sleep(0.03)
+        deadline = time.monotonic() + 2.0
+        while len(got) < 3 and time.monotonic() < deadline:
+            time.sleep(0.02)
+    finally:
+        emitter.close()
+        server.shutdown()
+        server.server_close()
+    assert [g[2] for g in got[:3]] == ["forward", "right", "still"], "in order"
+    addr, user, action, conf, yaw, speed, x, y, z, ts = got[0]
+    assert (addr, user, action) == (OSC_ADDRESS, 2, "forward")
+    assert conf == pytest.approx(0.75) and yaw == pytest.approx(30.0) and speed == pytest.approx(1.1)
+    assert (x, y, z) == pytest.approx((0.5, -0.25, 0.0))
+    assert ts > 1_600_000_000, "ts is Unix time"
+
+
+def test_bad_workstation_rejected_and_destinations_unchanged() -> None:
+    emitter = UdpEmitter(EmitterConfig(), [("127.0.0.1", 9999)])
+    try:
+        with pytest.raises(InputError, match="cannot resolve"):
+            emitter.set_endpoints([("127.0.0.1", 9998), ("no-such-host.invalid", 9000)])
+        with pytest.raises(InputError, match="port must be 1-65535"):
+            emitter.set_endpoints([("127.0.0.1", 70000)])
+        assert emitter.endpoints == [("127.0.0.1", 9999)], "a rejected list changes nothing"
+    finally:
+        emitter.close()
+
+
+def test_broadcast_and_multicast_addresses_are_accepted() -> None:
+    emitter = UdpEmitter(EmitterConfig(), [("255.255.255.255", 9), ("239.1.2.3", 9)])
+    try:
+        emitter.tick()  # sending to them must not raise
+        assert emitter.endpoints == [("255.255.255.255", 9), ("239.1.2.3", 9)]
+    finally:
+        emitter.close()
+
+
+def test_receiver_counts_drops_and_reordering() -> None:
+    from pipeline.emitter import encode, heartbeat_message
+
+    stats = ReceiverStats()
+    for seq in (0, 1, 4, 3, 5):
+        stats.feed(encode(heartbeat_message("running", seq, 1.0)), "a", 2.0)
+    stats.feed(b"garbage", "a", 2.0)
+    s = stats.summary()
+    assert (s["valid"], s["invalid"], s["dropped"], s["out_of_order"]) == (5, 1, 2, 1)

@@ -1,0 +1,102 @@
+"""The live pipeline on the simulator source: real worker processes, UDP on 127.0.0.1."""
+
+from __future__ import annotations
+
+import os
+import signal
+
+import pytest
+
+from pipeline.errors import InputError, SourceError
+from pipeline.recognition.recognizer import DEFAULT_MODEL_PATH
+from pipeline.runtime import Pipeline, RuntimeConfig
+
+from .live import Listener, children_alive, shm_segments, wait_for
+
+pytestmark = pytest.mark.slow
+
+
+def test_simulator_runs_reports_and_stops_clean(sim_pipeline: Pipeline, listener: Listener) -> None:
+    before = shm_segments()
+    sim_pipeline.set_workstations([("127.0.0.1", listener.port)])
+    sim_pipeline.start("simulator")
+    wait_for(lambda: sim_pipeline.status().processed >= 45, 60, "45 processed frames")
+    wait_for(lambda: bool(sim_pipeline.status().people), 30, "3D people from the simulated views")
+    st = sim_pipeline.status()
+    assert st.state == "running" and st.source == "simulator"
+    assert [c["name"] for c in st.cameras] == ["cam01", "cam02", "cam03", "cam04"]
+    assert all(c["ok"] for c in st.cameras), st.cameras
+    assert set(st.latency_ms) == {"capture", "detect", "fuse", "emit", "end_to_end"}
+    assert st.latency_ms["end_to_end"]["p50"] > 0
+    assert st.fps > 0
+    assert st.people3d and len(st.people3d[0]["joints"]) == 17
+    pids = sim_pipeline.worker_pids()
+    assert len(pids) == 2, "simulator + fusion workers"
+
+    jpeg = sim_pipeline.snapshot_jpeg("cam01")
+    assert jpeg is not None and jpeg[:2] == b"\xff\xd8", "a JPEG of the virtual camera"
+    assert sim_pipeline.snapshot_jpeg("cam99") is None
+
+    wait_for(lambda: bool(listener.of_type("heartbeat")), 5, "a heartbeat")
+    assert listener.of_type("heartbeat")[-1]["state"] == "running"
+    if DEFAULT_MODEL_PATH.is_file():  # with the trained action model, the navigator's commands flow
+        wait_for(lambda: len(listener.of_type("locomotion")) >= 10, 20, "locomotion datagrams")
+
+    sim_pipeline.stop()
+    assert children_alive(pids) == [], "no worker outlives stop()"
+    assert shm_segments() == before
+    assert sim_pipeline.status().state == "stopped"
+    kinds = [(e.kind, e.data.get("state")) for e in sim_pipeline.drain_events()]
+    assert ("state", "starting") in kinds and ("state", "running") in kinds and ("state", "stopped") in kinds
+    stats = listener.close()
+    summary = stats.summary()
+    assert summary["invalid"] == 0 and summary["dropped"] == 0 and summary["out_of_order"] == 0, summary
+    seqs = [m["seq"] for m in listener.messages if m is not None]
+    assert seqs == list(range(len(seqs))), "in order, one seq per datagram"
+
+
+def test_navigator_choice(sim_pipeline: Pipeline) -> None:
+    with pytest.raises(InputError, match="not running"):
+        sim_pipeline.set_navigator(1)
+    sim_pipeline.start("simulator")
+    wait_for(lambda: len(sim_pipeline.status().people) >= 1, 60, "tracked people")
+    with pytest.raises(InputError, match="user 999 is not tracked"):
+        sim_pipeline.set_navigator(999)
+    assert sim_pipeline.status().navigator_mode == "auto", "a rejected choice changes nothing"
+    uid = sim_pipeline.status().people[0]["user_id"]
+    sim_pipeline.set_navigator(uid)
+    wait_for(lambda: sim_pipeline.status().navigator_mode == "manual", 10, "manual mode")
+    assert sim_pipeline.status().navigator == uid
+    sim_pipeline.set_navigator(None)
+    wait_for(lambda: sim_pipeline.status().navigator_mode == "auto", 10, "auto mode")
+    nav_events = [e for e in sim_pipeline.drain_events() if e.kind == "navigator"]
+    assert any(e.data["mode"] == "manual" and e.data["current"] == uid for e in nav_events)
+
+
+def test_killing_a_worker_mid_run_recovers(sim_pipeline: Pipeline) -> None:
+    sim_pipeline.start("simulator")
+    wait_for(lambda: sim_pipeline.status().processed >= 10, 60, "first results")
+    victim = sim_pipeline.worker_pids()[-1]  # the fusion worker
+    os.kill(victim, signal.SIGKILL)
+    wait_for(lambda: victim not in sim_pipeline.worker_pids(), 20, "the chain to be rebuilt")
+    count = sim_pipeline.status().processed
+    wait_for(lambda: sim_pipeline.status().processed >= count + 15, 60, "results after the restart")
+    assert sim_pipeline.status().state == "running", "the pipeline stays up"
+    events = sim_pipeline.drain_events()
+    assert any(e.kind == "worker" and "died" in e.message for e in events), [e.message for e in events]
+    assert any("restarted" in e.message for e in events)
+
+
+def test_bad_start_changes_nothing(sim_pipeline: Pipeline) -> None:
+    with pytest.raises(InputError, match="source must be one of"):
+        sim_pipeline.start("webcam")  # type: ignore[arg-type]
+    with pytest.raises(InputError, match="needs at least one video"):
+        sim_pipeline.start("videos", {})
+    assert sim_pipeline.status().state == "stopped"
+    no_sim = Pipeline(RuntimeConfig(), None)
+    try:
+        with pytest.raises(SourceError, match="simulator is not available"):
+            no_sim.start("simulator")
+        assert no_sim.status().state == "stopped"
+    finally:
+        no_sim.close()

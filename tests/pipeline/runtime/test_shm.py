@@ -1,0 +1,100 @@
+"""Shared-memory frame rings: one writer, newest-frame readers, torn reads detected, no leftovers."""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+import os
+
+import numpy as np
+import pytest
+
+from pipeline.errors import SourceError
+from pipeline.runtime.shm import SHM_PREFIX, FrameRing, RingSpec
+
+
+def shm_names() -> set[str]:
+    return {n for n in os.listdir("/dev/shm") if n.startswith(SHM_PREFIX)}
+
+
+def img(value: int, h: int = 6, w: int = 5) -> np.ndarray:
+    return np.full((h, w, 3), value, np.uint8)
+
+
+def test_write_then_read_newest() -> None:
+    ring = FrameRing.create(3, 6 * 5 * 3, "t")
+    try:
+        assert ring.latest_seq == -1 and ring.read_latest() is None
+        for i in range(5):
+            assert ring.write(img(i), 10.0 + i, 100 + i) == i
+        frame = ring.read_latest()
+        assert frame is not None
+        assert (frame.seq, frame.timestamp_s, frame.index) == (4, 14.0, 104)
+        assert np.array_equal(frame.image, img(4))
+        assert ring.read_latest(after_seq=4) is None, "nothing newer than seq 4"
+        assert ring.read_seq(1) is None, "seq 1 was overwritten (3 slots)"
+        assert ring.read_seq(2) is not None and ring.timestamp_of(3) == 13.0
+    finally:
+        ring.unlink()
+
+
+def test_frames_of_other_sizes_fit_while_within_capacity() -> None:
+    ring = FrameRing.create(2, 100 * 3, "t")
+    try:
+        ring.write(img(1, 10, 10), 0.0, 0)
+        ring.write(img(2, 4, 20), 0.0, 1)
+        frame = ring.read_latest()
+        assert frame is not None and frame.image.shape == (4, 20, 3)
+        with pytest.raises(SourceError, match="exceeds the ring's slot capacity"):
+            ring.write(img(3, 11, 10), 0.0, 2)
+        assert ring.latest_seq == 1, "a rejected frame leaves the ring unchanged"
+        with pytest.raises(ValueError, match="must be \\(H, W, C\\) uint8"):
+            ring.write(np.zeros((4, 4), np.uint8), 0.0, 3)
+    finally:
+        ring.unlink()
+
+
+def test_a_slot_being_written_is_not_read() -> None:
+    ring = FrameRing.create(2, 30 * 3, "t")
+    try:
+        ring.write(img(7), 0.0, 0)
+        base = 2  # slot 0's header
+        ring._words[base] = -1  # the writer's "being written" mark
+        assert ring.read_seq(0) is None, "a torn slot must not be handed out"
+    finally:
+        ring.unlink()
+
+
+def _reader(spec: RingSpec, out: mp.Queue) -> None:  # type: ignore[type-arg]
+    ring = FrameRing.attach(spec)
+    frame = ring.read_latest()
+    out.put(None if frame is None else (frame.seq, int(frame.image[0, 0, 0]), frame.image.shape))
+    ring.close()
+
+
+def test_another_process_reads_the_frames_and_nothing_is_left() -> None:
+    before = shm_names()
+    ring = FrameRing.create(3, 6 * 5 * 3, "proc")
+    ring.write(img(42), 1.0, 0)
+    ctx = mp.get_context("spawn")
+    out = ctx.Queue()
+    p = ctx.Process(target=_reader, args=(ring.spec, out))
+    p.start()
+    got = out.get(timeout=60)
+    p.join(timeout=30)
+    assert got == (0, 42, (6, 5, 3))
+    assert p.exitcode == 0
+    assert ring.spec.shm_name in shm_names(), "a reader exiting must not unlink the owner's segment"
+    ring.unlink()
+    ring.unlink()  # twice is fine
+    assert shm_names() == before, "no segment left after unlink"
+
+
+def test_attach_to_missing_ring() -> None:
+    with pytest.raises(SourceError, match="does not exist"):
+        FrameRing.attach(RingSpec("cavewalk_nonexistent_x", 2, 10))
+
+
+@pytest.mark.parametrize(("slots", "capacity", "match"), [(1, 10, ">= 2 slots"), (2, 0, "capacity_bytes")])
+def test_bad_ring_spec(slots: int, capacity: int, match: str) -> None:
+    with pytest.raises(ValueError, match=match):
+        RingSpec("x", slots, capacity)

@@ -1,0 +1,133 @@
+"""Image sources on real files: the Pose2Sim demo videos and an image folder."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from pipeline.demo_data import DemoData
+from pipeline.errors import SourceError
+from pipeline.sources import CapturedFrame, FrameSource, iter_frames, open_source, source_kind
+from pipeline.sources.opencv import ImageFolderSource, Pacer, VideoFileSource
+
+
+def test_video_once_delivers_every_frame_with_rising_timestamps(demo_data: DemoData) -> None:
+    path = demo_data.videos["cam01"]
+    src = VideoFileSource("cam01", path)
+    assert isinstance(src, FrameSource)
+    assert src.nominal_fps == pytest.approx(60.0, abs=0.5)
+    frames = [(f.index, f.timestamp_s, f.image_size) for f in iter_frames(src)]
+    assert len(frames) == src.frame_count == 100, "the demo video has 100 frames"
+    assert [i for i, _, _ in frames] == list(range(100))
+    stamps = np.array([t for _, t, _ in frames])
+    assert np.all(np.diff(stamps) > 0), "capture timestamps must increase"
+    assert frames[0][2][0] < frames[0][2][1], "the demo views are portrait"
+    assert src.read() is None, "a closed source delivers nothing"
+
+
+def test_video_loop_continues_the_index(demo_data: DemoData) -> None:
+    src = VideoFileSource("cam02", demo_data.videos["cam02"], loop=True)
+    try:
+        indices = [src.read().index for _ in range(130)]  # type: ignore[union-attr]
+    finally:
+        src.close()
+    assert indices == list(range(130)), "looping keeps counting frames"
+    assert src.loops == 1
+
+
+def test_paced_source_keeps_its_clock_and_skips_what_it_missed(demo_data: DemoData) -> None:
+    pacer = Pacer(30.0)
+    src = VideoFileSource("cam01", demo_data.videos["cam01"], pace_fps=30.0, start_s=pacer.start_s)
+    try:
+        first = src.read()
+        time.sleep(0.2)  # a slow reader: at 30 fps at least 6 slots have come meanwhile
+        late = src.read()
+    finally:
+        src.close()
+    assert first is not None and late is not None
+    assert first.timestamp_s >= pacer.start_s - 1e-3, "a paced frame is never delivered before it is due"
+    assert late.index >= 6, f"the source follows its clock, got frame {late.index} after 0.2 s"
+    assert src.skipped == late.index - 1, "every slot not delivered is counted as skipped"
+
+
+def test_image_folder_in_name_order(tmp_path: Path) -> None:
+    for i in (2, 0, 1):
+        cv2.imwrite(str(tmp_path / f"img{i:03d}.png"), np.full((20, 30, 3), i * 50, np.uint8))
+    (tmp_path / "notes.txt").write_text("not an image")
+    frames = list(iter_frames(ImageFolderSource("c", tmp_path)))
+    assert [int(f.image[0, 0, 0]) for f in frames] == [0, 50, 100]
+    assert frames[0].image_size == (30, 20)
+
+
+def test_image_folder_loops(tmp_path: Path) -> None:
+    cv2.imwrite(str(tmp_path / "a.png"), np.zeros((4, 4, 3), np.uint8))
+    src = ImageFolderSource("c", tmp_path, loop=True)
+    assert [src.read().index for _ in range(3)] == [0, 1, 2]  # type: ignore[union-attr]
+
+
+def test_image_that_vanishes_raises_source_error(tmp_path: Path) -> None:
+    cv2.imwrite(str(tmp_path / "a.png"), np.zeros((4, 4, 3), np.uint8))
+    src = ImageFolderSource("c", tmp_path)
+    (tmp_path / "a.png").unlink()
+    with pytest.raises(SourceError, match="cannot read image"):
+        src.read()
+
+
+@pytest.mark.parametrize(
+    ("uri", "kind"),
+    [("0", "device"), ("12", "device"), ("rtsp://10.0.0.5/stream", "stream"),
+     ("http://cam.local/video.mjpg", "stream"), ("sim", "sim"), ("/no/such/video.mp4", "video")],
+)
+def test_source_kind(uri: str, kind: str) -> None:
+    assert source_kind(uri) == kind
+
+
+def test_source_kind_folder(tmp_path: Path) -> None:
+    assert source_kind(str(tmp_path)) == "folder"
+
+
+@pytest.mark.parametrize(
+    ("uri", "match"),
+    [
+        ("/no/such/video.mp4", "not a device index, URL, video file or folder"),
+        ("sim", "is the simulator"),
+        ("", "empty source"),
+        ("97", "cannot open 97"),
+    ],
+)
+def test_open_source_errors(uri: str, match: str) -> None:
+    with pytest.raises(SourceError, match=match):
+        open_source(uri, "camX")
+
+
+def test_open_source_rejects_a_file_that_is_not_a_video(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.mp4"
+    bad.write_bytes(b"this is not a video")
+    with pytest.raises(SourceError, match="cannot open video"):
+        open_source(str(bad), "camX")
+
+
+def test_open_source_opens_video_and_folder(demo_data: DemoData, tmp_path: Path) -> None:
+    cv2.imwrite(str(tmp_path / "a.jpg"), np.zeros((8, 8, 3), np.uint8))
+    for uri in (str(demo_data.videos["cam03"]), str(tmp_path)):
+        src = open_source(uri, "cam03")
+        frame = src.read()
+        src.close()
+        assert isinstance(frame, CapturedFrame) and frame.camera == "cam03"
+
+
+@pytest.mark.parametrize(
+    ("image", "index", "match"),
+    [
+        (np.zeros((4, 4), np.uint8), 0, "must be \\(H, W, 3\\) uint8"),
+        (np.zeros((4, 4, 3), np.float32), 0, "must be \\(H, W, 3\\) uint8"),
+        (np.zeros((4, 4, 3), np.uint8), -1, "index must be >= 0"),
+    ],
+)
+def test_captured_frame_validation(image: np.ndarray, index: int, match: str) -> None:
+    with pytest.raises(ValueError, match=match):
+        CapturedFrame("c", index, 0.0, image)
