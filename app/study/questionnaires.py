@@ -243,7 +243,7 @@ DEFINITIONS: Final[dict[str, Definition]] = {
     "ssq": Definition(
         name="ssq",
         title="Simulator Sickness Questionnaire (SSQ)",
-        instructions="Circle how much each symptom below is affecting you right now.",
+        instructions="Select how much each symptom below is affecting you right now.",
         items=tuple(Item(k, t, _SSQ_ANCHORS, 0, 3) for k, t in _SSQ_ITEMS),
         phases=("pre", "post"),
         score_keys=("nausea", "oculomotor", "disorientation", "total"),

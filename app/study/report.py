@@ -187,7 +187,10 @@ def markdown_report(analysis: Mapping[str, Any], design: Mapping[str, Any], figu
     ]
     for name, m in analysis["measures"].items():
         if m["test"] is None:
-            lines.append(f"| {name} | {m['n']} | | | | – | | | | {m.get('note', '')} |")
+            lines.append(
+                f"| {name} | {m['n']} | {_fmt(m['mean_cc'])} ({_fmt(m['sd_cc'])}) | "
+                f"{_fmt(m['mean_ec'])} ({_fmt(m['sd_ec'])}) | – | – | | | | {m.get('note', '')} |"
+            )
             continue
         stat = (
             f"t({m['df']}) = {_fmt(m['statistic'])}" if m["test"] == "paired_t" else f"Z = {_fmt(m.get('z'))}"
