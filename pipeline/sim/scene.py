@@ -54,7 +54,10 @@ def camera_positions(cave: CaveGeometry, count: int, height_m: float = CAMERA_HE
     for wall in cave.walls:
         c = wall.corners_m
         mid = (c[0] + c[1]) / 2.0
-        p = mid + wall.normal * INSET_M
+        inward = (
+            wall.normal if float(wall.normal @ (np.array([0.0, 0.0, mid[2]]) - mid)) > 0 else -wall.normal
+        )
+        p = mid + inward * INSET_M
         spots.append(np.array([p[0], p[1], z]))
     for wall in cave.walls:
         c = wall.corners_m[0]
