@@ -32,6 +32,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "app.commands.config",
     "app.commands.models",
     "app.commands.data",
+    "app.commands.calibration",
     "app.commands.process",
     "app.commands.recognize",
     "app.commands.serve",
