@@ -86,6 +86,7 @@ class CalibrationService:
         self._cave = settings.cave.geometry()
         self._layout: Any = None
         self._patterns: dict[str, bytes] = {}
+        self._sim_images: dict[str, U8] | None = None
         self._lock = threading.Lock()
         self._thread: threading.Thread | None = None
         self.runs_dir = settings.paths.db.parent / "calibration_runs"
@@ -133,6 +134,7 @@ class CalibrationService:
         with self._factory() as db:
             run = repo.activate_calibration_run(db, run_id)
         self._events.record("calibration", {"state": "activated", "run_id": run_id})
+        self._pipeline.calibration_changed()
         self._show_cameras(run)
         return run
 
@@ -189,9 +191,14 @@ class CalibrationService:
     def _grab(self, source: str) -> dict[str, U8]:
         """One image per camera of the walls showing the patterns."""
         if source == "simulator":
-            from pipeline.sim.walls import render_camera_views
+            from pipeline.sim.scene import default_cameras
+            from pipeline.sim.walls import render_wall_views
 
-            return dict(render_camera_views(self._settings, self._cave, self.layout()))
+            if self._sim_images is None:  # the virtual cameras and walls never move: render once
+                sim = self._settings.sim
+                cameras = default_cameras(self._cave, sim.camera_preset, 4)  # the simulator source's cameras
+                self._sim_images = dict(render_wall_views(self._cave, self.layout(), cameras, seed=sim.seed))
+            return dict(self._sim_images)
         from pipeline.sources import open_source
 
         images: dict[str, U8] = {}
@@ -229,23 +236,15 @@ class CalibrationService:
                     },
                 )
             )
-            overlay = self._overlay(images[name], res)
-            if overlay is not None:
-                self.overlay_path(run_id, name).write_bytes(encode_png(overlay))
+            self.overlay_path(run_id, name).write_bytes(encode_png(self._overlay(images[name], res)))
         (out_dir / "calibration.json").write_text(json.dumps({"cameras": cameras}, indent=1))
         return {"cameras": cameras}
 
-    def _overlay(self, image: U8, result: Any) -> U8 | None:
-        """The calibration stage's overlay (detected/reprojected corners, walls, axes), if it has one."""
-        try:
-            from pipeline.calibration import overlay  # type: ignore[attr-defined,unused-ignore]
-        except ImportError:
-            log.warning("pipeline.calibration.overlay is not available: no overlay images")
-            return None
-        draw = getattr(overlay, "draw_overlay", None) or getattr(overlay, "render_overlay", None)
-        if draw is None:
-            return None
-        return np.asarray(draw(image, result, self._cave, self.layout()), dtype=np.uint8)
+    def _overlay(self, image: U8, result: Any) -> U8:
+        """Detected and reprojected corners, the wall outlines and the CAVE axes on the camera's image."""
+        from pipeline.calibration.overlay import calibration_overlay
+
+        return np.asarray(calibration_overlay(result, self._cave, image), dtype=np.uint8)
 
     def _show_cameras(self, run: CalibrationRun) -> None:
         if self._viewer is not None and run.result is not None:

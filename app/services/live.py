@@ -203,6 +203,12 @@ class PipelineService:
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self.unavailable_reason = "" if factory else "the pipeline runtime is not available"
+        self._rebuild = False
+
+    def calibration_changed(self) -> None:
+        """A new calibration is active: the next start builds the pipeline with its cameras."""
+        with self._lock:
+            self._rebuild = True
 
     @property
     def available(self) -> bool:
@@ -217,14 +223,17 @@ class PipelineService:
         with self._lock:
             if self._factory is None:
                 raise PipelineUnavailable(self.unavailable_reason)
+            if self._pipeline is not None and self._rebuild:
+                self._close_pipeline()
+            self._rebuild = False
             if self._pipeline is None:
                 try:
                     self._pipeline = self._factory()
                 except ImportError as exc:
                     raise PipelineUnavailable(f"the pipeline cannot be built: {exc}") from exc
-            else:
-                self._pipeline.stop()
-            self._pipeline.start(source, videos)  # it reports its own state changes as events
+            # (re)start: the pipeline validates first, so a bad request leaves the running one as it was;
+            # it reports its own state changes as events
+            self._pipeline.start(source, videos)
             self._ensure_thread()
         self.poll_once()
 
@@ -303,6 +312,18 @@ class PipelineService:
                 delay = 0
             self._stop.wait(delay)
 
+    def _close_pipeline(self) -> None:
+        if self._pipeline is None:
+            return
+        try:
+            self._pipeline.stop()
+            close = getattr(self._pipeline, "close", None)
+            if callable(close):
+                close()
+        except Exception:
+            log.exception("pipeline stop failed")
+        self._pipeline = None
+
     def close(self) -> None:
         """Stop the pipeline and the polling thread (the app's shutdown)."""
         self._stop.set()
@@ -310,13 +331,5 @@ class PipelineService:
             self._thread.join(timeout=5)
             self._thread = None
         with self._lock:
-            if self._pipeline is not None:
-                try:
-                    self._pipeline.stop()
-                    close = getattr(self._pipeline, "close", None)
-                    if callable(close):
-                        close()
-                except Exception:
-                    log.exception("pipeline stop failed")
-                self._pipeline = None
+            self._close_pipeline()
             self._snapshot = idle_snapshot("stopped" if self._factory else "unavailable")

@@ -1,0 +1,92 @@
+"""Calibration from the dashboard: wall patterns, a run on the simulator's wall images, history, roll back."""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import cv2
+import numpy as np
+import pytest
+from fastapi.testclient import TestClient
+
+from pipeline.calibration.patterns import make_layout
+from pipeline.sim.scene import default_cameras
+
+
+def wait_run(c: TestClient, run_id: int, timeout_s: float = 60.0) -> dict[str, Any]:
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        run = c.get(f"/api/v1/calibration/runs/{run_id}").json()
+        if run["status"] in ("done", "failed"):
+            return run
+        time.sleep(0.2)
+    raise AssertionError(f"calibration run {run_id} did not finish: {run}")
+
+
+def test_wall_patterns_are_served_and_decode_to_the_layout_ids(client: TestClient) -> None:
+    settings = client.app.state.settings
+    assert client.get("/api/v1/calibration/walls").json() == ["front", "right", "back", "left"]
+    layout = make_layout(settings.cave.geometry())
+    r = client.get("/api/v1/calibration/patterns/right.png")
+    assert r.status_code == 200 and r.headers["content-type"] == "image/png"
+    img = cv2.imdecode(np.frombuffer(r.content, np.uint8), cv2.IMREAD_GRAYSCALE)
+    assert img.shape[::-1] == settings.cave.wall_resolution_px
+    detector = cv2.aruco.ArucoDetector(cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_4X4_250))
+    _corners, ids, _rejected = detector.detectMarkers(img)
+    assert ids is not None
+    assert sorted(ids.ravel().tolist()) == sorted(m.id for m in layout.on_wall("right"))
+    r = client.get("/api/v1/calibration/patterns/ceiling.png")
+    assert r.status_code == 404 and "ceiling" in r.json()["detail"]
+
+
+def test_no_active_calibration_and_unknown_runs(client: TestClient) -> None:
+    assert client.get("/api/v1/calibration/runs").json() == []
+    r = client.get("/api/v1/calibration/active")
+    assert r.status_code == 404 and "no calibration" in r.json()["detail"]
+    assert client.get("/api/v1/calibration/runs/5").status_code == 404
+    r = client.post("/api/v1/calibration/runs/5/activate")
+    assert r.status_code == 404 and "run 5" in r.json()["detail"]
+    assert client.get("/api/v1/calibration/runs").json() == [], "rejected requests store nothing"
+
+
+@pytest.mark.slow
+def test_calibration_run_on_the_simulator_then_roll_back(client: TestClient) -> None:
+    r = client.post("/api/v1/calibration/runs")
+    assert r.status_code == 202, r.text
+    first = r.json()["id"]
+    run = wait_run(client, first)
+    assert run["status"] == "done", run["message"]
+    assert run["active"] and run["progress"] == 1.0
+    truth = {c.name: c for c in default_cameras(client.app.state.settings.cave.geometry())}
+    assert [c["name"] for c in run["cameras"]] == sorted(truth)
+    for cam in run["cameras"]:
+        assert cam["rms_px"] < 1.0, cam
+        assert cam["verdict"] in ("good", "fair"), cam
+        assert len(cam["walls_seen"]) >= 2, cam
+    for stored in run["result"]["cameras"]:  # the poses are the simulator's cameras, in the SPEC JSON form
+        true = truth[stored["name"]]
+        centre = -np.asarray(stored["R"]).T @ np.asarray(stored["t"])
+        true_centre = -true.R.T @ true.t
+        assert np.linalg.norm(centre - true_centre) < 0.02, (stored["name"], centre, true_centre)
+    png = client.get(f"/api/v1/calibration/runs/{first}/overlays/cam02.png")
+    assert png.status_code == 200 and png.content[:8] == b"\x89PNG\r\n\x1a\n"
+    assert client.get(f"/api/v1/calibration/runs/{first}/overlays/cam99.png").status_code == 404
+
+    second = client.post("/api/v1/calibration/runs").json()["id"]
+    assert wait_run(client, second)["status"] == "done"
+    history = client.get("/api/v1/calibration/runs").json()
+    assert [(h["id"], h["active"]) for h in history] == [(second, True), (first, False)]
+    rolled = client.post(f"/api/v1/calibration/runs/{first}/activate").json()
+    assert rolled["active"] and client.get("/api/v1/calibration/active").json()["id"] == first
+    assert [h["active"] for h in client.get("/api/v1/calibration/runs").json()] == [False, True]
+    client.app.state.events.flush()
+    kinds = [e.payload.get("state") for e in _calibration_events(client)]
+    assert kinds.count("done") == 2 and "activated" in kinds and "patterns" in kinds
+
+
+def _calibration_events(client: TestClient) -> list[Any]:
+    from app.db.repositories import list_events
+
+    with client.app.state.session_factory() as db:
+        return list(list_events(db, kind="calibration"))
