@@ -23,6 +23,9 @@ class TriangulationParams:
     outlier_ratio: a view whose reprojection error exceeds ``outlier_ratio`` x the median of the
         other views' errors (and ``outlier_min_px``) is dropped for that joint; repeated.
     outlier_min_px: a view is never dropped for an error below this.
+    outlier_min_frac: ... nor below this fraction of the person's size in that view, when the caller
+        gives the sizes (real detectors err by a few per cent of the body; a gross outlier such
+        as a left/right swap or another person's limb is far larger).
     max_reproj_px: a joint whose mean reprojection error stays above this is unknown.
     refine_iterations: Gauss-Newton steps on the weighted reprojection error after the DLT (0 = none).
     """
@@ -30,13 +33,16 @@ class TriangulationParams:
     min_score: float = 0.3
     outlier_ratio: float = 3.0
     outlier_min_px: float = 12.0
+    outlier_min_frac: float = 0.15
     max_reproj_px: float = 40.0
-    refine_iterations: int = 2
+    refine_iterations: int = 1
 
     def __post_init__(self) -> None:
         _check(0.0 <= self.min_score <= 1.0, "min_score must be in [0, 1]", self.min_score)
         _check(self.outlier_ratio > 1.0, "outlier_ratio must be > 1", self.outlier_ratio)
         _check(self.outlier_min_px >= 0.0, "outlier_min_px must be >= 0", self.outlier_min_px)
+        _check(0.0 <= self.outlier_min_frac <= 1.0, "outlier_min_frac must be in [0, 1]",
+               self.outlier_min_frac)
         _check(self.max_reproj_px > 0.0, "max_reproj_px must be > 0", self.max_reproj_px)
         _check(0 <= self.refine_iterations <= 20, "refine_iterations must be in [0, 20]",
                self.refine_iterations)
@@ -86,8 +92,8 @@ class Tracks3DParams:
     max_missing_s: float = 2.0
     max_match_distance_m: float = 0.7
     smoothing: Literal["none", "one_euro"] = "one_euro"
-    one_euro_min_cutoff_hz: float = 2.0
-    one_euro_beta: float = 0.7
+    one_euro_min_cutoff_hz: float = 4.0
+    one_euro_beta: float = 30.0
     one_euro_d_cutoff_hz: float = 1.0
     bone_prior_s: float = 2.0
     bone_tolerance: float = 0.35

@@ -183,8 +183,8 @@ def triangulate_linear(Rt: F64, xy: F64, weights: F64, quad: F64 | None = None) 
     c, n = weights.shape
     q = _rig_quadratics(Rt) if quad is None else quad
     w2 = np.where(weights > 0, weights, 0.0) ** 2
-    x = np.nan_to_num(xy[..., 0])
-    y = np.nan_to_num(xy[..., 1])
+    xy0 = np.where(np.isnan(xy), 0.0, xy)
+    x, y = xy0[..., 0], xy0[..., 1]
     coef = np.stack([w2 * (x * x + y * y), -w2 * x, -w2 * y, w2], axis=2)  # (C, N, 4)
     ata = (coef.transpose(1, 0, 2).reshape(n, c * 4) @ q.reshape(c * 4, 16)).reshape(n, 4, 4)
     n_views = np.count_nonzero(w2 > 0, axis=0)
@@ -203,8 +203,8 @@ def project_normalized(Rt: F64, points_m: F64) -> tuple[F64, F64]:
     """(N, 3) world points -> ((C, N, 2) normalised coordinates, (C, N) depths in metres)."""
     pc = points_m @ Rt[:, :, :3].transpose(0, 2, 1) + Rt[:, None, :, 3]
     z = pc[..., 2]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        xy = pc[..., :2] / z[..., None]
+    z_safe = np.where(z != 0, z, np.nan)  # NaN instead of a division warning
+    xy = pc[..., :2] / z_safe[..., None]
     return xy, z
 
 
@@ -233,7 +233,8 @@ def refine_gauss_newton(Rt: F64, xy: F64, weights: F64, points_m: F64, iteration
     rot = Rt[:, :, :3]  # (C, 3, 3)
     rot_t = rot.transpose(0, 2, 1)
     w2 = (weights**2)[:, ok][..., None]  # (C, M, 1)
-    obs = np.nan_to_num(xy[:, ok])
+    obs = xy[:, ok]
+    obs = np.where(np.isnan(obs), 0.0, obs)
     xk = x[ok]
     eye = np.eye(3)
     for _ in range(iterations):
@@ -258,25 +259,31 @@ def triangulate_normalized(
     xy: F64,
     weights: F64,
     params: TriangulationParams,
+    min_outlier_px: F64 | float | None = None,
 ) -> tuple[F64, B, F64]:
     """Robust triangulation on normalised coordinates.
 
     Returns (points (N, 3), used (C, N), error (C, N) undistorted pixels, inf where unused).
     Outlier views are removed one at a time per point by leave-one-out: for a point with more than
-    two views and a residual above ``outlier_min_px``, each view in turn is left out and the point
-    re-triangulated from the others; the subset whose views agree best wins, and the left-out view
-    is dropped when its error from that subset exceeds both ``outlier_min_px`` and
-    ``outlier_ratio`` x the mean error of the remaining views. (A plain DLT spreads one bad view's
+    two views and a residual above ``min_outlier_px`` ((C, N) or a scalar; default
+    ``params.outlier_min_px``), each view in turn is left out and the point re-triangulated from
+    the others; the subset whose views agree best wins, and the left-out view is dropped when its
+    error from that subset exceeds both its ``min_outlier_px`` and ``outlier_ratio`` x the mean
+    error of the remaining views. (A plain DLT spreads one bad view's
     error over all views, so the worst residual of the all-view solution does not stand out enough.)
     """
     Rt, focal_px, quad = rig.Rt, rig.focal_px, rig.quad
     w = weights.copy()
     c = w.shape[0]
+    floor = np.broadcast_to(
+        np.asarray(params.outlier_min_px if min_outlier_px is None else min_outlier_px, dtype=np.float64),
+        w.shape,
+    )
     pts = triangulate_linear(Rt, xy, w, quad)
     for _ in range(max(0, c - MIN_VIEWS)):
         used = w > 0
         err_all = normalized_error_px(Rt, focal_px, xy, pts)
-        suspect = np.any(used & ~(err_all <= params.outlier_min_px), axis=0)
+        suspect = np.any(used & ~(err_all <= floor), axis=0)
         idx = np.flatnonzero((used.sum(axis=0) > MIN_VIEWS) & suspect)
         if idx.size == 0:
             break
@@ -290,8 +297,7 @@ def triangulate_normalized(
         pts_loo = triangulate_linear(Rt, xy_loo, w_loo, quad)
         err = normalized_error_px(Rt, focal_px, xy_loo, pts_loo).reshape(c, c, m)
         rest = (w_loo > 0).reshape(c, c, m)  # [view, left-out k, point]
-        with np.errstate(invalid="ignore"):
-            rest_mean = np.where(rest, err, 0.0).sum(axis=0) / np.maximum(rest.sum(axis=0), 1)  # (C, M)
+        rest_mean = np.where(rest, err, 0.0).sum(axis=0) / np.maximum(rest.sum(axis=0), 1)  # (C, M)
         rest_mean = np.where(ui & np.all(np.isfinite(pts_loo), axis=1).reshape(c, m), rest_mean, np.inf)
         rest_mean = np.where(np.isnan(rest_mean), np.inf, rest_mean)
         best = np.argmin(rest_mean, axis=0)  # (M,)
@@ -300,7 +306,7 @@ def triangulate_normalized(
         e_rest = rest_mean[best, cols]
         drop = (
             np.isfinite(e_rest)
-            & ~(e_out <= params.outlier_min_px)
+            & ~(e_out <= floor[best, idx])
             & ~(e_out <= params.outlier_ratio * e_rest)
         )
         if not np.any(drop):
@@ -336,6 +342,7 @@ def triangulate(
     params: TriangulationParams | None = None,
     *,
     normalized: F64 | None = None,
+    scale_px: F64 | None = None,
 ) -> Triangulation:
     """Triangulate N points seen by the rig's C cameras.
 
@@ -343,6 +350,9 @@ def triangulate(
     scores: (C, N) confidences in [0, 1] (weights of the DLT rows; below ``params.min_score`` =
         unseen); None = all observed points weigh 1.
     normalized: the same points already undistorted (``rig.undistort``), to skip that step.
+    scale_px: (C, N) size of the person in each view (pixels, e.g. the keypoints' extent); a view
+        is only dropped as an outlier when its error exceeds ``outlier_min_frac`` x this (and
+        ``outlier_min_px``), so ordinary detector noise on a large person never drops a view.
     A point is valid when at least two views remain after outlier rejection, it lies in front of
     them, and its mean reprojection error (pixels, with distortion) is at most ``max_reproj_px``.
     """
@@ -352,12 +362,17 @@ def triangulate(
     if xy.shape != uv.shape:
         raise InputError(f"normalized {xy.shape} and keypoints_px {uv.shape} differ")
     w = _weights(uv, scores, p.min_score)
-    pts, used, err_und = triangulate_normalized(rig, xy, w, p)
+    floor: F64 | float = p.outlier_min_px
+    if scale_px is not None:
+        scale = np.asarray(scale_px, dtype=np.float64)
+        if scale.shape != w.shape:
+            raise InputError(f"scale_px: expected shape {w.shape}, got {scale.shape}")
+        floor = np.maximum(p.outlier_min_px, p.outlier_min_frac * np.where(np.isfinite(scale), scale, 0.0))
+    pts, used, err_und = triangulate_normalized(rig, xy, w, p, floor)
     n_used = used.sum(axis=0)
     in_front = np.all(np.isfinite(err_und) | ~used, axis=0)
-    err = reprojection_error(rig, np.nan_to_num(pts), uv)
-    with np.errstate(invalid="ignore"):
-        mean_err = np.where(used, err, 0.0).sum(axis=0) / np.maximum(n_used, 1)
+    err = reprojection_error(rig, np.where(np.isfinite(pts), pts, 0.0), uv)
+    mean_err = np.where(used, err, 0.0).sum(axis=0) / np.maximum(n_used, 1)
     finite = np.all(np.isfinite(pts), axis=1)
     valid = finite & in_front & (n_used >= MIN_VIEWS) & (mean_err <= p.max_reproj_px)
     points = np.where(valid[:, None], pts, np.nan)

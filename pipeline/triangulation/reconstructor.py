@@ -32,6 +32,19 @@ F64 = NDArray[np.float64]
 MIN_VIEW_AGREEMENT = 0.5  # a view must be used for half its confident joints to stay in a person
 
 
+def person_size_px(keypoints_xy: F64, confident: NDArray[np.bool_]) -> F64:
+    """(P, 17, 2) keypoints -> (P,) the larger side of each person's confident-keypoint box, pixels
+    (0 with fewer than two confident keypoints)."""
+    pts = np.where(confident[..., None], keypoints_xy, np.nan)
+    out = np.zeros(keypoints_xy.shape[0])
+    enough = confident.sum(axis=1) >= 2
+    if np.any(enough):
+        p = pts[enough]
+        extent = np.nanmax(p, axis=1) - np.nanmin(p, axis=1)
+        out[enough] = extent.max(axis=1)
+    return out
+
+
 class Reconstructor:
     """Cross-view association, robust triangulation and 3D tracks, one multi-view frame at a time."""
 
@@ -76,6 +89,7 @@ class Reconstructor:
         uv_rows: list[F64] = []
         xy_rows: list[F64] = []
         w_rows: list[F64] = []
+        size_rows: list[F64] = []
         for v in views:
             if len(v) == 0:
                 continue
@@ -86,6 +100,7 @@ class Reconstructor:
             uv_rows.append(uv)
             xy_rows.append(undistort_points(self.rig.cameras[ci], uv))
             w_rows.append(np.where(ok, sc, 0.0))
+            size_rows.append(person_size_px(uv, ok))
             cam_rows.extend([ci] * len(v))
             keys.extend((v.camera, int(tid)) for tid in v.track_ids)
         if not keys:
@@ -93,6 +108,7 @@ class Reconstructor:
             return []
         cam_idx = np.asarray(cam_rows, dtype=np.int64)
         uv_all, xy_all, w_all = np.concatenate(uv_rows), np.concatenate(xy_rows), np.concatenate(w_rows)
+        size_all = np.concatenate(size_rows)
         prior = np.array([self.tracks.prior_user(k) for k in keys], dtype=np.int64)
         clusters = [c for c in associate(self.rig, cam_idx, xy_all, w_all, prior, self.config.association)
                     if len(c) >= 2]
@@ -104,11 +120,13 @@ class Reconstructor:
         uv = np.full((c_count, k_count * NUM_JOINTS, 2), np.nan)
         xy = np.full((c_count, k_count * NUM_JOINTS, 2), np.nan)
         w = np.zeros((c_count, k_count * NUM_JOINTS))
+        size = np.zeros((c_count, k_count * NUM_JOINTS))
         for k, members in enumerate(clusters):
             sl = slice(k * NUM_JOINTS, (k + 1) * NUM_JOINTS)
             for r in members:
                 uv[cam_idx[r], sl], xy[cam_idx[r], sl], w[cam_idx[r], sl] = uv_all[r], xy_all[r], w_all[r]
-        tri = triangulate(self.rig, uv, w, tp, normalized=xy)
+                size[cam_idx[r], sl] = size_all[r]
+        tri = triangulate(self.rig, uv, w, tp, normalized=xy, scale_px=size)
 
         kept: list[tuple[F64, NDArray[np.bool_], F64, tuple[tuple[str, int], ...]]] = []
         candidates: list[Candidate] = []

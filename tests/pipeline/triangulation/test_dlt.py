@@ -17,9 +17,7 @@ CAMS = corner_cameras()
 RIG = CameraRig.from_cameras(CAMS)
 
 points_in_cave = st.lists(
-    st.tuples(
-        st.floats(-1.0, 1.0), st.floats(-1.0, 1.0), st.floats(0.05, 2.0)
-    ),
+    st.tuples(st.floats(-1.0, 1.0), st.floats(-1.0, 1.0), st.floats(0.05, 2.0)),
     min_size=1,
     max_size=20,
 ).map(lambda pts: np.array(pts, dtype=np.float64))
@@ -153,3 +151,21 @@ def test_rig_rejects_duplicate_names() -> None:
 def test_bad_params_are_rejected(kwargs, match) -> None:
     with pytest.raises(ValueError, match=match):
         TriangulationParams(**kwargs)
+
+
+def test_the_outlier_floor_scales_with_the_person_size() -> None:
+    rng = np.random.default_rng(7)
+    x = skeleton_at(0.0, 0.0)
+    uv = _observe(x) + rng.normal(0, 1.0, (4, 17, 2))
+    uv[1, 13] += np.array([40.0, 0.0])  # 40 px off: gross for a 200 px person, noise for a 1000 px one
+    scores = np.full((4, 17), 0.9)
+    small = triangulate(
+        RIG, uv, scores, TriangulationParams(outlier_min_frac=0.1), scale_px=np.full((4, 17), 200.0)
+    )
+    large = triangulate(
+        RIG, uv, scores, TriangulationParams(outlier_min_frac=0.1), scale_px=np.full((4, 17), 1000.0)
+    )
+    assert not small.used[1, 13], "40 px is 20 % of a 200 px person: an outlier"
+    assert large.used[1, 13], "40 px is 4 % of a 1000 px person: kept"
+    with pytest.raises(InputError, match="scale_px"):
+        triangulate(RIG, uv, scores, scale_px=np.ones((4, 16)))
