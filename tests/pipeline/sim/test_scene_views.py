@@ -98,7 +98,7 @@ def test_perfect_views_are_exact_and_shaped_like_the_detector_output() -> None:
 
 def test_joints_outside_the_image_score_zero_with_xy_kept_in_the_image() -> None:
     cam = default_cameras(box_cave(), "depth")[0]  # above the front wall
-    person = _person(xy=(0.0, 1.1))  # right under the camera: the feet leave the image
+    person = _person(xy=(0.0, 0.85))  # close under the camera: the feet leave the image
     vis = visibility(cam, [person], 0)
     assert not vis.in_image.all() and vis.in_image.any()
     view = observe([cam], [person], 0, 0.0, np.random.default_rng(0), FaultConfig.perfect())[0]
@@ -114,7 +114,7 @@ def test_a_person_in_front_hides_the_one_behind_in_that_camera_only() -> None:
     cams = default_cameras(box_cave(), "kinect_color")
     front_cam, back_cam = cams[0], cams[2]  # above the front wall (+Y) and the back wall (-Y)
     navigator = _person((0.0, 0.0), yaw=0.0)
-    blocker = _person((0.0, 0.7), yaw=180.0, height=1.9)  # between the navigator and the front camera
+    blocker = _person((0.0, 0.55), yaw=180.0, height=1.9)  # between the navigator and the front camera
     hidden_front = visibility(front_cam, [navigator, blocker], 0).hidden
     hidden_back = visibility(back_cam, [navigator, blocker], 0).hidden
     assert hidden_front.sum() >= 8, f"only {hidden_front.sum()} joints hidden behind the blocker"
