@@ -95,7 +95,8 @@ def test_calibration_saved_and_loaded_is_the_same(
         assert a.rms_px == b.rms_px or (np.isnan(a.rms_px) and np.isnan(b.rms_px))
     save_pose2sim_toml(d / "c.toml", cams)
     for a, b in zip(cams, load_calibration(d / "c.toml"), strict=True):
-        assert a.name == b.name and np.allclose(a.R, b.R, atol=1e-9) and np.allclose(a.t, b.t)
+        # Rodrigues vectors (OpenCV) lose ~1e-7 near 180 degrees: far below any physical effect
+        assert a.name == b.name and np.allclose(a.R, b.R, atol=1e-5) and np.allclose(a.t, b.t)
         assert np.allclose(a.K, b.K) and np.allclose(a.dist[:4], b.dist[:4])
 
 
