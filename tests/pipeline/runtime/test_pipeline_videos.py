@@ -1,0 +1,128 @@
+"""The live pipeline on real video (the Pose2Sim demo, scaled down) with the real pose model."""
+
+from __future__ import annotations
+
+import shutil
+from dataclasses import replace
+from pathlib import Path
+
+import cv2
+import pytest
+
+from app.core.config import Settings
+from pipeline.demo_data import DemoData
+from pipeline.errors import InputError, SourceError
+from pipeline.runtime import Pipeline, PoseStageFactory, RuntimeConfig
+from pipeline.runtime.pipeline import fusion_factory_from_settings
+from pipeline.sources.grouper import GrouperConfig
+
+from .live import children_alive, shm_segments, wait_for
+
+pytestmark = pytest.mark.slow
+
+
+def video_pipeline(settings: Settings, pose_model_path: Path, cameras: dict[str, str] | None = None,
+                   **config: object) -> Pipeline:
+    base = RuntimeConfig(target_fps=15.0, video_pace_fps=15.0, video_loop=True, camera_retry_s=0.3,
+                         grouper=GrouperConfig(tolerance_s=0.03, max_wait_s=0.02, gone_after_s=0.6))
+    return Pipeline(replace(base, **config), None, camera_sources=cameras,  # type: ignore[arg-type]
+                    pose_factory=PoseStageFactory.from_settings(settings.pose, pose_model_path),
+                    fusion=fusion_factory_from_settings(settings, None))
+
+
+def test_videos_run_with_the_real_detector_and_stop_clean(
+        base_settings: Settings, pose_model_path: Path, small_videos: dict[str, Path]) -> None:
+    before = shm_segments()
+    pipeline = video_pipeline(base_settings, pose_model_path)
+    try:
+        pipeline.start("videos", {k: small_videos[k] for k in ("cam01", "cam02")})
+        assert len(shm_segments() - before) == 2, "one shared-memory ring per camera"
+        wait_for(lambda: pipeline.status().processed >= 5, 120, "5 processed multi-view frames")
+        st = pipeline.status()
+        assert st.state == "running" and st.source == "videos"
+        assert st.latency_ms["detect"]["p50"] > 0
+        latest = pipeline._run.latest  # type: ignore[union-attr]
+        assert latest is not None
+        people = [len(v) for v in latest.detected.views]
+        assert sum(people) >= 1, f"the demo's person is detected in the real frames, got {people}"
+        jpeg = pipeline.snapshot_jpeg("cam01")
+        assert jpeg is not None and jpeg[:2] == b"\xff\xd8"
+        pids = pipeline.worker_pids()
+        assert len(pids) == 4, "two capture workers, detect, fuse"
+    finally:
+        pipeline.close()
+    assert children_alive(pids) == []
+    assert shm_segments() == before, "every ring is unlinked at stop"
+
+
+def test_a_video_that_ends_and_a_camera_that_vanishes_do_not_stop_the_others(
+        base_settings: Settings, pose_model_path: Path, small_videos: dict[str, Path],
+        tmp_path: Path) -> None:
+    folder = tmp_path / "cam04"
+    folder.mkdir()
+    cap = cv2.VideoCapture(str(small_videos["cam01"]))
+    for i in range(60):
+        ok, img = cap.read()
+        assert ok
+        cv2.imwrite(str(folder / f"{i:03d}.png"), img)
+    cap.release()
+    cameras = {"cam01": str(small_videos["cam01"]), "cam03": str(small_videos["cam03"]), "cam04": str(folder)}
+    # played once at 10 fps: cam01 and cam04 last 6 s, cam03 (12 frames) ends after 1.2 s
+    pipeline = video_pipeline(base_settings, pose_model_path, cameras, video_loop=False, video_pace_fps=10.0)
+    try:
+        pipeline.start("cameras")
+        wait_for(lambda: any(c["name"] == "cam03" and c["last_error"] == "source ended"
+                             for c in pipeline.status().cameras), 60, "cam03 to end")
+        shutil.rmtree(folder)
+        wait_for(lambda: any(c["name"] == "cam04" and not c["ok"] for c in pipeline.status().cameras),
+                 30, "cam04 reported lost")
+        count = pipeline.status().processed
+        wait_for(lambda: pipeline.status().processed >= count + 3, 60, "cam01 frames processed meanwhile")
+        st = pipeline.status()
+        assert st.state == "running"
+        health = {c["name"]: c for c in st.cameras}
+        assert health["cam01"]["ok"], health
+        assert not health["cam03"]["ok"] and not health["cam04"]["ok"]
+        latest = pipeline._run.latest  # type: ignore[union-attr]
+        assert latest is not None and set(latest.detected.missing) >= {"cam03", "cam04"}
+        events = pipeline.drain_events()
+        assert any(e.kind == "camera" and "cam04" in e.message and "camera_lost" in e.message for e in events)
+        assert not any(e.kind == "worker" and "chain died" in e.message for e in events), "the chain goes on"
+    finally:
+        pipeline.close()
+
+
+def test_bad_videos_are_rejected_and_nothing_starts(
+        base_settings: Settings, pose_model_path: Path, small_videos: dict[str, Path],
+        tmp_path: Path) -> None:
+    before = shm_segments()
+    bad = tmp_path / "bad.mp4"
+    bad.write_bytes(b"not a video")
+    pipeline = video_pipeline(base_settings, pose_model_path)
+    try:
+        with pytest.raises(InputError, match="video not found"):
+            pipeline.start("videos", {"cam01": tmp_path / "missing.mp4"})
+        with pytest.raises(SourceError, match="cannot open video"):
+            pipeline.start("videos", {"cam01": small_videos["cam01"], "cam02": bad})
+        with pytest.raises(SourceError, match="no camera has a real source"):
+            pipeline.start("cameras")
+        assert pipeline.status().state == "stopped"
+        assert shm_segments() == before, "a rejected start leaves no ring behind"
+    finally:
+        pipeline.close()
+
+
+def test_calibration_that_does_not_match_the_videos(
+        base_settings: Settings, pose_model_path: Path, small_videos: dict[str, Path],
+        demo_data: DemoData) -> None:
+    from pipeline.calibration.io import load_calibration
+
+    cams = load_calibration(demo_data.calibration)
+    pipeline = Pipeline(RuntimeConfig(), cams,
+                        pose_factory=PoseStageFactory.from_settings(base_settings.pose, pose_model_path))
+    try:
+        with pytest.raises(InputError, match=r"cameras \['side'\] are not in the calibration"):
+            pipeline.start("videos", {"cam01": small_videos["cam01"], "side": small_videos["cam02"]})
+        assert pipeline.status().state == "stopped"
+    finally:
+        pipeline.close()
