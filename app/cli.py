@@ -38,6 +38,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "app.commands.serve",
     "app.commands.study",
     "app.commands.runtime",
+    "app.commands.simulate",
 )
 
 log = logging.getLogger(__name__)

@@ -156,10 +156,37 @@ class TrackingSettings(_Section):
 
 
 class SimSettings(_Section):
+    """The simulator (``cavewalk demo``, ``cavewalk simulate``): scene, people and camera faults."""
+
     camera_preset: Literal["kinect_color", "depth"] = "kinect_color"
-    fps: float = Field(30.0, gt=0)
+    fps: float = Field(30.0, gt=0, le=240)
     bystanders: int = Field(1, ge=0, le=8)
     seed: int = 0
+    script: Path | None = None  # the navigator's routine (JSON/TOML); None = random routines
+    navigator_height_m: float | None = Field(None, ge=1.0, le=2.3)  # None = random 1.50-1.95 m
+    pixel_noise_px: float = Field(2.5, ge=0)  # keypoint noise sigma for a person 600 px tall
+    person_miss_rate: float = Field(0.02, ge=0, le=1)
+    false_detection_rate: float = Field(0.01, ge=0)  # ghost detections per view and frame
+    timestamp_jitter_s: float = Field(0.002, ge=0)
+
+    def to_config(self, **overrides: Any) -> Any:
+        """The simulator's own frozen config (``pipeline.sim.world.SimConfig``)."""
+        from pipeline.sim.views import FaultConfig
+        from pipeline.sim.world import SimConfig
+
+        faults = FaultConfig(
+            pixel_noise_px=self.pixel_noise_px,
+            person_miss_rate=self.person_miss_rate,
+            false_detection_rate=self.false_detection_rate,
+            timestamp_jitter_s=self.timestamp_jitter_s,
+        )
+        fields: dict[str, Any] = {
+            "fps": self.fps, "bystanders": self.bystanders, "seed": self.seed,
+            "camera_preset": self.camera_preset, "navigator_height_m": self.navigator_height_m,
+            "faults": faults,
+        }
+        fields.update(overrides)
+        return SimConfig(**fields)
 
 
 class StudySettings(_Section):
@@ -181,6 +208,7 @@ class CalibrationSettings(_Section):
     min_markers: int = Field(6, ge=2)
     min_walls: int = Field(2, ge=1)
     ransac_px: float = Field(4.0, gt=0)
+    estimate_k3: bool = True  # third radial coefficient when >= 3 x min_markers markers are seen
     good_rms_px: float = Field(0.5, gt=0)
     fair_rms_px: float = Field(1.5, gt=0)
 

@@ -22,11 +22,15 @@ from pipeline.camera import Camera
 from pipeline.cave import CaveGeometry
 from pipeline.errors import InputError
 from pipeline.pose.types import ViewDetections
+from pipeline.recognition.types import ActionEstimate
+from pipeline.results import FrameResult
 from pipeline.sim.body import BodyParams, MotionStyle, body_from_height, sample_body, sample_style
 from pipeline.sim.motion import UserMotion, simulate_user, smoothstep, wrap_deg
 from pipeline.sim.scene import PRESETS, default_cameras
 from pipeline.sim.script import MotionScript, Segment, random_script
 from pipeline.sim.views import FaultConfig, observe_with_ids
+from pipeline.tracking.types import TrackedView
+from pipeline.triangulation.types import Person3D
 
 log = logging.getLogger(__name__)
 
@@ -47,6 +51,7 @@ class SimConfig:
     faults: what goes wrong in the cameras.
     navigator_height_m: None = a random height in 1.50-1.95 m.
     repeat_script: after the navigator's script ends, play it again (else random routines).
+    observe: run the virtual cameras (False: ground truth only, ``views`` stay empty; faster).
     """
 
     fps: float = 30.0
@@ -58,6 +63,7 @@ class SimConfig:
     faults: FaultConfig = field(default_factory=FaultConfig)
     navigator_height_m: float | None = None
     repeat_script: bool = False
+    observe: bool = True
 
     def __post_init__(self) -> None:
         if not math.isfinite(self.fps) or not 1.0 <= self.fps <= 240.0:
@@ -98,6 +104,21 @@ class SimFrame:
     @property
     def navigator_joints(self) -> F64:
         return self.truth[0][1]
+
+    def to_result(self) -> FrameResult:
+        """This frame as a per-frame result of the pipeline, from the ground truth: the views
+        tracked with the true person index as track id (0 = the navigator; false detections
+        stay untracked), the true 3D people (user_id = person index) and the navigator's action."""
+        views = []
+        for view, ids in zip(self.views, self.view_people, strict=True):
+            keep = np.flatnonzero(ids >= 0)
+            views.append(TrackedView(view, ids[keep], keep))
+        people = tuple(
+            Person3D(i, joints, np.ones(len(joints), dtype=bool), 0.0)
+            for i, (_, joints) in enumerate(self.truth)
+        )
+        action = ActionEstimate(self.label, {self.label: 1.0}, self.yaw_deg, self.speed_mps)
+        return FrameResult(self.frame_index, self.timestamp_s, tuple(views), people, 0, action)
 
 
 class _Actor:
@@ -314,7 +335,11 @@ class SimWorld:
         ts = i / self.config.fps if timestamp_s is None else float(timestamp_s)
         states = [a.step() for a in self.actors]
         joints = [s[0] for s in states]
-        observed = observe_with_ids(self.cameras, joints, i, ts, self._rng_views, self.config.faults)
+        observed = (
+            observe_with_ids(self.cameras, joints, i, ts, self._rng_views, self.config.faults)
+            if self.config.observe
+            else []
+        )
         _, label, yaw, speed = states[0]
         self.frame_index += 1
         return SimFrame(
