@@ -36,6 +36,8 @@ class CalibrationConfig:
     min_markers: fewest markers a camera must see to be solved.
     min_walls: fewest distinct walls a camera must see (2: non-coplanar corners).
     ransac_px: RANSAC inlier threshold on corner reprojection, pixels.
+    estimate_k3: also solve the third radial coefficient (wide lenses) when the camera sees at least
+        3 x min_markers markers; otherwise k3 stays 0.
     good_rms_px / fair_rms_px: RMS thresholds of the ``good`` and ``fair`` verdicts.
     """
 
@@ -48,6 +50,7 @@ class CalibrationConfig:
     min_markers: int = 6
     min_walls: int = 2
     ransac_px: float = 4.0
+    estimate_k3: bool = True
     good_rms_px: float = 0.5
     fair_rms_px: float = 1.5
 

@@ -267,14 +267,10 @@ def _verdict(rms: float, coverage: float, config: CalibrationConfig) -> Verdict:
 
 
 def _refine(
-    obj: F64,
-    img: F64,
-    K0: F64,
-    image_size: tuple[int, int],
-    rvec: F64,
-    tvec: F64,
+    obj: F64, img: F64, K0: F64, image_size: tuple[int, int], rvec: F64, tvec: F64, k3: bool
 ) -> tuple[F64, F64, F64, F64]:
-    flags = cv2.CALIB_USE_INTRINSIC_GUESS | cv2.CALIB_FIX_K3 | cv2.CALIB_USE_EXTRINSIC_GUESS
+    """Joint Levenberg-Marquardt refinement of intrinsics, distortion and pose (one pooled view)."""
+    flags = cv2.CALIB_USE_INTRINSIC_GUESS | cv2.CALIB_USE_EXTRINSIC_GUESS | (0 if k3 else cv2.CALIB_FIX_K3)
     criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-12)
     _, K, dist, rvecs, tvecs = cv2.calibrateCamera(
         [obj.astype(np.float32)],
@@ -349,7 +345,8 @@ def calibrate_camera(
     inliers[np.asarray(inl).ravel()] = True
     rvec, tvec = cv2.solvePnPRefineLM(obj[inliers], img[inliers], K0, None, rvec, tvec)
 
-    K, dist, rvec, tvec = _refine(obj[inliers], img[inliers], K0, image_size, rvec, tvec)
+    k3 = cfg.estimate_k3 and len(set(ids.tolist())) >= 3 * cfg.min_markers
+    K, dist, rvec, tvec = _refine(obj[inliers], img[inliers], K0, image_size, rvec, tvec, k3)
     for _ in range(3):
         cam = Camera(name, image_size, K, dist, cv2.Rodrigues(rvec)[0], tvec)
         err = np.linalg.norm(project(cam, obj) - img, axis=1)
@@ -361,7 +358,7 @@ def calibrate_camera(
         message = _need_message(name, len(set(ids[inliers].tolist())), used_walls, cfg, "keeps only")
         if message:
             raise CalibrationError(message + " after rejecting outlier corners")
-        K, dist, rvec, tvec = _refine(obj[inliers], img[inliers], K, image_size, rvec, tvec)
+        K, dist, rvec, tvec = _refine(obj[inliers], img[inliers], K, image_size, rvec, tvec, k3)
 
     cam = Camera(name, image_size, K, dist, cv2.Rodrigues(rvec)[0], tvec)
     err = np.linalg.norm(project(cam, obj[inliers]) - img[inliers], axis=1)

@@ -20,7 +20,7 @@ from pipeline.calibration.pnp import detect_markers
 from pipeline.cave import box_cave
 from pipeline.demo_data import DemoData
 from pipeline.errors import CalibrationError, InputError
-from tests.pipeline.calibration.synthetic import corner_cameras, render_view
+from tests.pipeline.calibration.synthetic import render, small_cameras
 
 runner = CliRunner()
 
@@ -38,9 +38,9 @@ def wall_views(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     layout = make_layout(cave)
     folder = tmp_path_factory.mktemp("views")
     out = {}
-    for cam in corner_cameras(cave, image_size=(1280, 720))[:2]:
+    for cam in small_cameras(cave, 2):
         path = folder / f"{cam.name}.png"
-        cv2.imwrite(str(path), render_view(cam, cave, layout, np.random.default_rng(1), supersample=1))
+        cv2.imwrite(str(path), render(cam, cave, layout, seed=1))
         out[cam.name] = path
     return out
 
