@@ -28,6 +28,16 @@ log = logging.getLogger(__name__)
 U8 = NDArray[np.uint8]
 
 
+# FFmpeg "decodes" a text file as a picture of its characters (the tty demuxer)
+NOT_VIDEO_CODECS = frozenset({"ansi"})
+
+
+def codec_name(cap: cv2.VideoCapture) -> str:
+    """The stream's FourCC as text ('h264', 'mjpg', ...), '' when unknown."""
+    code = int(cap.get(cv2.CAP_PROP_FOURCC)) & 0xFFFFFFFF
+    return code.to_bytes(4, "little").decode("ascii", errors="replace").strip("\x00 ").lower()
+
+
 class FrameStage(Protocol):
     """A later stage: completes a frame's result (people3d, navigator, action)."""
 
@@ -74,7 +84,7 @@ class SyncedVideos:
                     raise InputError(f"camera {cam}: video file not found: {path}")
                 cap = cv2.VideoCapture(str(path))
                 ok, frame = cap.read() if cap.isOpened() else (False, None)
-                if not ok or frame is None:
+                if not ok or frame is None or codec_name(cap) in NOT_VIDEO_CODECS:
                     cap.release()
                     raise SourceError(
                         f"camera {cam}: cannot decode video {path} (not a video OpenCV can read)")

@@ -1,0 +1,154 @@
+"""Benchmark and quality figures of detection + tracking over synchronised videos.
+
+:func:`run_detect_benchmark` times :class:`DetectAndTrack` frame by frame (video decoding
+excluded) and reports the median per multi-view frame with its split into
+pre-processing, inference, decoding and tracking, plus figures on identity: which track
+id the main subject (the largest person of a view) had in each frame, the ids of the
+others, and how often the subject's keypoints were found. ``scripts/bench_detect.py``
+and ``cavewalk bench --stage detect`` call it.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections import Counter
+from collections.abc import Callable, Mapping
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from pipeline.runtime.offline import SyncedVideos
+from pipeline.tracking.stage import DetectAndTrack, StepTimings
+from pipeline.tracking.types import TrackedView
+
+log = logging.getLogger(__name__)
+
+MIN_KEYPOINTS = 12  # a subject "has keypoints" in a view-frame with this many ...
+KEYPOINT_SCORE = 0.5  # ... keypoints scored at least this
+
+
+@dataclass(frozen=True, slots=True)
+class ViewFigures:
+    """Identity figures of one camera over a run.
+
+    subject_ids: track id -> frames in which the view's largest person had that id
+        (0 = the largest person was not reported by the tracker).
+    other_ids: track id -> frames, for everyone else.
+    keypoint_frames: frames in which the subject had >= MIN_KEYPOINTS keypoints scored >= KEYPOINT_SCORE.
+    """
+
+    camera: str
+    frames: int
+    subject_ids: dict[int, int]
+    other_ids: dict[int, int]
+    keypoint_frames: int
+
+
+@dataclass(frozen=True, slots=True)
+class DetectBenchResult:
+    """One run (full-frame or ROI mode); times in milliseconds per multi-view frame."""
+
+    mode: str
+    frames: int
+    views: int
+    median_ms: float
+    p90_ms: float
+    preprocess_ms: float
+    inference_ms: float
+    decode_ms: float
+    tracking_ms: float
+    full_frames: int
+    figures: tuple[ViewFigures, ...]
+
+    @property
+    def keypoint_coverage(self) -> float:
+        total = sum(f.frames for f in self.figures)
+        return sum(f.keypoint_frames for f in self.figures) / total if total else float("nan")
+
+    def to_dict(self) -> dict[str, Any]:
+        d = asdict(self)
+        d["keypoint_coverage"] = self.keypoint_coverage
+        return d
+
+
+def view_figures(camera: str, views: list[TrackedView]) -> ViewFigures:
+    """Identity figures of one camera from its per-frame tracked views."""
+    subject: Counter[int] = Counter()
+    others: Counter[int] = Counter()
+    kp_frames = 0
+    for v in views:
+        det = v.detections
+        if len(det) == 0:
+            subject[0] += 1
+            continue
+        b = det.boxes_xyxy
+        largest = int(np.argmax((b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1])))
+        rows = v.detection_index.tolist()
+        ids = v.track_ids.tolist()
+        tid = ids[rows.index(largest)] if largest in rows else 0
+        subject[tid] += 1
+        others.update(t for t, r in zip(ids, rows, strict=True) if r != largest)
+        if tid and int((det.keypoint_scores[largest] >= KEYPOINT_SCORE).sum()) >= MIN_KEYPOINTS:
+            kp_frames += 1
+    return ViewFigures(camera, len(views), dict(subject), dict(others), kp_frames)
+
+
+def summarise(
+    mode: str, timings: list[StepTimings], per_camera: Mapping[str, list[TrackedView]]
+) -> DetectBenchResult:
+    tot = np.array([t.total_s for t in timings]) * 1e3
+
+    def med(name: str) -> float:
+        return float(np.median([getattr(t, name) for t in timings]) * 1e3)
+
+    return DetectBenchResult(
+        mode=mode, frames=len(timings), views=len(per_camera),
+        median_ms=float(np.median(tot)), p90_ms=float(np.percentile(tot, 90)),
+        preprocess_ms=med("preprocess_s"), inference_ms=med("inference_s"), decode_ms=med("decode_s"),
+        tracking_ms=med("tracking_s"), full_frames=sum(t.full for t in timings),
+        figures=tuple(view_figures(c, v) for c, v in per_camera.items()),
+    )
+
+
+def run_detect_benchmark(
+    videos: Mapping[str, Path],
+    make_stage: Callable[[list[str]], DetectAndTrack],
+    mode: str,
+    frames: int | None = None,
+    progress: Callable[[int], None] | None = None,
+) -> DetectBenchResult:
+    """Run detection + tracking over the videos; ``make_stage(cameras)`` builds a fresh stage."""
+    per_camera: dict[str, list[TrackedView]] = {}
+    timings: list[StepTimings] = []
+    with SyncedVideos(videos) as synced:
+        cams = list(synced.cameras)
+        stage = make_stage(cams)
+        per_camera = {c: [] for c in cams}
+        fps = synced.fps
+        for k, images in enumerate(synced):
+            if frames is not None and k >= frames:
+                break
+            tracked, t = stage.step(images, k, k / fps)
+            timings.append(t)
+            for v in tracked:
+                per_camera[v.camera].append(v)
+            if progress is not None:
+                progress(k + 1)
+    return summarise(mode, timings, per_camera)
+
+
+def format_results(results: list[DetectBenchResult]) -> str:
+    """A side-by-side table of the runs and their identity figures."""
+    lines = [f"{'mode':<10}{'frames':>7}{'median ms':>11}{'p90 ms':>9}{'pre':>8}{'infer':>8}{'decode':>8}"
+             f"{'track':>8}{'full':>6}{'kp cover':>10}"]
+    for r in results:
+        lines.append(f"{r.mode:<10}{r.frames:>7}{r.median_ms:>11.1f}{r.p90_ms:>9.1f}{r.preprocess_ms:>8.1f}"
+                     f"{r.inference_ms:>8.1f}{r.decode_ms:>8.1f}{r.tracking_ms:>8.2f}{r.full_frames:>6}"
+                     f"{100 * r.keypoint_coverage:>9.1f}%")
+    for r in results:
+        for f in r.figures:
+            lines.append(f"  {r.mode:<8} {f.camera}: subject ids {f.subject_ids}, others {f.other_ids}, "
+                         f"keypoints in {f.keypoint_frames}/{f.frames}")
+    return "\n".join(lines)

@@ -1,0 +1,94 @@
+"""The ROI scheduler: when it crops, where, and when it falls back to the full frame."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from pipeline.pose.roi import RoiConfig, RoiScheduler, crop_region
+
+SIZES = [(1080, 1920), (1080, 1920)]
+
+
+def person(cx: float = 540, cy: float = 900, w: float = 300, h: float = 800) -> np.ndarray:
+    return np.array([cx - w / 2, cy - h / 2, cx + w / 2, cy + h / 2])
+
+
+def test_first_frame_is_full_then_crops_per_track() -> None:
+    sched = RoiScheduler(RoiConfig())
+    plan = sched.plan(SIZES, [{}, {}])
+    assert plan.full and plan.reason == "first frame" and plan.net_size is None
+    assert plan.jobs == ((0, None), (1, None))
+    sched.report(full=True, lost_track=False)
+    plan = sched.plan(SIZES, [{1: person(), 2: person(200, 900, 150, 500)}, {1: person()}])
+    assert not plan.full
+    assert [i for i, _ in plan.jobs] == [0, 0, 1], "one crop per tracked person, all views in one batch"
+    assert plan.net_size is not None and plan.net_size[1] == 320
+    for _, region in plan.jobs:
+        assert region is not None
+        x1, y1, x2, y2 = region
+        assert (x2 - x1) / (y2 - y1) == pytest.approx(plan.net_size[0] / plan.net_size[1]), "no padding waste"
+
+
+def test_a_view_without_tracks_is_looked_at_whole() -> None:
+    sched = RoiScheduler(RoiConfig())
+    sched.report(full=True, lost_track=False)
+    plan = sched.plan(SIZES, [{1: person()}, {}])
+    assert not plan.full and plan.jobs[1] == (1, None)
+
+
+@pytest.mark.parametrize(
+    ("config", "lost", "frames_since_full", "reason"),
+    [
+        (RoiConfig(enabled=False), False, 1, "roi off"),
+        (RoiConfig(full_every=5), False, 5, "periodic"),  # frames 0 and 5 full, 1-4 crops
+        (RoiConfig(full_every=5), True, 1, "track lost"),
+        (RoiConfig(max_crops=1), False, 1, "too many crops"),
+    ],
+)
+def test_falls_back_to_the_full_frame(
+    config: RoiConfig, lost: bool, frames_since_full: int, reason: str
+) -> None:
+    sched = RoiScheduler(config)
+    for k in range(frames_since_full):
+        sched.report(full=k == 0, lost_track=lost and k == frames_since_full - 1)
+    plan = sched.plan(SIZES, [{1: person()}, {1: person()}])
+    assert plan.full and plan.reason == reason
+
+
+def test_nobody_tracked_means_full_frames() -> None:
+    sched = RoiScheduler(RoiConfig())
+    sched.report(full=True, lost_track=False)
+    assert sched.plan(SIZES, [{}, {}]).reason == "nobody tracked"
+
+
+def test_crop_region_contains_the_box_with_margin_and_stays_in_the_image() -> None:
+    cfg = RoiConfig(margin=0.1)
+    b = person(100, 500, 200, 600)  # near the left edge
+    net = cfg.net_size([b])
+    x1, y1, x2, y2 = crop_region(b, cfg, (1080, 1920), net)
+    assert x1 >= 0 and y1 >= 0 and x2 <= 1080 and y2 <= 1920, "shifted into the image"
+    assert x1 <= b[0] and y1 <= b[1] - 60 + 1e-6 and x2 >= b[2] and y2 >= b[3] + 60 - 1e-6
+    huge = crop_region(person(540, 960, 1080, 1920), cfg, (1080, 1920), net)
+    assert (huge[0] + huge[2]) / 2 == pytest.approx(540) and (huge[1] + huge[3]) / 2 == pytest.approx(960)
+
+
+def test_net_size_widens_for_wide_people_within_bounds() -> None:
+    cfg = RoiConfig()
+    narrow = cfg.net_size([person(w=200, h=800)])
+    wide = cfg.net_size([person(w=700, h=800)])
+    assert narrow == (128, 320), "a 200x800 box plus margins (0.375) is held at min_aspect 0.4"
+    assert wide[0] > narrow[0] and wide[1] == 320
+    assert cfg.net_size([person(w=3000, h=500)]) == (320, 320), "capped at max_aspect"
+
+
+@pytest.mark.parametrize(
+    ("changes", "match"),
+    [({"long_side": 100}, "multiple of 32"), ({"margin": -1}, "margin"), ({"full_every": 0}, "full_every"),
+     ({"min_aspect": 2.0}, "min_aspect")],
+)
+def test_config_rejects_bad_values(changes: dict[str, float], match: str) -> None:
+    with pytest.raises(ValueError, match=match):
+        replace(RoiConfig(), **changes)  # type: ignore[arg-type]

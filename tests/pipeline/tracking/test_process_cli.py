@@ -1,0 +1,109 @@
+"""``cavewalk process`` end to end on the real demo, and its bad-input cases (exit 2, one message,
+no output file touched). Runs the real entry point ``app.cli.main`` in this process."""
+
+from __future__ import annotations
+
+import json
+import logging
+import sys
+from pathlib import Path
+
+import pytest
+
+from app.cli import main
+from app.core.config import Settings
+from pipeline.demo_data import DemoData
+
+
+def cavewalk(args: list[str], monkeypatch: pytest.MonkeyPatch) -> int:
+    """Run the CLI entry point; its log handler lives on this test's stderr only."""
+    root = logging.getLogger()
+
+    def drop_handlers() -> None:
+        for h in [h for h in root.handlers if getattr(h, "_cavewalk", False)]:
+            root.removeHandler(h)
+
+    drop_handlers()
+    monkeypatch.setattr(sys, "argv", ["cavewalk", *args])
+    try:
+        main()
+    except SystemExit as exc:
+        return int(exc.code or 0)
+    finally:
+        drop_handlers()
+    return 0
+
+
+def video_args(demo: DemoData) -> list[str]:
+    return [a for cam, path in demo.videos.items() for a in ("--video", f"{cam}={path}")]
+
+
+@pytest.mark.slow
+def test_process_writes_views_for_every_frame(
+    demo_data: DemoData, pose_model_path: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    out = tmp_path / "r.jsonl"
+    monkeypatch.setenv("CAVEWALK_POSE__MODEL", str(pose_model_path))
+    rc = cavewalk(["process", *video_args(demo_data), "--calibration", str(demo_data.calibration),
+                   "--out", str(out), "--frames", "12", "--roi"], monkeypatch)
+    captured = capsys.readouterr()
+    assert rc == 0, captured.err
+    assert "frame 12/12" in captured.err, "progress on the terminal"
+    lines = [json.loads(line) for line in out.read_text().splitlines()]
+    assert [rec["frame"] for rec in lines] == list(range(12))
+    assert lines[1]["t"] == pytest.approx(1 / 60, abs=1e-6), "timestamps from the videos' 60 fps"
+    for rec in lines:
+        assert set(rec) == {"frame", "t", "views", "people3d", "navigator", "action"}
+        assert [v["camera"] for v in rec["views"]] == list(demo_data.videos)
+        for view in rec["views"]:
+            assert view["people"], f"frame {rec['frame']} {view['camera']}: the subject is tracked"
+            p = view["people"][0]
+            assert len(p["bbox"]) == 4 and len(p["keypoints"]) == 17 and len(p["keypoints"][0]) == 3
+    ids = {(v["camera"], p["track_id"]) for rec in lines for v in rec["views"] for p in v["people"]}
+    assert {cam for cam, _ in ids} == set(demo_data.videos)
+    assert not out.with_name(out.name + ".partial").exists()
+
+
+@pytest.mark.parametrize(
+    ("make_args", "message"),
+    [
+        (lambda d, t: ["--video", "cam01", "--calibration", str(d.calibration)], "expected NAME=PATH"),
+        (lambda d, t: ["--video", f"cam01={t / 'missing.mp4'}", "--calibration", str(d.calibration)],
+         "video file not found"),
+        (lambda d, t: ["--video", f"cam01={d.calibration}", "--calibration", str(d.calibration)],
+         "cannot decode video"),
+        (lambda d, t: ["--video", f"cam07={d.videos['cam01']}", "--calibration", str(d.calibration)],
+         "must match the calibration"),
+        (lambda d, t: ["--video", f"cam01={d.videos['cam01']}", "--calibration", str(t / "none.json")],
+         "calibration file not found"),
+        (lambda d, t: ["--video", f"cam01={d.videos['cam01']}", "--video", f"cam01={d.videos['cam02']}",
+                       "--calibration", str(d.calibration)], "given twice"),
+    ],
+)
+def test_bad_input_is_one_message_and_exit_2(
+    make_args: object, message: str, demo_data: DemoData, tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str],
+) -> None:
+    out = tmp_path / "r.jsonl"
+    out.write_text("previous results\n")
+    args = make_args(demo_data, tmp_path)  # type: ignore[operator]
+    rc = cavewalk(["process", *args, "--out", str(out)], monkeypatch)
+    err = capsys.readouterr().err
+    assert rc == 2
+    assert "error:" in err and message in err, err
+    assert "Traceback" not in err
+    assert out.read_text() == "previous results\n", "rejected input leaves the output file unchanged"
+
+
+def test_missing_model_is_a_clear_error(
+    demo_data: DemoData, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str], isolated_settings: Settings,
+) -> None:
+    monkeypatch.setenv("CAVEWALK_POSE__MODEL", str(tmp_path / "absent.onnx"))
+    out = tmp_path / "r.jsonl"
+    rc = cavewalk(["process", *video_args(demo_data), "--calibration", str(demo_data.calibration),
+                   "--out", str(out)], monkeypatch)
+    err = capsys.readouterr().err
+    assert rc == 2 and "cavewalk models prepare" in err, err
+    assert not out.exists()
