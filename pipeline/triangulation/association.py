@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.errors import InputError
-from pipeline.skeleton import NUM_JOINTS
+from pipeline.skeleton import FLIP_PAIRS, NUM_JOINTS
 from pipeline.triangulation.config import AssociationParams
 from pipeline.triangulation.dlt import CameraRig
 
@@ -23,6 +23,11 @@ log = logging.getLogger(__name__)
 
 F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
+
+
+FLIP_PERM = np.arange(NUM_JOINTS)
+for _a, _b in FLIP_PAIRS:
+    FLIP_PERM[_a], FLIP_PERM[_b] = _b, _a
 
 
 def _skew(v: F64) -> F64:
@@ -72,16 +77,27 @@ def epipolar_distances(
     xh = np.concatenate([np.nan_to_num(xy), np.ones((m, NUM_JOINTS, 1))], axis=2)  # (M, 17, 3)
     e_pair = e[camera_index[None, :], camera_index[:, None]]  # [i, j] = E[cam_j, cam_i]: line in j
     lines = np.einsum("ijab,ikb->ijka", e_pair, xh)  # (M, M, 17, 3): line in view of j of i's joints
-    num = np.abs(np.einsum("ijka,jka->ijk", lines, xh))
     norm = np.sqrt(lines[..., 0] ** 2 + lines[..., 1] ** 2)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        d_in_j = num / norm * rig.focal_px[camera_index][None, :, None]  # distance in j's image
-    d = 0.5 * (d_in_j + d_in_j.transpose(1, 0, 2))
-    both = (weights[:, None, :] > 0) & (weights[None, :, :] > 0) & np.isfinite(d)
-    count = both.sum(axis=2)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        mean = np.where(both, d, 0.0).sum(axis=2) / count
-    out: F64 = np.where(count >= min_common_joints, mean, np.inf)
+    focal_j = rig.focal_px[camera_index][None, :, None]
+    out = np.full((m, m), np.inf)
+    # Compare j's joints as they are and with left and right swapped (a view with a left/right swap
+    # still belongs to its person; the reconstructor unswaps it), keep the better.
+    for perm in (np.arange(NUM_JOINTS), FLIP_PERM):
+        xh_j, w_j = xh[:, perm], weights[:, perm]
+        num = np.abs(np.einsum("ijka,jka->ijk", lines, xh_j))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            d_in_j = num / norm * focal_j  # distance in j's image of j's joint k to i's epipolar line
+            # ... and in i's image: E[cam_i, cam_j] applied to j's joint, against i's joint.
+            lines_i = np.einsum("jiab,jkb->ijka", e_pair, xh_j)  # e_pair[j, i] = E[cam_i, cam_j]
+            num_i = np.abs(np.einsum("ijka,ika->ijk", lines_i, xh))
+            d_in_i = num_i / np.sqrt(lines_i[..., 0] ** 2 + lines_i[..., 1] ** 2) \
+                * rig.focal_px[camera_index][:, None, None]
+        d = 0.5 * (d_in_j + d_in_i)
+        both = (weights[:, None, :] > 0) & (w_j[None, :, :] > 0) & np.isfinite(d)
+        count = both.sum(axis=2)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            mean = np.where(both, d, 0.0).sum(axis=2) / count
+        out = np.minimum(out, np.where(count >= min_common_joints, mean, np.inf))
     out[camera_index[:, None] == camera_index[None, :]] = np.inf
     return out
 

@@ -18,11 +18,11 @@ from numpy.typing import NDArray
 
 from pipeline.camera import Camera, undistort_points
 from pipeline.errors import InputError
-from pipeline.skeleton import NUM_JOINTS
+from pipeline.skeleton import FLIP_PAIRS, NUM_JOINTS
 from pipeline.tracking.types import TrackedView
-from pipeline.triangulation.association import associate
+from pipeline.triangulation.association import FLIP_PERM, associate
 from pipeline.triangulation.config import ReconstructionConfig
-from pipeline.triangulation.dlt import CameraRig, triangulate
+from pipeline.triangulation.dlt import CameraRig, triangulate, triangulate_linear
 from pipeline.triangulation.tracks3d import Candidate, Tracks3D
 from pipeline.triangulation.types import Person3D
 
@@ -42,6 +42,32 @@ def person_size_px(keypoints_xy: F64, confident: NDArray[np.bool_]) -> F64:
         p = pts[enough]
         extent = np.nanmax(p, axis=1) - np.nanmin(p, axis=1)
         out[enough] = extent.max(axis=1)
+    return out
+
+
+_PAIRED = np.array(sorted({j for pair in FLIP_PAIRS for j in pair}))
+
+
+def flipped_views(projected_px: F64, keypoints_px: F64, weights: F64, size_px: F64,
+                  ratio: float = 0.6, min_frac: float = 0.03) -> NDArray[np.bool_]:
+    """(R,) True for views whose 2D skeleton has left and right swapped.
+
+    projected_px: (R, 17, 2) the 3D person projected into each view; keypoints_px, weights: that
+    view's (R, 17, 2) keypoints and (R, 17) weights (0 = unseen); size_px: (R,) person size.
+    A view is flipped when its left/right joints, swapped, fit the projection better by ``ratio``
+    and the unswapped misfit is large (``min_frac`` x size: a person seen from the side, whose left
+    and right project close together, is never flipped). Pooled over all paired joints, so a
+    single noisy joint cannot flip a view.
+    """
+    ok_proj = np.all(np.isfinite(projected_px), axis=2)
+    sw_uv, sw_w = keypoints_px[:, FLIP_PERM], weights[:, FLIP_PERM]
+    mask = (weights > 0) & (sw_w > 0) & ok_proj
+    mask[:, np.setdiff1d(np.arange(NUM_JOINTS), _PAIRED)] = False
+    n = mask.sum(axis=1)
+    e_keep = np.where(mask, np.linalg.norm(keypoints_px - projected_px, axis=2), 0.0).sum(axis=1)
+    e_swap = np.where(mask, np.linalg.norm(sw_uv - projected_px, axis=2), 0.0).sum(axis=1)
+    e_keep, e_swap = e_keep / np.maximum(n, 1), e_swap / np.maximum(n, 1)
+    out: NDArray[np.bool_] = (n >= 4) & (e_swap < ratio * e_keep) & (e_keep > min_frac * size_px)
     return out
 
 
@@ -75,6 +101,43 @@ class Reconstructor:
             if v.camera in seen:
                 raise InputError(f"two views from camera {v.camera!r} in one frame")
             seen.add(v.camera)
+
+    def _stack(self, clusters: list[list[int]], cam_idx: NDArray[np.int64], uv_all: F64, xy_all: F64,
+               w_all: F64, size_all: F64) -> tuple[F64, F64, F64, F64]:
+        """(C, K*17, ...) arrays of all clusters: cluster k's joints are columns k*17 .. k*17+16."""
+        c_count, k_count = len(self.rig), len(clusters)
+        uv = np.full((c_count, k_count * NUM_JOINTS, 2), np.nan)
+        xy = np.full((c_count, k_count * NUM_JOINTS, 2), np.nan)
+        w = np.zeros((c_count, k_count * NUM_JOINTS))
+        size = np.zeros((c_count, k_count * NUM_JOINTS))
+        for k, members in enumerate(clusters):
+            sl = slice(k * NUM_JOINTS, (k + 1) * NUM_JOINTS)
+            for r in members:
+                uv[cam_idx[r], sl], xy[cam_idx[r], sl], w[cam_idx[r], sl] = uv_all[r], xy_all[r], w_all[r]
+                size[cam_idx[r], sl] = size_all[r]
+        return uv, xy, w, size
+
+    def _flipped_rows(self, clusters: list[list[int]], cam_idx: NDArray[np.int64], xy: F64, w: F64,
+                      uv_all: F64, w_all: F64, size_all: F64) -> list[int]:
+        """Rows (views of people seen by at least three cameras) whose left and right are swapped.
+
+        Each view is judged against the person triangulated from the *other* views (one batched
+        linear triangulation), so a swapped view cannot bend the reference it is compared with.
+        """
+        rows = [(k, r) for k, members in enumerate(clusters) if len(members) >= 3 for r in members]
+        if not rows:
+            return []
+        cols = np.concatenate([np.arange(k * NUM_JOINTS, (k + 1) * NUM_JOINTS) for k, _ in rows])
+        w_others = w[:, cols].copy()
+        for i, (_, r) in enumerate(rows):
+            w_others[cam_idx[r], i * NUM_JOINTS:(i + 1) * NUM_JOINTS] = 0.0
+        pts = triangulate_linear(self.rig.Rt, xy[:, cols], w_others, self.rig.quad)
+        proj_all = self.rig.project(pts)  # (C, R*17, 2)
+        idx = [r for _, r in rows]
+        proj = np.stack([proj_all[cam_idx[r], i * NUM_JOINTS:(i + 1) * NUM_JOINTS]
+                         for i, r in enumerate(idx)])
+        flip = flipped_views(proj, uv_all[idx], w_all[idx], size_all[idx])
+        return [r for r, f in zip(idx, flip, strict=True) if f]
 
     def update(self, views: Sequence[TrackedView], timestamp_s: float) -> list[Person3D]:
         """One multi-view frame -> the 3D people seen by at least two cameras, sorted by user id.
@@ -116,16 +179,15 @@ class Reconstructor:
             self.tracks.assign([], t)
             return []
 
-        c_count, k_count = len(self.rig), len(clusters)
-        uv = np.full((c_count, k_count * NUM_JOINTS, 2), np.nan)
-        xy = np.full((c_count, k_count * NUM_JOINTS, 2), np.nan)
-        w = np.zeros((c_count, k_count * NUM_JOINTS))
-        size = np.zeros((c_count, k_count * NUM_JOINTS))
-        for k, members in enumerate(clusters):
-            sl = slice(k * NUM_JOINTS, (k + 1) * NUM_JOINTS)
-            for r in members:
-                uv[cam_idx[r], sl], xy[cam_idx[r], sl], w[cam_idx[r], sl] = uv_all[r], xy_all[r], w_all[r]
-                size[cam_idx[r], sl] = size_all[r]
+        uv, xy, w, size = self._stack(clusters, cam_idx, uv_all, xy_all, w_all, size_all)
+        flips = self._flipped_rows(clusters, cam_idx, xy, w, uv_all, w_all, size_all)
+        if flips:
+            for r in flips:
+                log.debug("view %s#%d has left and right swapped; unswapped", keys[r][0], keys[r][1])
+                uv_all[r] = uv_all[r][FLIP_PERM]
+                xy_all[r] = xy_all[r][FLIP_PERM]
+                w_all[r] = w_all[r][FLIP_PERM]
+            uv, xy, w, size = self._stack(clusters, cam_idx, uv_all, xy_all, w_all, size_all)
         tri = triangulate(self.rig, uv, w, tp, normalized=xy, scale_px=size)
 
         kept: list[tuple[F64, NDArray[np.bool_], F64, tuple[tuple[str, int], ...]]] = []

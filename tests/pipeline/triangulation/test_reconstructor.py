@@ -8,9 +8,12 @@ import numpy as np
 import pytest
 
 from app.core.config import load_settings
+from pipeline.camera import project
 from pipeline.errors import InputError
+from pipeline.pose.types import ViewDetections
+from pipeline.tracking.types import TrackedView
 from pipeline.triangulation.config import ReconstructionConfig, Tracks3DParams
-from pipeline.triangulation.reconstructor import Reconstructor
+from pipeline.triangulation.reconstructor import FLIP_PERM, Reconstructor, flipped_views
 from tests.pipeline.triangulation.scene import corner_cameras, observe, skeleton_at
 
 CAMS = corner_cameras()
@@ -142,9 +145,6 @@ def test_bad_views_are_rejected_and_state_is_unchanged(mutate, match) -> None:
 
 
 def _rename(view, name):
-    from pipeline.pose.types import ViewDetections
-    from pipeline.tracking.types import TrackedView
-
     d = view.detections
     det = ViewDetections(name, d.frame_index, d.timestamp_s, d.image_size, d.boxes_xyxy, d.box_scores,
                          d.keypoints_xy, d.keypoint_scores)
@@ -158,3 +158,21 @@ def test_config_comes_from_the_settings() -> None:
     assert cfg.tracks.smoothing == "none" and cfg.association.memory_s == 9.0
     with pytest.raises(ValueError, match="unknown triangulation settings: bogus"):
         ReconstructionConfig.from_flat({"bogus": 1})
+
+
+@pytest.mark.parametrize("flipped_camera", [0, 2])
+def test_a_view_with_left_and_right_swapped_is_unswapped(flipped_camera: int) -> None:
+    rng = np.random.default_rng(6)
+    a = skeleton_at(0.1, 0.0, 30)
+    views = observe(CAMS, [a], rng)
+    d = views[flipped_camera].detections
+    swapped = ViewDetections(d.camera, d.frame_index, d.timestamp_s, d.image_size, d.boxes_xyxy,
+                             d.box_scores, d.keypoints_xy[:, FLIP_PERM], d.keypoint_scores[:, FLIP_PERM])
+    views[flipped_camera] = TrackedView(swapped, views[flipped_camera].track_ids,
+                                        views[flipped_camera].detection_index)
+    (p,) = Reconstructor(CAMS, RAW).update(views, 0.0)
+    err = np.linalg.norm(p.joints_m - a, axis=1)
+    assert p.joint_valid.all() and err.max() < 0.02, f"max error {err.max():.3f} m after unswapping"
+    assert len(p.views) == 4, "the unswapped view is used again"
+    assert not flipped_views(np.array([project(CAMS[0], a)]), np.array([project(CAMS[0], a)]),
+                             np.ones((1, 17)), np.array([600.0]))[0], "a correct view is not flipped"
