@@ -177,7 +177,7 @@ class MotionStyle:
     toe_out_deg: float = 8.0
     blend_s: float = 0.25
     cadence_drift: float = 0.03
-    forward_ankle_frac: float = 0.15
+    forward_ankle_frac: float = 0.4
     knee_flex_deg: float = 8.0
 
     def __post_init__(self) -> None:
@@ -221,7 +221,7 @@ def sample_style(rng: np.random.Generator) -> MotionStyle:
         toe_out_deg=float(u(0.0, 15.0)),
         blend_s=float(u(0.1, 0.4)),
         cadence_drift=float(u(0.0, 0.06)),
-        forward_ankle_frac=float(u(0.0, 0.35)),
+        forward_ankle_frac=float(u(0.2, 0.7)),
         knee_flex_deg=float(u(4.0, 14.0)),
     )
 

@@ -217,7 +217,19 @@ class Visibility:
     hidden: NDArray[np.bool_]
 
 
-def visibility(cam: Camera, people_joints: list[F64], person: int, occlusion: bool = True) -> Visibility:
+def all_spheres(people_joints: list[F64]) -> tuple[F64, F64]:
+    """The occluding spheres of everyone: (S, 3) centres and (S,) radii."""
+    spheres = [body_spheres(pj) for pj in people_joints]
+    return np.concatenate([s[0] for s in spheres]), np.concatenate([s[1] for s in spheres])
+
+
+def visibility(
+    cam: Camera,
+    people_joints: list[F64],
+    person: int,
+    occlusion: bool = True,
+    spheres: tuple[F64, F64] | None = None,
+) -> Visibility:
     """Visibility of person ``person``'s joints in ``cam``, with everyone in ``people_joints`` occluding."""
     joints = np.asarray(people_joints[person], dtype=np.float64)
     uv = project(cam, joints)
@@ -229,9 +241,7 @@ def visibility(cam: Camera, people_joints: list[F64], person: int, occlusion: bo
     hidden = np.zeros(NUM_JOINTS, dtype=bool)
     if occlusion:
         eye = cam.center_m
-        spheres = [body_spheres(pj) for pj in people_joints]
-        centres = np.concatenate([s[0] for s in spheres])
-        radii = np.concatenate([s[1] for s in spheres])
+        centres, radii = spheres if spheres is not None else all_spheres(people_joints)
         hidden = occluded(eye, joints, centres, radii) | face_hidden(eye, joints)
     return Visibility(uv, inside, hidden & inside)
 
@@ -334,12 +344,14 @@ def observe_with_ids(
     for i, p in enumerate(people):
         if p.shape != (NUM_JOINTS, 3):
             raise InputError(f"person {i}: joints must have shape (17, 3), got {p.shape}")
+    spheres = all_spheres(people) if faults.occlusion and people else None
     out = []
     for cam in cameras:
         dets: list[tuple[F64, float, F64, F64]] = []
         ids: list[int] = []
         for i in range(len(people)):
-            det = _person_detection(cam, visibility(cam, people, i, faults.occlusion), rng, faults)
+            vis = visibility(cam, people, i, faults.occlusion, spheres)
+            det = _person_detection(cam, vis, rng, faults)
             if det is not None:
                 dets.append(det)
                 ids.append(i)
