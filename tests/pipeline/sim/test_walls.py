@@ -97,3 +97,17 @@ def test_bad_render_configs_are_rejected(kwargs: dict[str, object], match: str) 
         WallRenderConfig(**kwargs)  # type: ignore[arg-type]
     with pytest.raises(InputError, match="no cameras"):
         render_wall_views(CAVE, LAYOUT, [])
+
+
+@pytest.mark.slow
+def test_the_calibration_stage_recovers_the_ground_truth_cameras_from_the_renders() -> None:
+    from pipeline.calibration.pnp import calibrate_cameras
+
+    truth = default_cameras(CAVE, "depth", rng=np.random.default_rng(1), jitter_m=0.05, jitter_deg=3.0)
+    views = render_wall_views(CAVE, LAYOUT, truth, seed=0)
+    solved = calibrate_cameras({name: [img] for name, img in views.items()}, LAYOUT)
+    for cam in truth:
+        got = solved[cam.name]
+        assert got.rms_px < 1.0, got.summary()
+        assert np.linalg.norm(got.camera.center_m - cam.center_m) < 0.02, got.summary()
+        assert abs(got.camera.K[0, 0] / cam.K[0, 0] - 1.0) < 0.01, got.summary()
