@@ -89,8 +89,10 @@ def create_app(
             running = running_session(db)
         events = EventWriter(factory, EventWriterConfig(flush_interval_s=settings.server.event_flush_s))
         events.start()
-        if running is not None:
-            events.set_session(running.id)
+        if running is not None:  # a session left running by the last server keeps its log
+            events.set_session(
+                running.id, since_ts=running.started_at.timestamp() if running.started_at else 0.0
+            )
         viewer = None
         if settings.server.viser:
             from app.viewer import Viewer

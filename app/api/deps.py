@@ -6,7 +6,7 @@ import hmac
 from collections.abc import Iterator
 from typing import TYPE_CHECKING, Annotated
 
-from fastapi import Depends, HTTPException, status
+from fastapi import Depends, HTTPException, Path, status
 from fastapi.requests import HTTPConnection
 from sqlalchemy.orm import Session
 
@@ -84,3 +84,5 @@ EventsDep = Annotated["EventWriter", Depends(get_events)]
 CalibrationDep = Annotated["CalibrationService", Depends(get_calibration)]
 ViewerDep = Annotated["Viewer | None", Depends(get_viewer)]
 TokenDep = Depends(require_token)
+#: A row id in a URL path (SQLite INTEGER range).
+IdPath = Annotated[int, Path(ge=1, le=2**63 - 1)]

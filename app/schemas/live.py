@@ -83,7 +83,7 @@ class NavigatorUpdate(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    user_id: int | None = Field(None, ge=0)
+    user_id: int | None = Field(None, ge=0, le=2**31 - 1)
     mode: Literal["auto", "manual"] | None = None
 
     @model_validator(mode="after")

@@ -10,6 +10,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from app.db.models import PARTICIPANT_CODE_PATTERN
 
 Condition = Literal["CC", "EC"]
+MAX_ID = 2**63 - 1  # SQLite INTEGER
 ParticipantCode = Annotated[
     str,
     Field(

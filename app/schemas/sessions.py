@@ -7,7 +7,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from app.schemas.participants import Condition
+from app.schemas.participants import MAX_ID, Condition
 
 SessionStatus = Literal["planned", "running", "stopped"]
 
@@ -15,7 +15,7 @@ SessionStatus = Literal["planned", "running", "stopped"]
 class SessionCreate(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
-    participant_id: int = Field(ge=1)
+    participant_id: int = Field(ge=1, le=MAX_ID)
     condition: Condition
     planned_index: Literal[1, 2] | None = Field(
         None, description="1 or 2 in the counterbalanced order; omitted = from the participant's order."

@@ -51,6 +51,7 @@ class EventWriter:
         self._config = config or EventWriterConfig()
         self._queue: queue.SimpleQueue[dict[str, Any] | _Flush | None] = queue.SimpleQueue()
         self._session_id: int | None = None
+        self._session_since = 0.0
         self._lock = threading.Lock()
         self._thread: threading.Thread | None = None
         self.written = 0
@@ -62,19 +63,24 @@ class EventWriter:
         with self._lock:
             return self._session_id
 
-    def set_session(self, session_id: int | None) -> None:
-        """Events recorded from now on belong to this study session (None = none)."""
+    def set_session(self, session_id: int | None, since_ts: float = 0.0) -> None:
+        """Events from now on, stamped at or after ``since_ts``, belong to this study session (None = none).
+
+        An event that happened before the session started (the pipeline reports with a delay) does not.
+        """
         with self._lock:
             self._session_id = session_id
+            self._session_since = float(since_ts)
 
     def record(self, kind: str, payload: dict[str, Any], ts: float | None = None) -> None:
         """Queue one event; never blocks on the database."""
+        when = float(ts if ts is not None else time.time())
         with self._lock:
-            sid = self._session_id
+            sid = self._session_id if when >= self._session_since else None
         self._queue.put(
             {
                 "session_id": sid,
-                "ts": float(ts if ts is not None else time.time()),
+                "ts": when,
                 "kind": str(kind)[:32],
                 "payload": payload,
             }

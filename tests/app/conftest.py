@@ -3,10 +3,15 @@
 from __future__ import annotations
 
 import socket
-from collections.abc import Iterator
+import threading
+import time
+from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import Any
 
+import httpx
 import pytest
+import uvicorn
 from fastapi.testclient import TestClient
 
 from app.core.config import Settings, load_settings
@@ -42,3 +47,42 @@ def client(app_settings: Settings) -> Iterator[TestClient]:
     """The app without a pipeline, started (lifespan run) and talking to a real SQLite file."""
     with TestClient(create_app(app_settings, pipeline_factory=None)) as c:
         yield c
+
+
+class Served:
+    """The app served by uvicorn in a thread on a real socket (the simulator started by default)."""
+
+    def __init__(self, settings: Settings, **app_kw: Any) -> None:
+        self.settings = settings
+        self.base = f"http://127.0.0.1:{settings.server.port}"
+        self.app = create_app(settings, **({"autostart": "simulator"} | app_kw))
+        config = uvicorn.Config(
+            self.app, host="127.0.0.1", port=settings.server.port, log_level="warning", ws="websockets"
+        )
+        self.server = uvicorn.Server(config)
+        self.thread = threading.Thread(target=self.server.run, daemon=True)
+
+    def __enter__(self) -> Served:
+        self.thread.start()
+        deadline = time.monotonic() + 30
+        while not self.server.started:
+            if time.monotonic() > deadline or not self.thread.is_alive():
+                raise RuntimeError("uvicorn did not start")
+            time.sleep(0.05)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.server.should_exit = True
+        self.thread.join(timeout=30)
+
+    def wait_status(
+        self, predicate: Callable[[dict[str, Any]], bool], timeout_s: float = 40.0
+    ) -> dict[str, Any]:
+        deadline = time.monotonic() + timeout_s
+        status: dict[str, Any] = {}
+        while time.monotonic() < deadline:
+            status = httpx.get(f"{self.base}/api/v1/status").json()
+            if predicate(status):
+                return status
+            time.sleep(0.2)
+        raise AssertionError(f"status never matched; last: {status}")

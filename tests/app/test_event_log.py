@@ -94,7 +94,8 @@ def test_events_carry_the_running_session(db_path: Path) -> None:
     writer = EventWriter(make_session_factory(engine))
     writer.start()
     writer.record("pipeline", {"state": "running"})
-    writer.set_session(1)
+    writer.set_session(1, since_ts=1000.0)
+    writer.record("navigator", {"current": 2}, ts=999.5)  # happened before the start, reported after
     writer.record("action", {"label": "left"}, ts=1000.0)
     writer.set_session(None)
     writer.record("pipeline", {"state": "stopped"})
@@ -103,5 +104,10 @@ def test_events_carry_the_running_session(db_path: Path) -> None:
     writer.close()
     engine.dispose()
     con.close()
-    assert [(r[0], r[1]) for r in rows] == [(None, "pipeline"), (1, "action"), (None, "pipeline")]
-    assert rows[1][2] == 1000.0
+    assert [(r[0], r[1]) for r in rows] == [
+        (None, "pipeline"),
+        (None, "navigator"),
+        (1, "action"),
+        (None, "pipeline"),
+    ]
+    assert rows[2][2] == 1000.0

@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import asyncio
 import json
-import threading
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -15,49 +14,11 @@ from typing import Any
 
 import httpx
 import pytest
-import uvicorn
 import websockets
 
-from app.core.config import Settings
-from app.main import create_app
-from tests.app.conftest import make_settings
+from tests.app.conftest import Served, make_settings
 
 pytestmark = pytest.mark.slow
-
-
-class Served:
-    def __init__(self, settings: Settings) -> None:
-        self.settings = settings
-        self.base = f"http://127.0.0.1:{settings.server.port}"
-        self.app = create_app(settings, autostart="simulator")
-        config = uvicorn.Config(
-            self.app, host="127.0.0.1", port=settings.server.port, log_level="warning", ws="websockets"
-        )
-        self.server = uvicorn.Server(config)
-        self.thread = threading.Thread(target=self.server.run, daemon=True)
-
-    def __enter__(self) -> Served:
-        self.thread.start()
-        deadline = time.monotonic() + 30
-        while not self.server.started:
-            if time.monotonic() > deadline or not self.thread.is_alive():
-                raise RuntimeError("uvicorn did not start")
-            time.sleep(0.05)
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.server.should_exit = True
-        self.thread.join(timeout=30)
-
-    def wait_status(self, predicate: Any, timeout_s: float = 40.0) -> dict[str, Any]:
-        deadline = time.monotonic() + timeout_s
-        status: dict[str, Any] = {}
-        while time.monotonic() < deadline:
-            status = httpx.get(f"{self.base}/api/v1/status").json()
-            if predicate(status):
-                return status
-            time.sleep(0.2)
-        raise AssertionError(f"status never matched; last: {status}")
 
 
 @pytest.fixture(scope="module")

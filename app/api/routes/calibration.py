@@ -8,7 +8,7 @@ from __future__ import annotations
 from fastapi import APIRouter, HTTPException, Response, status
 from fastapi.responses import FileResponse
 
-from app.api.deps import CalibrationDep, SessionDep
+from app.api.deps import CalibrationDep, IdPath, SessionDep
 from app.db import repositories as repo
 from app.db.models import CalibrationRun
 from app.schemas.calibration import CalibrationCameraPublic, CalibrationJobAccepted, CalibrationRunPublic
@@ -83,12 +83,12 @@ def active_run(db: SessionDep) -> CalibrationRunPublic:
 
 
 @router.get("/runs/{run_id}", response_model=CalibrationRunPublic)
-def get_run(run_id: int, db: SessionDep) -> CalibrationRunPublic:
+def get_run(run_id: IdPath, db: SessionDep) -> CalibrationRunPublic:
     return run_public(repo.get_calibration_run(db, run_id), with_result=True)
 
 
 @router.post("/runs/{run_id}/activate", response_model=CalibrationRunPublic)
-def activate_run(run_id: int, calibration: CalibrationDep) -> CalibrationRunPublic:
+def activate_run(run_id: IdPath, calibration: CalibrationDep) -> CalibrationRunPublic:
     """Accept a finished run, or roll back to an earlier one."""
     return run_public(calibration.activate(run_id), with_result=True)
 
@@ -98,7 +98,7 @@ def activate_run(run_id: int, calibration: CalibrationDep) -> CalibrationRunPubl
     response_class=FileResponse,
     responses={200: {"content": {"image/png": {}}}, 404: {"description": "No overlay for this camera"}},
 )
-def overlay(run_id: int, camera: str, db: SessionDep, calibration: CalibrationDep) -> FileResponse:
+def overlay(run_id: IdPath, camera: str, db: SessionDep, calibration: CalibrationDep) -> FileResponse:
     row = repo.get_calibration_run(db, run_id)
     names = [str(c.get("name")) for c in (row.result or {}).get("cameras", [])]
     if camera not in names:

@@ -11,7 +11,7 @@ from typing import Annotated, Any
 
 from fastapi import APIRouter, HTTPException, Query, status
 
-from app.api.deps import EventsDep, SessionDep
+from app.api.deps import EventsDep, IdPath, SessionDep
 from app.db import repositories as repo
 from app.db.models import StudySession
 from app.schemas.questionnaires import QuestionnaireCreate, QuestionnairePublic
@@ -34,30 +34,31 @@ def create_session(body: SessionCreate, db: SessionDep) -> SessionPublic:
 
 @router.get("", response_model=list[SessionPublic])
 def list_sessions(
-    db: SessionDep, participant_id: Annotated[int | None, Query(ge=1)] = None
+    db: SessionDep, participant_id: Annotated[int | None, Query(ge=1, le=2**63 - 1)] = None
 ) -> list[SessionPublic]:
     return [session_public(s) for s in repo.list_sessions(db, participant_id)]
 
 
 @router.get("/{session_id}", response_model=SessionPublic)
-def get_session(session_id: int, db: SessionDep) -> SessionPublic:
+def get_session(session_id: IdPath, db: SessionDep) -> SessionPublic:
     return session_public(repo.get_session(db, session_id))
 
 
 @router.patch("/{session_id}", response_model=SessionPublic)
-def update_session(session_id: int, body: SessionUpdate, db: SessionDep) -> SessionPublic:
+def update_session(session_id: IdPath, body: SessionUpdate, db: SessionDep) -> SessionPublic:
     return session_public(repo.update_session_notes(db, session_id, body.notes))
 
 
 @router.post("/{session_id}/start", response_model=SessionPublic)
-def start_session(session_id: int, db: SessionDep, events: EventsDep) -> SessionPublic:
-    row = repo.start_session(db, session_id, time.time())
-    events.set_session(row.id)
+def start_session(session_id: IdPath, db: SessionDep, events: EventsDep) -> SessionPublic:
+    now = time.time()
+    row = repo.start_session(db, session_id, now)
+    events.set_session(row.id, since_ts=now)
     return session_public(row)
 
 
 @router.post("/{session_id}/stop", response_model=SessionPublic)
-def stop_session(session_id: int, db: SessionDep, events: EventsDep) -> SessionPublic:
+def stop_session(session_id: IdPath, db: SessionDep, events: EventsDep) -> SessionPublic:
     events.flush()  # the session's last events go to it, not to the next one
     row = repo.stop_session(db, session_id, time.time())
     if events.session_id == row.id:
@@ -67,11 +68,13 @@ def stop_session(session_id: int, db: SessionDep, events: EventsDep) -> SessionP
 
 @router.get("/{session_id}/events", response_model=list[EventPublic])
 def session_events(
-    session_id: int,
+    session_id: IdPath,
     db: SessionDep,
     events: EventsDep,
     kind: Annotated[str | None, Query(max_length=32)] = None,
-    since: Annotated[float | None, Query(description="Only events at or after this unix time.")] = None,
+    since: Annotated[
+        float | None, Query(description="Only events at or after this unix time.", allow_inf_nan=False)
+    ] = None,
     limit: Annotated[int, Query(ge=1, le=100_000)] = 1000,
 ) -> list[EventPublic]:
     repo.get_session(db, session_id)
@@ -86,7 +89,9 @@ def session_events(
     status_code=status.HTTP_201_CREATED,
     responses={422: {"description": "An answer is out of range, missing or unknown (the item is named)"}},
 )
-def submit_questionnaire(session_id: int, body: QuestionnaireCreate, db: SessionDep) -> QuestionnairePublic:
+def submit_questionnaire(
+    session_id: IdPath, body: QuestionnaireCreate, db: SessionDep
+) -> QuestionnairePublic:
     repo.get_session(db, session_id)
     try:
         from app.study.questionnaires import QuestionnaireError, score
@@ -115,5 +120,5 @@ def submit_questionnaire(session_id: int, body: QuestionnaireCreate, db: Session
 
 
 @router.get("/{session_id}/questionnaires", response_model=list[QuestionnairePublic])
-def list_questionnaires(session_id: int, db: SessionDep) -> list[QuestionnairePublic]:
+def list_questionnaires(session_id: IdPath, db: SessionDep) -> list[QuestionnairePublic]:
     return [QuestionnairePublic.model_validate(q) for q in repo.list_questionnaires(db, session_id)]
