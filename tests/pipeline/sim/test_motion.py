@@ -8,6 +8,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from pipeline.errors import InputError
 from pipeline.sim.motion import (
@@ -233,3 +235,38 @@ def test_shipped_example_scripts_load() -> None:
     for f in files:
         script = load_script(f)
         assert script.duration_s > 0
+
+
+@settings(max_examples=25, deadline=None)
+@given(yaw=st.floats(-180.0, 180.0), turn=st.floats(-180.0, 180.0), seed=st.integers(0, 2**16))
+def test_turning_the_start_yaw_turns_the_whole_motion_about_the_start_point(
+    yaw: float, turn: float, seed: int
+) -> None:
+    segs = (Segment("still", 0.5), Segment("left", 0.7), Segment("forward", 0.5, turn_deg=20.0))
+    start = (0.4, -0.3)
+    a = simulate_user(
+        MotionScript(segs, start_xy_m=start, start_yaw_deg=yaw), body_from_height(1.7), seed=seed
+    )
+    b = simulate_user(
+        MotionScript(segs, start_xy_m=start, start_yaw_deg=yaw + turn), body_from_height(1.7), seed=seed
+    )
+    c, s = np.cos(np.radians(turn)), np.sin(np.radians(turn))
+    rot = np.array([[c, -s], [s, c]])
+    rotated = (a.joints_m[..., :2] - start) @ rot.T + start
+    assert np.allclose(b.joints_m[..., :2], rotated, atol=1e-9)
+    assert np.allclose(b.joints_m[..., 2], a.joints_m[..., 2])
+    assert np.allclose(((b.yaw_deg - a.yaw_deg - turn + 180.0) % 360.0) - 180.0, 0.0, atol=1e-9)
+    assert a.labels == b.labels
+
+
+def test_stepping_starts_at_the_labelled_onset() -> None:
+    script = MotionScript((Segment("still", 2.0), Segment("forward", 2.0, blend_s=0.2)))
+    m = simulate_user(script, body_from_height(1.75), fps=FPS, seed=2)
+    onset = m.labels.index("forward")
+    assert onset == 60
+    ankles = m.joints_m[:, [J["l_ankle"], J["r_ankle"]], 2]
+    rest = ankles[:onset]
+    assert np.ptp(rest) < 1e-3, "the feet must stay on the floor before the onset"
+    assert ankles[onset : onset + 10].max() > rest.max() + 0.01, (
+        "a foot must leave the floor soon after the onset"
+    )
