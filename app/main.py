@@ -110,6 +110,9 @@ def create_app(
         if built is None:
             pipeline.unavailable_reason = reason
         calibration = CalibrationService(settings, factory, events, pipeline, viewer)
+        active = calibration.active_cameras()
+        if viewer is not None and active:
+            viewer.show_cameras(active)  # the frusta of the active calibration, not the simulator's
         app.state.settings = settings
         app.state.engine = engine
         app.state.session_factory = factory
