@@ -7,12 +7,18 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, fields
-from typing import Any, Literal
+from typing import Any, Literal, Protocol
 
 
 def _check(cond: bool, what: str, value: object) -> None:
     if not cond:
         raise ValueError(f"{what}, got {value!r}")
+
+
+class SettingsSection(Protocol):
+    """A pydantic settings section (``app.core.config``'s ``triangulation`` or ``navigator``)."""
+
+    def model_dump(self) -> dict[str, Any]: ...
 
 
 @dataclass(frozen=True, slots=True)
@@ -125,6 +131,11 @@ class ReconstructionConfig:
     tracks: Tracks3DParams = Tracks3DParams()
 
     @classmethod
+    def from_settings(cls, section: SettingsSection) -> ReconstructionConfig:
+        """From the settings' ``triangulation`` section."""
+        return cls.from_flat(section.model_dump())
+
+    @classmethod
     def from_flat(cls, values: Mapping[str, Any]) -> ReconstructionConfig:
         """Build from one flat mapping of field names (the settings' ``triangulation`` section).
 
@@ -166,6 +177,11 @@ class NavigatorConfig:
     hold_s: float = 1.5
     max_radius_m: float = 1.5
     switch_margin_m: float = 0.5
+
+    @classmethod
+    def from_settings(cls, section: SettingsSection) -> NavigatorConfig:
+        """From the settings' ``navigator`` section."""
+        return cls(**section.model_dump())
 
     def __post_init__(self) -> None:
         _check(self.mode in ("auto", "manual"), "mode must be 'auto' or 'manual'", self.mode)

@@ -118,3 +118,14 @@ def test_bad_navigator_config_is_rejected() -> None:
         NavigatorConfig(mode="random")  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="hold_s"):
         NavigatorConfig(hold_s=-1.0)
+
+
+def test_changes_are_logged_and_the_selector_comes_from_the_settings(caplog) -> None:
+    from app.core.config import load_settings
+
+    sel = NavigatorSelector.from_settings(load_settings(navigator={"dwell_s": 0.0}).navigator)
+    assert sel.config.dwell_s == 0.0 and sel.mode == "auto"
+    with caplog.at_level("INFO", logger="pipeline.triangulation.navigator"):
+        sel.update([person(4, 0.0, 0.0)], 0.0)
+    assert sel.current == 4
+    assert any("navigator None -> 4" in r.getMessage() for r in caplog.records), caplog.text

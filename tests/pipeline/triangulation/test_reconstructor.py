@@ -158,6 +158,8 @@ def test_config_comes_from_the_settings() -> None:
     assert cfg.tracks.smoothing == "none" and cfg.association.memory_s == 9.0
     with pytest.raises(ValueError, match="unknown triangulation settings: bogus"):
         ReconstructionConfig.from_flat({"bogus": 1})
+    rec = Reconstructor.from_settings(CAMS, s.triangulation)
+    assert rec.config == cfg and rec.rig.names == tuple(c.name for c in CAMS)
 
 
 @pytest.mark.parametrize("flipped_camera", [0, 2])
