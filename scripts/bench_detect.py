@@ -6,7 +6,8 @@ Median milliseconds per four-view frame for detection + tracking (video decoding
 excluded), the split into pre-processing, inference, decoding and tracking, and the
 identity figures (subject id per view, the others' ids, keypoint coverage). With
 ``--repeat`` each mode runs several times and the run with the best median is kept
-(other processes share the CPU). ``bench(...)`` is the function ``cavewalk bench`` calls.
+(other processes share the CPU). ``cavewalk bench --stage detect`` can call
+``pipeline.tracking.benchmark.bench_demo`` the same way ``bench()`` here does.
 """
 
 from __future__ import annotations
@@ -15,40 +16,21 @@ import argparse
 import json
 import os
 import sys
-from dataclasses import replace
 from pathlib import Path
-from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from pipeline.tracking.benchmark import DetectBenchResult, format_results, run_detect_benchmark
+from pipeline.tracking.benchmark import DetectBenchResult, bench_demo, format_results
 
 
-def bench(frames: int = 100, repeat: int = 1, threads: int = 2, modes: tuple[str, ...] = ("full", "roi"),
-          settings: Any = None) -> list[DetectBenchResult]:
-    """Benchmark on the demo data (fetched like ``cavewalk data demo``); best of ``repeat`` per mode."""
+def bench(frames: int = 100, repeat: int = 1, threads: int = 2,
+          modes: tuple[str, ...] = ("full", "roi")) -> list[DetectBenchResult]:
+    """The benchmark with the effective settings (the same call ``cavewalk bench`` makes)."""
     from app.core.config import get_settings
-    from pipeline.demo_data import fetch_demo
-    from pipeline.pose.detector import PoseDetector, PoseDetectorConfig
-    from pipeline.pose.roi import RoiConfig, RoiScheduler
-    from pipeline.tracking.ocsort import MultiViewTracker, OCSortConfig
-    from pipeline.tracking.stage import DetectAndTrack
 
-    s = settings or get_settings()
-    demo = fetch_demo(s.paths.cache_dir)
-    det_cfg = replace(PoseDetectorConfig.from_settings(s.pose, s.pose_model_path), threads=threads)
-    detector = PoseDetector.load(det_cfg)
-    track_cfg = OCSortConfig.from_settings(s.tracking)
-    results = []
-    for mode in modes:
-        roi_cfg = replace(RoiConfig.from_settings(s.pose), enabled=mode == "roi")
-
-        def make(cams: list[str], roi_cfg: RoiConfig = roi_cfg) -> DetectAndTrack:
-            return DetectAndTrack(detector, MultiViewTracker(cams, track_cfg), RoiScheduler(roi_cfg))
-
-        runs = [run_detect_benchmark(demo.videos, make, mode, frames) for _ in range(repeat)]
-        results.append(min(runs, key=lambda r: r.median_ms))
-    return results
+    s = get_settings()
+    return bench_demo(s.pose, s.tracking, s.pose_model_path, s.paths.cache_dir,
+                      frames, repeat, threads, modes)
 
 
 def main() -> None:

@@ -41,7 +41,9 @@ class RoiConfig:
     full_every: a full-frame pass at least every this many frames.
     max_crops: more crops than this in a frame -> full frame instead.
     min_aspect, max_aspect: bounds of the crop aspect w / h; within them a frame's crops
-    take the widest box-plus-margin aspect (so a person with arms out is not shrunk)."""
+    take the widest box-plus-margin aspect (so a person with arms out is not shrunk).
+    merge_growth: two people of a view share one crop when their union is at most this
+    many times the larger one's area."""
 
     enabled: bool = True
     long_side: int = 320
@@ -50,6 +52,7 @@ class RoiConfig:
     max_crops: int = 12
     min_aspect: float = 0.4
     max_aspect: float = 1.0
+    merge_growth: float = 1.3
 
     def __post_init__(self) -> None:
         if self.long_side <= 0 or self.long_side % 32:
@@ -58,6 +61,8 @@ class RoiConfig:
             raise ValueError(
                 f"need margin >= 0, full_every >= 1, max_crops >= 1; got {self.margin}, "
                 f"{self.full_every}, {self.max_crops}")
+        if self.merge_growth < 1:
+            raise ValueError(f"merge_growth must be >= 1, got {self.merge_growth}")
         if not 0 < self.min_aspect <= self.max_aspect:
             raise ValueError(f"need 0 < min_aspect <= max_aspect, got {self.min_aspect}, {self.max_aspect}")
 
@@ -66,15 +71,45 @@ class RoiConfig:
         return cls(enabled=bool(pose.roi), long_side=int(pose.roi_long_side), margin=float(pose.roi_margin),
                    full_every=int(pose.roi_full_every))
 
-    def net_size(self, boxes_xyxy: Sequence[NDArray[np.float64]]) -> tuple[int, int]:
-        """Network (w, h) for a batch of crops around these boxes: height ``long_side``,
-        width for the widest box plus margins (within the aspect bounds)."""
+    def net_size(self, regions: Sequence[Region]) -> tuple[int, int]:
+        """Network (w, h) for a batch of crops of these regions (margins included): height
+        ``long_side``, width for the widest region (within the aspect bounds)."""
         aspect = self.min_aspect
-        for b in boxes_xyxy:
-            w, h = float(b[2] - b[0]), float(b[3] - b[1])
-            pad = 2 * self.margin * max(w, h)
-            aspect = max(aspect, (w + pad) / max(h + pad, 1.0))
+        for x1, y1, x2, y2 in regions:
+            aspect = max(aspect, (x2 - x1) / max(y2 - y1, 1.0))
         return net_size_for(min(aspect, self.max_aspect), self.long_side)
+
+
+def with_margin(box_xyxy: NDArray[np.float64] | Region, margin: float) -> Region:
+    """The box grown by ``margin`` x its larger side on every side."""
+    x1, y1, x2, y2 = (float(v) for v in box_xyxy[:4])
+    pad = margin * max(x2 - x1, y2 - y1)
+    return x1 - pad, y1 - pad, x2 + pad, y2 + pad
+
+
+def _area(r: Region) -> float:
+    return max(r[2] - r[0], 0.0) * max(r[3] - r[1], 0.0)
+
+
+def merge_regions(regions: Sequence[Region], max_growth: float) -> list[Region]:
+    """Merge regions of one view whose union is at most ``max_growth`` x the larger one's
+    area (close or overlapping people share a crop: one batch slot, little resolution lost)."""
+    out = list(regions)
+    merged = True
+    while merged and len(out) > 1:
+        merged = False
+        for i in range(len(out)):
+            for j in range(i + 1, len(out)):
+                a, b = out[i], out[j]
+                u = (min(a[0], b[0]), min(a[1], b[1]), max(a[2], b[2]), max(a[3], b[3]))
+                if _area(u) <= max_growth * max(_area(a), _area(b)):
+                    out[i] = u
+                    del out[j]
+                    merged = True
+                    break
+            if merged:
+                break
+    return out
 
 
 @dataclass(frozen=True, slots=True)
@@ -90,13 +125,11 @@ class RoiPlan:
     reason: str
 
 
-def crop_region(box_xyxy: NDArray[np.float64], config: RoiConfig, image_size: tuple[int, int],
-                net_size: tuple[int, int]) -> Region:
-    """The crop around one expected box: margin added, grown to the aspect of ``net_size``,
-    kept within the image where it fits (a crop larger than the image is centred on it)."""
+def crop_region(region: Region, image_size: tuple[int, int], net_size: tuple[int, int]) -> Region:
+    """The crop for a region (margins included): grown to the aspect of ``net_size`` around its
+    centre, kept within the image where it fits (a crop larger than the image is centred on it)."""
     net_w, net_h = net_size
-    x1, y1, x2, y2 = expand_to_aspect(tuple(float(v) for v in box_xyxy[:4]),  # type: ignore[arg-type]
-                                      net_w / net_h, config.margin)
+    x1, y1, x2, y2 = expand_to_aspect(region, net_w / net_h)
     w, h = image_size
     out = []
     for lo, hi, size in ((x1, x2, w), (y1, y2, h)):
@@ -135,14 +168,16 @@ class RoiScheduler:
             return RoiPlan(True, full.jobs, None, "track lost")
         if not any(expected):
             return RoiPlan(True, full.jobs, None, "nobody tracked")
-        net_size = cfg.net_size([b for boxes in expected for b in boxes.values()])
+        regions = [
+            merge_regions([with_margin(boxes[t], cfg.margin) for t in sorted(boxes)], cfg.merge_growth)
+            for boxes in expected
+        ]
+        net_size = cfg.net_size([r for rs in regions for r in rs])
         jobs: list[tuple[int, Region | None]] = []
-        for i, boxes in enumerate(expected):
-            if not boxes:
+        for i, rs in enumerate(regions):
+            if not rs:
                 jobs.append((i, None))  # the whole view, at crop size
-                continue
-            for tid in sorted(boxes):
-                jobs.append((i, crop_region(boxes[tid], cfg, image_sizes[i], net_size)))
+            jobs.extend((i, crop_region(r, image_sizes[i], net_size)) for r in rs)
         if len(jobs) > cfg.max_crops:
             return RoiPlan(True, full.jobs, None, "too many crops")
         return RoiPlan(False, tuple(jobs), net_size, "roi")

@@ -5,7 +5,7 @@ excluded) and reports the median per multi-view frame with its split into
 pre-processing, inference, decoding and tracking, plus figures on identity: which track
 id the main subject (the largest person of a view) had in each frame, the ids of the
 others, and how often the subject's keypoints were found. ``scripts/bench_detect.py``
-and ``cavewalk bench --stage detect`` call it.
+and ``cavewalk bench --stage detect`` call :func:`bench_demo`.
 """
 
 from __future__ import annotations
@@ -13,14 +13,18 @@ from __future__ import annotations
 import logging
 from collections import Counter
 from collections.abc import Callable, Mapping
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from pipeline.errors import InputError
+from pipeline.pose.detector import PoseDetector, PoseDetectorConfig
+from pipeline.pose.roi import RoiConfig, RoiScheduler
 from pipeline.runtime.offline import SyncedVideos
-from pipeline.tracking.stage import DetectAndTrack, StepTimings
+from pipeline.tracking.ocsort import MultiViewTracker, OCSortConfig, TrackingSettingsLike
+from pipeline.tracking.stage import DetectAndTrack, PoseStageSettings, StepTimings
 from pipeline.tracking.types import TrackedView
 
 log = logging.getLogger(__name__)
@@ -152,3 +156,35 @@ def format_results(results: list[DetectBenchResult]) -> str:
             lines.append(f"  {r.mode:<8} {f.camera}: subject ids {f.subject_ids}, others {f.other_ids}, "
                          f"keypoints in {f.keypoint_frames}/{f.frames}")
     return "\n".join(lines)
+
+
+def bench_demo(
+    pose: PoseStageSettings,
+    tracking: TrackingSettingsLike,
+    model_path: Path,
+    cache_dir: Path,
+    frames: int | None = 100,
+    repeat: int = 1,
+    threads: int = 2,
+    modes: tuple[str, ...] = ("full", "roi"),
+) -> list[DetectBenchResult]:
+    """Full-frame and ROI runs on the real demo (fetched like ``cavewalk data demo``), one model
+    session for all; the best median of ``repeat`` runs per mode (other processes share the CPU)."""
+    from pipeline.demo_data import fetch_demo
+
+    unknown = set(modes) - {"full", "roi"}
+    if unknown:
+        raise InputError(f"unknown benchmark modes {sorted(unknown)}; use full and/or roi")
+    demo = fetch_demo(cache_dir)
+    detector = PoseDetector.load(replace(PoseDetectorConfig.from_settings(pose, model_path), threads=threads))
+    track_cfg = OCSortConfig.from_settings(tracking)
+    results = []
+    for mode in modes:
+        roi_cfg = replace(RoiConfig.from_settings(pose), enabled=mode == "roi")
+
+        def make(cams: list[str], roi_cfg: RoiConfig = roi_cfg) -> DetectAndTrack:
+            return DetectAndTrack(detector, MultiViewTracker(cams, track_cfg), RoiScheduler(roi_cfg))
+
+        runs = [run_detect_benchmark(demo.videos, make, mode, frames) for _ in range(max(1, repeat))]
+        results.append(min(runs, key=lambda r: r.median_ms))
+    return results

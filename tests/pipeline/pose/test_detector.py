@@ -13,7 +13,7 @@ from pipeline.demo_data import DemoData
 from pipeline.errors import InputError, ModelError
 from pipeline.pose.decode import iou_matrix
 from pipeline.pose.detector import PoseDetector, PoseDetectorConfig
-from pipeline.pose.roi import RoiConfig, crop_region
+from pipeline.pose.roi import RoiConfig, crop_region, with_margin
 from pipeline.pose.types import ViewDetections
 from pipeline.skeleton import J
 
@@ -80,11 +80,11 @@ def test_roi_crops_find_the_same_person(
     cams, images = demo_frames[FRAMES[1]]
     full = detector.detect(images, cams, 1, 0.0)
     cfg = RoiConfig()
-    boxes = [view.boxes_xyxy[subject(view)].astype(np.float64) for view in full.views]
-    net = cfg.net_size(boxes)
+    regions = [with_margin(view.boxes_xyxy[subject(view)], cfg.margin) for view in full.views]
+    net = cfg.net_size(regions)
     assert net[1] == cfg.long_side and net[0] <= cfg.long_side
-    jobs = [(i, crop_region(b, cfg, v.image_size, net))
-            for i, (b, v) in enumerate(zip(boxes, full.views, strict=True))]
+    jobs = [(i, crop_region(r, v.image_size, net))
+            for i, (r, v) in enumerate(zip(regions, full.views, strict=True))]
     roi = detector.detect(images, cams, 1, 0.0, jobs=jobs, net_size=net)
     assert roi.letterboxes[0].net_size == net
     assert roi.letterboxes[0].scale > 0.9 * full.letterboxes[0].scale, "crops keep the full-frame resolution"

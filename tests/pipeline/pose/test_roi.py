@@ -7,7 +7,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from pipeline.pose.roi import RoiConfig, RoiScheduler, crop_region
+from pipeline.pose.roi import RoiConfig, RoiScheduler, crop_region, merge_regions, with_margin
 
 SIZES = [(1080, 1920), (1080, 1920)]
 
@@ -65,29 +65,44 @@ def test_nobody_tracked_means_full_frames() -> None:
 
 
 def test_crop_region_contains_the_box_with_margin_and_stays_in_the_image() -> None:
-    cfg = RoiConfig(margin=0.1)
     b = person(100, 500, 200, 600)  # near the left edge
-    net = cfg.net_size([b])
-    x1, y1, x2, y2 = crop_region(b, cfg, (1080, 1920), net)
+    region = with_margin(b, 0.1)
+    assert region == pytest.approx((-60, 140, 260, 860))
+    net = RoiConfig().net_size([region])
+    x1, y1, x2, y2 = crop_region(region, (1080, 1920), net)
     assert x1 >= 0 and y1 >= 0 and x2 <= 1080 and y2 <= 1920, "shifted into the image"
     assert x1 <= b[0] and y1 <= b[1] - 60 + 1e-6 and x2 >= b[2] and y2 >= b[3] + 60 - 1e-6
-    huge = crop_region(person(540, 960, 1080, 1920), cfg, (1080, 1920), net)
+    huge = crop_region(with_margin(person(540, 960, 1080, 1920), 0.1), (1080, 1920), net)
     assert (huge[0] + huge[2]) / 2 == pytest.approx(540) and (huge[1] + huge[3]) / 2 == pytest.approx(960)
 
 
 def test_net_size_widens_for_wide_people_within_bounds() -> None:
     cfg = RoiConfig()
-    narrow = cfg.net_size([person(w=200, h=800)])
-    wide = cfg.net_size([person(w=700, h=800)])
+    narrow = cfg.net_size([with_margin(person(w=200, h=800), 0.1)])
+    wide = cfg.net_size([with_margin(person(w=700, h=800), 0.1)])
     assert narrow == (128, 320), "a 200x800 box plus margins (0.375) is held at min_aspect 0.4"
     assert wide[0] > narrow[0] and wide[1] == 320
     assert cfg.net_size([person(w=3000, h=500)]) == (320, 320), "capped at max_aspect"
 
 
+def test_people_side_by_side_share_a_crop_but_distant_ones_do_not() -> None:
+    a, b = with_margin(person(400, 900), 0.1), with_margin(person(500, 900), 0.1)  # overlapping
+    far = with_margin(person(60, 700, 120, 400), 0.1)
+    merged = merge_regions([a, b, far], max_growth=1.3)
+    assert len(merged) == 2
+    assert merged[0] == (min(a[0], b[0]), a[1], max(a[2], b[2]), a[3])
+    assert merged[1] == far
+    assert merge_regions([a, b], max_growth=1.0) == [a, b], "no growth allowed: no merge"
+    sched = RoiScheduler(RoiConfig())
+    sched.report(full=True, lost_track=False)
+    plan = sched.plan(SIZES[:1], [{1: person(400, 900), 2: person(500, 900), 3: person(60, 700, 120, 400)}])
+    assert len(plan.jobs) == 2, "three people, two crops"
+
+
 @pytest.mark.parametrize(
     ("changes", "match"),
     [({"long_side": 100}, "multiple of 32"), ({"margin": -1}, "margin"), ({"full_every": 0}, "full_every"),
-     ({"min_aspect": 2.0}, "min_aspect")],
+     ({"min_aspect": 2.0}, "min_aspect"), ({"merge_growth": 0.5}, "merge_growth")],
 )
 def test_config_rejects_bad_values(changes: dict[str, float], match: str) -> None:
     with pytest.raises(ValueError, match=match):
