@@ -61,8 +61,10 @@ class Wall:
     def normal(self) -> F64:
         """Unit normal pointing into the CAVE (towards the viewer)."""
         c = self.corners_m
-        n = np.cross(c[1] - c[0], c[3] - c[0])
-        return n / np.linalg.norm(n)
+        # (TR - TL) x (BL - TL) is "right x down" = the viewing direction, i.e. out of the CAVE.
+        n = np.cross(c[3] - c[0], c[1] - c[0])
+        normal: F64 = n / np.linalg.norm(n)
+        return normal
 
     def point_at(self, u: F64, v: F64) -> F64:
         """3D points at fractional wall coordinates u (left->right), v (top->bottom) in [0, 1]."""
