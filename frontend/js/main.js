@@ -10,11 +10,12 @@ import { mountStatus } from "./panels/status.js";
 import { mountStudy } from "./panels/study.js";
 import { mountViewer } from "./panels/viewer.js";
 
-async function optionalModule(path) {
+// The study module's panels; the dashboard still works without them.
+async function optionalModule(load, name) {
   try {
-    return await import(path);
+    return await load();
   } catch (err) {
-    console.warn(`${path} is not available`, err);
+    console.warn(`${name} is not available`, err);
     return null;
   }
 }
@@ -34,7 +35,7 @@ async function main() {
   mountViewer(info);
   mountCalibration(info);
 
-  const questionnaire = await optionalModule("./questionnaire.js");
+  const questionnaire = await optionalModule(() => import("./questionnaire.js"), "questionnaire.js");
   const qMount = document.getElementById("questionnaire-mount");
   mountStudy({
     onSelectSession(session) {
@@ -48,7 +49,7 @@ async function main() {
       }
     },
   });
-  const analysis = await optionalModule("./analysis.js");
+  const analysis = await optionalModule(() => import("./analysis.js"), "analysis.js");
   if (analysis) analysis.mountAnalysis(document.getElementById("analysis-mount"));
   connect();
 }

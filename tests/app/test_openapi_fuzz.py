@@ -19,7 +19,7 @@ from tests.app.conftest import Served, make_settings
 
 pytestmark = pytest.mark.slow
 
-EXAMPLES_PER_OPERATION = 6
+EXAMPLES_PER_OPERATION = 4
 #: Operations left out: starting a calibration renders and solves four camera images (seconds of CPU per
 #: example; tests/app/test_calibration_api.py covers it); the WebSocket is not an OpenAPI operation.
 SKIP = {("POST", "/api/v1/calibration/runs")}
