@@ -97,6 +97,7 @@ def register(cli: typer.Typer) -> None:
         = None,
         flat_out: Annotated[bool, typer.Option("--flat-out/--no-flat-out",
                                                help="Also run the demo videos flat out.")] = True,
+        warmup: Annotated[float, typer.Option("--warmup", help="Seconds run before measuring.")] = 2.0,
     ) -> None:
         """Throughput, dropped frames, per-stage and end-to-end latency, CPU and memory of the live
         pipeline: the four real demo views paced at 30 fps (and flat out), and the simulator at 60 fps."""
@@ -107,13 +108,16 @@ def register(cli: typer.Typer) -> None:
             raise InputError(f"--source must be demo, sim or both, got {source!r}")
         if duration <= 0:
             raise InputError(f"--duration must be > 0, got {duration}")
+        if warmup < 0:
+            raise InputError(f"--warmup must be >= 0, got {warmup}")
         if json_out is not None and json_out.exists() and json_out.is_dir():
             raise InputError(f"--json {json_out} is a folder")
         scenarios = _scenarios(source, flat_out)
-        report: dict[str, Any] = {"machine": machine_info(), "duration_s": duration, "scenarios": {}}
+        report: dict[str, Any] = {"machine": machine_info(), "duration_s": duration, "warmup_s": warmup,
+                                  "scenarios": {}}
         for sc in scenarios:
             typer.echo(f"== {sc.name}: {sc.notes}", err=True)
-            report["scenarios"][sc.name] = run_scenario(sc, duration,
+            report["scenarios"][sc.name] = run_scenario(sc, duration, warmup_s=warmup,
                                                         progress=lambda m: typer.echo(m, err=True))
         _print_report(report)
         if json_out is not None:

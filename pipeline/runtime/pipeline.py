@@ -395,7 +395,7 @@ class Pipeline:
         run.metrics.frame(sent, {k: v * 1000.0 for k, v in ms.items()}, 0)
         run.latest = fused
         with self._lock:
-            if self._run is run and self._state == "starting":
+            if self._run is run and self._state in ("starting", "error"):
                 self._state = "running"
                 self.emitter.set_state("running")
                 self._event("state", "running", {"state": "running", "source": run.source})
@@ -437,6 +437,10 @@ class Pipeline:
             log.warning("%s: %s", ev.worker, ev.message)
             with self._lock:
                 self._last_error = f"{ev.worker}: {ev.message.splitlines()[0] if ev.message else 'error'}"
+                if ev.worker == "chain" and self._run is run:  # no results until it is back
+                    self._state = "error"
+                    self.emitter.set_state("error")
+                    self.emitter.submit(None)
         with self._lock:
             self._event(kind, f"{ev.worker}: {ev.kind} {ev.message}".strip(),
                         {"worker": ev.worker, "kind": ev.kind, "message": ev.message})

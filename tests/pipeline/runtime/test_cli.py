@@ -111,7 +111,8 @@ def test_bad_arguments_exit_2_with_one_line(args: tuple[str, ...], message: str)
 @pytest.mark.slow
 def test_bench_sim_writes_json(tmp_path: Path) -> None:
     out = tmp_path / "bench.json"
-    proc = subprocess.run(cavewalk("bench", "--source", "sim", "--duration", "3", "--json", str(out)),
+    proc = subprocess.run(cavewalk("bench", "--source", "sim", "--duration", "2", "--warmup", "0",
+                                   "--json", str(out)),
                           cwd=ROOT, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr[-2000:]
     report = json.loads(out.read_text())
