@@ -192,7 +192,7 @@ def register(cli: typer.Typer) -> None:
         t0 = time.perf_counter()
         for i, (name, imgs) in enumerate(images.items(), 1):
             typer.echo(f"[{i}/{len(images)}] {name}: {len(imgs)} image(s) ...")
-            detections = [detect_markers(img, lay.dictionary) for img in imgs]
+            detections = [detect_markers(img, lay.dictionary, config.corner_refinement) for img in imgs]
             try:
                 res = calibrate_camera(name, detections, lay, config)
             except CalibrationError as exc:

@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 from pipeline.errors import InputError
+
+CornerRefinement = Literal["subpix", "edges"]
 
 #: ArUco dictionaries the layout may name (OpenCV's predefined ones), with their marker count.
 DICTIONARY_SIZES: dict[str, int] = {
@@ -36,6 +39,9 @@ class CalibrationConfig:
     min_markers: fewest markers a camera must see to be solved.
     min_walls: fewest distinct walls a camera must see (2: non-coplanar corners).
     ransac_px: RANSAC inlier threshold on corner reprojection, pixels.
+    corner_refinement: ``subpix`` (OpenCV's; slightly biased towards the marker centre under
+        blur, which costs little accuracy) or ``edges`` (corners from fitted marker edges: about
+        half the corner error, a lower RMS; see pipeline.calibration.corners).
     estimate_k3: also solve the third radial coefficient (wide lenses) when the camera sees at least
         3 x min_markers markers; otherwise k3 stays 0.
     good_rms_px / fair_rms_px: RMS thresholds of the ``good`` and ``fair`` verdicts.
@@ -51,6 +57,7 @@ class CalibrationConfig:
     min_walls: int = 2
     ransac_px: float = 4.0
     estimate_k3: bool = True
+    corner_refinement: CornerRefinement = "subpix"
     good_rms_px: float = 0.5
     fair_rms_px: float = 1.5
 
@@ -75,6 +82,8 @@ class CalibrationConfig:
             raise InputError(f"min_markers must be at least 2, got {self.min_markers}")
         if self.min_walls < 1:
             raise InputError(f"min_walls must be at least 1, got {self.min_walls}")
+        if self.corner_refinement not in ("subpix", "edges"):
+            raise InputError(f"corner_refinement must be 'subpix' or 'edges', got {self.corner_refinement!r}")
         if self.ransac_px <= 0 or self.good_rms_px <= 0 or self.fair_rms_px < self.good_rms_px:
             raise InputError("ransac_px, good_rms_px must be positive and fair_rms_px >= good_rms_px")
 

@@ -26,7 +26,8 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.calibration.config import CalibrationConfig
+from pipeline.calibration.config import CalibrationConfig, CornerRefinement
+from pipeline.calibration.corners import refine_corners_by_edges
 from pipeline.calibration.patterns import MarkerLayout, aruco_dictionary
 from pipeline.camera import Camera, project
 from pipeline.errors import CalibrationError, InputError
@@ -134,14 +135,23 @@ def _gray(image: U8) -> U8:
     return img.reshape(img.shape[0], img.shape[1])
 
 
-def detect_markers(image: U8, dictionary: str = "DICT_4X4_250") -> MarkerDetections:
-    """Find the ArUco markers of ``dictionary`` in an image, with sub-pixel corners."""
+def detect_markers(
+    image: U8, dictionary: str = "DICT_4X4_250", refinement: CornerRefinement = "subpix"
+) -> MarkerDetections:
+    """Find the ArUco markers of ``dictionary`` in an image, with sub-pixel corners.
+
+    refinement: ``subpix`` (OpenCV's corner refinement) or ``edges`` (corners where the
+    marker's fitted outer edges meet; see :mod:`pipeline.calibration.corners`).
+    """
     gray = _gray(image)
     corners, ids, _ = _detector(dictionary).detectMarkers(gray)
     size = (int(gray.shape[1]), int(gray.shape[0]))
     if ids is None or len(ids) == 0:
         return MarkerDetections(size, np.empty(0, np.int64), np.empty((0, 4, 2)))
-    return MarkerDetections(size, np.asarray(ids).reshape(-1), np.stack([c.reshape(4, 2) for c in corners]))
+    quads = np.stack([c.reshape(4, 2) for c in corners]).astype(np.float64)
+    if refinement == "edges":
+        quads = refine_corners_by_edges(gray, quads, bits=aruco_dictionary(dictionary).markerSize)
+    return MarkerDetections(size, np.asarray(ids).reshape(-1), quads)
 
 
 # ---------------------------------------------------------------- math
@@ -402,7 +412,7 @@ def calibrate_cameras(
     for name, imgs in images.items():
         if not imgs:
             raise InputError(f"camera {name}: no images given")
-        detections = [detect_markers(img, layout.dictionary) for img in imgs]
+        detections = [detect_markers(img, layout.dictionary, cfg.corner_refinement) for img in imgs]
         try:
             results[name] = calibrate_camera(name, detections, layout, cfg)
         except CalibrationError as exc:
