@@ -42,7 +42,9 @@ def main() -> int:
     ap.add_argument("--windows-per-epoch", type=int, default=_T.windows_per_epoch)
     ap.add_argument("--slow-channels", type=int, default=_T.slow_channels)
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument(
+        "--threads", type=int, default=1, help="torch threads (1 is fastest on a busy 2-core machine)"
+    )
     ap.add_argument("--report", type=Path, default=None, help="write the training metrics as JSON here")
     args = ap.parse_args()
     logging.basicConfig(level=logging.INFO, format="%(message)s")

@@ -108,14 +108,17 @@ def rotation_z(yaw_deg: NDArray[np.floating] | float) -> NDArray[np.float64]:
 
 
 def torso_length(joints: NDArray[np.floating]) -> NDArray[np.float64]:
-    """Median mid-shoulder to mid-hip distance over the time axis (..., T, 17, 3) -> (...)."""
+    """Mean mid-shoulder to mid-hip distance over the time axis (..., T, 17, 3) -> (...).
+
+    The default (0.5 m) where it is never known or implausibly short.
+    """
     arr = _check_joints(joints)
     shoulders = _nan_mid(arr[..., _L_SH, :], arr[..., _R_SH, :])
     d = np.linalg.norm(shoulders - pelvis(arr), axis=-1)
-    with np.errstate(all="ignore"):
-        known = np.isfinite(d).any(axis=-1)
-        med = np.nanmedian(np.where(known[..., None], d, DEFAULT_TORSO_M), axis=-1)
-    return np.where(np.isfinite(med) & (med > _MIN_TORSO_M), med, DEFAULT_TORSO_M)
+    ok = np.isfinite(d)
+    count = ok.sum(axis=-1)
+    mean = np.where(ok, d, 0.0).sum(axis=-1) / np.maximum(count, 1)
+    return np.where((count > 0) & (mean > _MIN_TORSO_M), mean, DEFAULT_TORSO_M)
 
 
 def normalize_window(joints: NDArray[np.floating]) -> NDArray[np.float64]:
@@ -124,16 +127,18 @@ def normalize_window(joints: NDArray[np.floating]) -> NDArray[np.float64]:
     if arr.ndim < 3:
         raise ValueError(f"a window needs a time axis: (..., T, 17, 3), got {arr.shape}")
     pel = pelvis(arr)  # (..., T, 3)
-    with np.errstate(all="ignore"):
-        known = np.asarray(np.isfinite(pel).all(axis=-1))
-        centre = np.nanmean(np.where(known[..., None], pel, np.nan), axis=-2)  # (..., 3)
-        fallback = np.nanmean(arr, axis=(-3, -2))
-    centre = np.where(np.isfinite(centre), centre, fallback)
-    centre = np.nan_to_num(centre)
+    ok = np.isfinite(pel).all(axis=-1, keepdims=True)
+    n = ok.sum(axis=-2)
+    centre = np.where(ok, pel, 0.0).sum(axis=-2) / np.maximum(n, 1)  # (..., 3)
+    if not np.all(n > 0):  # no pelvis in some window: the mean of whatever is known
+        flat = arr.reshape(*arr.shape[:-3], -1, 3)
+        known = np.isfinite(flat).all(axis=-1, keepdims=True)
+        other = np.where(known, flat, 0.0).sum(axis=-2) / np.maximum(known.sum(axis=-2), 1)
+        centre = np.where(n > 0, centre, other)
     rot = rotation_z(-window_yaw_deg(arr))  # (..., 3, 3): facing -> +Y
     scale = torso_length(arr)
-    centred = arr - centre[..., None, None, :]
-    rotated = np.einsum("...ij,...tkj->...tki", rot, centred)
+    centred = (arr - centre[..., None, None, :]).reshape(*arr.shape[:-3], -1, 3)
+    rotated = (centred @ np.swapaxes(rot, -1, -2)).reshape(arr.shape)  # row vectors: x' = x R^T
     return rotated / scale[..., None, None, None]
 
 
@@ -145,14 +150,14 @@ def fill_unknown(joints: NDArray[np.floating]) -> tuple[NDArray[np.float64], NDA
     arr = _check_joints(joints)
     known: NDArray[np.bool_] = np.asarray(np.isfinite(arr).all(axis=-1))
     t = arr.shape[-3]
-    idx = np.where(known, np.arange(t)[:, None], -1)
-    last = np.maximum.accumulate(idx, axis=-2)  # index of the last known frame so far (-1: none yet)
-    first = np.where(known, np.arange(t)[:, None], t)
-    first_known = first.min(axis=-2, keepdims=True)  # (..., 1, 17)
-    src = np.where(last >= 0, last, np.minimum(first_known, t - 1))
-    filled = np.take_along_axis(arr, src[..., None], axis=-3)
-    never = np.asarray(~known.any(axis=-2, keepdims=True))
-    filled = np.where(never[..., None] | ~np.isfinite(filled), 0.0, filled)
+    filled = np.where(known[..., None], arr, np.nan)
+    for i in range(1, t):  # forward: the last known value
+        prev = filled[..., i - 1, :, :]
+        filled[..., i, :, :] = np.where(known[..., i, :, None], filled[..., i, :, :], prev)
+    for i in range(t - 2, -1, -1):  # before the first known value: that value
+        cur = filled[..., i, :, :]
+        filled[..., i, :, :] = np.where(np.isnan(cur), filled[..., i + 1, :, :], cur)
+    filled = np.where(np.isnan(filled), 0.0, filled)
     return filled, known
 
 

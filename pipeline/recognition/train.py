@@ -76,8 +76,8 @@ class TrainConfig:
     """Optimisation settings."""
 
     window: int = 32
-    epochs: int = 14
-    windows_per_epoch: int = 40_000
+    epochs: int = 20
+    windows_per_epoch: int = 60_000
     batch_size: int = 256
     lr: float = 3e-3
     weight_decay: float = 1e-3
@@ -85,8 +85,10 @@ class TrainConfig:
     slow_channels: int = 64
     alpha: int = 4
     seed: int = 0
-    threads: int = 2
+    threads: int = 1
     validation_fraction: float = 0.1
+    transition_weight: float = 2.0  # loss weight of frames shortly after a true label change
+    transition_window_s: float = 0.5
 
 
 @dataclass(frozen=True, slots=True)
@@ -236,6 +238,17 @@ def gather_windows(data: Dataset, ends: NDArray[np.int64], window: int) -> NDArr
     return data.joints[idx]
 
 
+def transition_weights(data: Dataset, window_s: float, weight: float) -> NDArray[np.float32]:
+    """(N,) loss weights: ``weight`` for frames less than ``window_s`` after a label change, else 1."""
+    w = np.ones(len(data.labels), dtype=np.float32)
+    n = round(window_s * data.fps)
+    change = np.flatnonzero(data.labels[1:] != data.labels[:-1]) + 1
+    change = change[~np.isin(change, data.starts)]  # a new sequence is not a transition
+    for i in change:
+        w[i : i + n] = weight
+    return w
+
+
 def batch_inputs(data: Dataset, ends: NDArray[np.int64], window: int) -> NDArray[np.float32]:
     return to_model_input(window_features(gather_windows(data, ends, window), data.fps))
 
@@ -269,7 +282,9 @@ def train_model(
     freq = np.bincount(train.labels, minlength=len(ACTIONS)) / len(train.labels)
     inv = 1.0 / np.sqrt(np.maximum(freq, 1e-3))
     class_w = torch.tensor(inv / inv.mean(), dtype=torch.float32)
-    loss_fn = nn.CrossEntropyLoss(weight=class_w, label_smoothing=config.label_smoothing)
+    loss_fn = nn.CrossEntropyLoss(weight=class_w, label_smoothing=config.label_smoothing, reduction="none")
+    tw = transition_weights(train, config.transition_window_s, config.transition_weight)
+    frame_w = torch.from_numpy(tw)
     opt = torch.optim.AdamW(model.parameters(), lr=config.lr, weight_decay=config.weight_decay)
     steps_per_epoch = config.windows_per_epoch // config.batch_size
     sched = torch.optim.lr_scheduler.OneCycleLR(
@@ -289,7 +304,8 @@ def train_model(
             x = torch.from_numpy(batch_inputs(train, e, config.window))
             y = torch.from_numpy(train.labels[e])
             opt.zero_grad()
-            loss = loss_fn(model(x), y)
+            w = frame_w[torch.from_numpy(e)]
+            loss = (loss_fn(model(x), y) * w).sum() / w.sum()
             loss.backward()
             opt.step()
             sched.step()

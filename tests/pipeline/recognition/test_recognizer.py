@@ -1,0 +1,248 @@
+"""Streaming recognition with the committed ONNX model on simulated users, and the command filter."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pipeline.errors import InputError, ModelError
+from pipeline.recognition.recognizer import (
+    DEFAULT_MODEL_PATH,
+    ActionRecognizer,
+    CommandFilter,
+    RecognizerConfig,
+    classify_windows,
+    open_session,
+    recognize_sequence,
+)
+from pipeline.recognition.train import NoiseConfig, capture
+from pipeline.sim.body import body_from_height
+from pipeline.sim.motion import simulate_user
+from pipeline.sim.script import MotionScript, Segment
+from pipeline.skeleton import ACTIONS
+
+FPS = 30.0
+
+
+@pytest.fixture(scope="module")
+def recognizer() -> ActionRecognizer:
+    return ActionRecognizer.from_config(RecognizerConfig())
+
+
+def _routine(segments: tuple[Segment, ...], height: float, yaw: float, seed: int, noisy: bool = True):  # type: ignore[no-untyped-def]
+    motion = simulate_user(
+        MotionScript(segments, start_xy_m=(0.3, -0.2), start_yaw_deg=yaw),
+        body_from_height(height),
+        FPS,
+        seed=seed,
+    )
+    joints = (
+        capture(motion.joints_m, np.random.default_rng(seed), NoiseConfig(), FPS)
+        if noisy
+        else motion.joints_m
+    )
+    return motion, joints
+
+
+# ------------------------------------------------------------------ the committed model
+
+
+def test_committed_model_is_small_and_describes_itself() -> None:
+    assert DEFAULT_MODEL_PATH.is_file(), "pipeline/recognition/action.onnx is committed"
+    assert DEFAULT_MODEL_PATH.stat().st_size < 2 * 1024 * 1024
+    rec = ActionRecognizer.from_config(RecognizerConfig())
+    assert rec.info.classes == ACTIONS and rec.info.fps == FPS and 30 <= rec.info.window <= 40
+
+
+@pytest.mark.parametrize(
+    ("action", "height", "yaw"),
+    [
+        ("still", 1.52, 0.0),
+        ("turn", 1.9, 60.0),
+        ("forward", 1.52, -120.0),
+        ("forward", 1.93, 170.0),
+        ("left", 1.7, 90.0),
+        ("right", 1.6, -30.0),
+    ],
+)
+def test_model_classifies_each_class_on_average(action: str, height: float, yaw: float) -> None:
+    motion, joints = _routine((Segment(action, 4.0),), height, yaw, seed=11)
+    session = open_session(DEFAULT_MODEL_PATH)
+    ends = np.arange(40, len(joints))
+    idx = ends[:, None] - np.arange(31, -1, -1)[None, :]
+    probs = classify_windows(session, joints[idx], FPS)
+    mean = probs.mean(axis=0)
+    want = ACTIONS.index(motion.labels[-1])
+    assert int(np.argmax(mean)) == want, (
+        f"{action}: mean probabilities {dict(zip(ACTIONS, mean.round(3), strict=True))}"
+    )
+    assert mean[want] > 0.7, f"{action}: mean probability of {ACTIONS[want]} only {mean[want]:.3f}"
+
+
+def test_streaming_follows_a_routine(recognizer: ActionRecognizer) -> None:
+    segs = (
+        Segment("still", 3.0),
+        Segment("forward", 4.0),
+        Segment("left", 3.0),
+        Segment("still", 3.0),
+        Segment("right", 3.0),
+        Segment("still", 2.0),
+    )
+    motion, joints = _routine(segs, 1.75, 45.0, seed=5)
+    est = recognize_sequence(recognizer, joints, FPS)
+    labels = np.array([e.label for e in est])
+    truth = np.array(motion.labels)
+    steady = np.ones(len(truth), bool)
+    for i in np.flatnonzero(truth[1:] != truth[:-1]) + 1:
+        steady[i : i + 15] = False  # half a second after each change
+    acc = float(np.mean(labels[steady] == truth[steady]))
+    assert acc > 0.9, f"steady-state accuracy {acc:.3f}"
+    changes = int(np.sum(labels[1:] != labels[:-1]))
+    assert changes <= 8, f"{changes} command changes for 5 true ones: flicker"
+    yaw_err = np.abs((np.array([e.yaw_deg for e in est]) - motion.yaw_deg + 180) % 360 - 180)
+    assert np.median(yaw_err[30:]) < 10.0
+    speed = np.array([e.speed_mps for e in est])
+    assert np.all(speed[labels == "still"] == 0.0)
+    fwd = steady & (truth == "forward") & (labels == "forward")
+    assert abs(np.median(speed[fwd]) - np.median(motion.speed_mps[fwd])) < 0.15
+    for e in est[::50]:
+        assert sum(e.probs.values()) == pytest.approx(1.0, abs=1e-4) and set(e.probs) == set(ACTIONS)
+
+
+def test_sixty_fps_input_is_resampled(recognizer: ActionRecognizer) -> None:
+    segs = (Segment("still", 2.5), Segment("forward", 3.5))
+    m60 = simulate_user(MotionScript(segs, start_yaw_deg=10.0), body_from_height(1.8), 60.0, seed=2)
+    est = recognize_sequence(recognizer, m60.joints_m, 60.0)
+    assert len(est) == len(m60)
+    labels = [e.label for e in est]
+    assert labels[100:150].count("still") == 50, "still during the first 2.5 s"
+    assert labels[-60:].count("forward") == 60, "forward in the last second"
+
+
+def test_rejected_input_changes_nothing() -> None:
+    _, joints = _routine((Segment("forward", 2.0),), 1.75, 0.0, seed=9, noisy=False)
+    a = ActionRecognizer.from_config(RecognizerConfig())
+    b = ActionRecognizer.from_config(RecognizerConfig())
+    for i in range(40):
+        a.update(joints[i], i / FPS)
+        b.update(joints[i], i / FPS)
+    with pytest.raises(InputError, match=r"\(17, 3\)"):
+        a.update(np.zeros((16, 3)), 40 / FPS)
+    with pytest.raises(InputError, match="increase"):
+        a.update(joints[40], 39 / FPS)
+    with pytest.raises(InputError, match="finite"):
+        a.update(joints[40], float("nan"))
+    assert a.update(joints[40], 40 / FPS) == b.update(joints[40], 40 / FPS)
+
+
+def test_unknown_joints_and_gaps_are_tolerated(recognizer: ActionRecognizer) -> None:
+    _, joints = _routine((Segment("forward", 4.0),), 1.65, 0.0, seed=4, noisy=False)
+    j = joints.copy()
+    j[:, [0, 1, 2, 3, 4]] = np.nan  # no face at all
+    j[50:55] = np.nan  # nobody for a moment
+    est = recognize_sequence(recognizer, j, FPS)
+    assert [e.label for e in est[-30:]].count("forward") >= 27
+    recognizer.reset()
+    e0 = recognizer.update(joints[0], 0.0)
+    e1 = recognizer.update(joints[1], 5.0)  # after a long gap the recogniser starts afresh
+    assert e0.label == e1.label == "still"
+
+
+def test_bad_model_files(tmp_path: Path) -> None:
+    with pytest.raises(ModelError, match="not found"):
+        ActionRecognizer.from_config(RecognizerConfig(model_path=tmp_path / "none.onnx"))
+    junk = tmp_path / "junk.onnx"
+    junk.write_bytes(b"not a model")
+    with pytest.raises(ModelError, match="cannot load"):
+        ActionRecognizer.from_config(RecognizerConfig(model_path=junk))
+
+
+def test_run_time_needs_no_torch() -> None:
+    code = (
+        "import sys, numpy as np\n"
+        "from pipeline.recognition.recognizer import ActionRecognizer, RecognizerConfig\n"
+        "r = ActionRecognizer.from_config(RecognizerConfig())\n"
+        "r.update(np.zeros((17, 3)), 0.0)\n"
+        "assert 'torch' not in sys.modules, 'torch was imported'\n"
+    )
+    proc = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        check=False,
+        cwd=Path(__file__).resolve().parents[3],
+    )
+    assert proc.returncode == 0, proc.stderr
+
+
+# ------------------------------------------------------------------ EMA + hysteresis
+
+
+def test_filter_does_not_flicker_on_noisy_probabilities() -> None:
+    rng = np.random.default_rng(0)
+    f = CommandFilter(ema_alpha=0.5, min_dwell_s=0.1, switch_prob=0.5)
+    labels = []
+    for i in range(600):
+        # forward wins on average, but still wins single frames a third of the time
+        p = np.array([0.35, 0.55, 0.05, 0.05]) + rng.normal(0, 0.2, 4)
+        p = np.clip(p, 0.01, None)
+        labels.append(f.update(p / p.sum(), i / FPS))
+    changes = int(np.sum(np.diff(labels) != 0))
+    assert changes <= 2, f"{changes} command changes on a steady noisy input"
+    assert labels[-1] == ACTIONS.index("forward")
+
+
+def test_filter_ignores_a_short_spike_and_follows_a_real_change() -> None:
+    still, fwd = np.eye(4)[0], np.eye(4)[1]
+    f = CommandFilter(ema_alpha=0.5, min_dwell_s=0.1, switch_prob=0.5)
+    seq = [still] * 10 + [fwd] * 2 + [still] * 10 + [fwd] * 10
+    out = [f.update(p, i / FPS) for i, p in enumerate(seq)]
+    assert out[:22] == [0] * 22, "a two-frame spike does not pass the dwell time"
+    first = out.index(1)
+    assert 22 < first <= 22 + 5, f"a real change passes after the dwell time, at frame {first}"
+
+
+def test_filter_without_dwell_follows_the_ema_at_once() -> None:
+    f = CommandFilter(ema_alpha=1.0, min_dwell_s=0.0, switch_prob=0.0)
+    assert f.update(np.eye(4)[2], 0.0) == 2
+    assert f.update(np.eye(4)[3], 0.033) == 3
+
+
+def test_filter_counts_skipped_frames() -> None:
+    a = CommandFilter(0.3, 0.0, 0.5)
+    b = CommandFilter(0.3, 0.0, 0.5)
+    p = np.array([0.1, 0.7, 0.1, 0.1])
+    a.update(p, 0.0, ticks=3)
+    for i in range(3):
+        b.update(p, i / FPS)
+    np.testing.assert_allclose(a.probs, b.probs)
+
+
+@pytest.mark.parametrize(
+    ("args", "match"),
+    [((0.0, 0.1, 0.5), "ema_alpha"), ((0.5, -1.0, 0.5), "min_dwell_s"), ((0.5, 0.1, 2.0), "switch")],
+)
+def test_filter_bad_parameters(args: tuple[float, float, float], match: str) -> None:
+    with pytest.raises(ValueError, match=match):
+        CommandFilter(*args)
+
+
+def test_filter_rejects_bad_probabilities() -> None:
+    f = CommandFilter(0.5, 0.1, 0.5)
+    with pytest.raises(ValueError, match="4 finite"):
+        f.update(np.array([0.5, np.nan, 0.2, 0.3]), 0.0)
+    assert f.label == 0 and f.probs[0] == 1.0, "a rejected update leaves the filter as it was"
+
+
+def test_config_from_settings() -> None:
+    from app.core.config import load_settings
+
+    s = load_settings(recognition={"ema_alpha": 0.4, "min_dwell_s": 0.2, "forward_step_m": 0.5})
+    cfg = s.recognition.to_config()
+    assert isinstance(cfg, RecognizerConfig)
+    assert (cfg.ema_alpha, cfg.min_dwell_s, cfg.speed.forward_step_m) == (0.4, 0.2, 0.5)
+    assert cfg.model_path == DEFAULT_MODEL_PATH
