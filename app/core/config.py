@@ -209,6 +209,7 @@ class CalibrationSettings(_Section):
     min_walls: int = Field(2, ge=1)
     ransac_px: float = Field(4.0, gt=0)
     estimate_k3: bool = True  # third radial coefficient when >= 3 x min_markers markers are seen
+    corner_refinement: Literal["subpix", "edges"] = "subpix"  # edges: corners from fitted marker edges
     good_rms_px: float = Field(0.5, gt=0)
     fair_rms_px: float = Field(1.5, gt=0)
 
