@@ -87,7 +87,7 @@ def create_app(
             if n:
                 log.warning("%d calibration run(s) left unfinished by the last server were marked failed", n)
             running = running_session(db)
-        events = EventWriter(factory, EventWriterConfig(flush_interval_s=settings.server.event_flush_s))
+        events = EventWriter(factory, EventWriterConfig.from_settings(settings.server))
         events.start()
         if running is not None:  # a session left running by the last server keeps its log
             events.set_session(

@@ -29,6 +29,11 @@ class EventWriterConfig:
     flush_interval_s: float = 0.5
     max_batch: int = 2000
 
+    @classmethod
+    def from_settings(cls, server: Any) -> EventWriterConfig:
+        """From ``settings.server`` (its ``event_flush_s``)."""
+        return cls(flush_interval_s=float(server.event_flush_s))
+
     def __post_init__(self) -> None:
         if not 0 < self.flush_interval_s <= 1.0:
             raise ValueError(f"flush_interval_s must be in (0, 1], got {self.flush_interval_s}")
