@@ -96,6 +96,16 @@ class CameraCalibration:
     image_points_px: F64
     inliers: NDArray[np.bool_]
 
+    def __post_init__(self) -> None:
+        n = len(self.inliers)
+        if self.object_points_m.shape != (n, 3) or self.image_points_px.shape != (n, 2):
+            raise ValueError(
+                f"expected (N, 3) object points and (N, 2) image points for N = {n} inlier flags, "
+                f"got {self.object_points_m.shape} and {self.image_points_px.shape}"
+            )
+        if self.verdict not in ("good", "fair", "poor"):
+            raise ValueError(f"verdict must be good, fair or poor, got {self.verdict!r}")
+
     @property
     def reprojected_px(self) -> F64:
         """(N, 2) the observations' corners projected with the solved camera."""
