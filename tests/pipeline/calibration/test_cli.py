@@ -180,3 +180,18 @@ def test_checkerboard_command_on_the_real_demo_images(demo_data: DemoData, tmp_p
     # the demo's Qualisys calibration of the same camera: f = 1681 px
     assert cam.K[0, 0] == pytest.approx(1681, rel=0.02)
     assert "cam01: RMS" in result.output
+
+
+def test_calibrate_pools_the_frames_of_a_short_clip(tmp_path: Path, wall_views: dict[str, Path]) -> None:
+    frame = cv2.imread(str(wall_views["cam01"]))
+    clip = tmp_path / "cam01.avi"
+    writer = cv2.VideoWriter(str(clip), cv2.VideoWriter_fourcc(*"MJPG"), 10, (frame.shape[1], frame.shape[0]))
+    assert writer.isOpened(), "OpenCV can write MJPG AVI"
+    for _ in range(5):
+        writer.write(frame)
+    writer.release()
+    args = ["calibrate", "--image", f"cam01={clip}", "--image", f"cam02={wall_views['cam02']}"]
+    result = runner.invoke(cli, [*args, "--max-frames", "3", "--out", str(tmp_path / "c.json")])
+    assert result.exit_code == 0, result.output
+    assert "cam01: 3 image(s)" in result.output and "cam02: 1 image(s)" in result.output
+    assert load_calibration(tmp_path / "c.json")[0].rms_px < 0.6
