@@ -57,6 +57,8 @@ class PoseDetectorConfig:
     providers: ``"cpu"`` and/or ``"cuda"``, in order of preference.
     threads: onnxruntime intra-op threads (0 = its own choice).
     max_people: at most this many people per image.
+    spinning: let onnxruntime's idle threads spin-wait between runs (faster alone on a
+        machine, but it takes CPU from video decoders and other processes on few cores).
     """
 
     model_path: Path
@@ -66,6 +68,7 @@ class PoseDetectorConfig:
     providers: tuple[str, ...] = ("cpu",)
     threads: int = 0
     max_people: int = 16
+    spinning: bool = False
 
     def __post_init__(self) -> None:
         if self.input_long_side <= 0 or self.input_long_side % 32:
@@ -115,6 +118,9 @@ def load_session(config: PoseDetectorConfig) -> Any:
     opts = ort.SessionOptions()
     opts.graph_optimization_level = ort.GraphOptimizationLevel.ORT_ENABLE_ALL
     opts.execution_mode = ort.ExecutionMode.ORT_SEQUENTIAL
+    spin = "1" if config.spinning else "0"
+    opts.add_session_config_entry("session.intra_op.allow_spinning", spin)
+    opts.add_session_config_entry("session.inter_op.allow_spinning", spin)
     if config.threads:
         opts.intra_op_num_threads = config.threads
         opts.inter_op_num_threads = 1

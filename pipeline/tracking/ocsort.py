@@ -173,10 +173,11 @@ class OCSort:
         self._next_id = 1
 
     def predicted_boxes(self, confirmed_only: bool = True) -> dict[int, F64]:
-        """Track id -> box expected in the next frame (the filter is not advanced)."""
+        """Track id -> box expected in the next frame (the filter is not advanced), for the
+        tracks matched in the last frame (and, with ``confirmed_only``, seen min_hits times)."""
         out = {}
         for t in self._tracks:
-            if confirmed_only and t.hits < max(self.config.min_hits, 1):
+            if t.time_since_update > 0 or (confirmed_only and t.hits < max(self.config.min_hits, 1)):
                 continue
             box = t.kf.peek(1)
             if np.all(np.isfinite(box)):

@@ -172,3 +172,14 @@ def test_multiview_tracker_keeps_cameras_apart() -> None:
         mv.update([frame(5, [], camera="cam09")])
     with pytest.raises(ValueError, match="unique"):
         MultiViewTracker(["a", "a"])
+
+
+def test_predicted_boxes_only_for_tracks_seen_last_frame() -> None:
+    tracker = OCSort(OCSortConfig(min_hits=3))
+    for k in range(5):
+        tracker.update(frame(k, [(1, box_at(300, 540)), (2, box_at(900, 540))] if k < 4 else
+                             [(1, box_at(300, 540))]))
+    assert list(tracker.predicted_boxes()) == [1], "person 2 was not seen in the last frame"
+    tracker.update(frame(5, [(1, box_at(300, 540)), (3, box_at(1500, 540))]))
+    assert list(tracker.predicted_boxes()) == [1], "the newcomer is not confirmed yet"
+    assert sorted(tracker.predicted_boxes(confirmed_only=False)) == [1, 3]
