@@ -29,9 +29,11 @@ def test_ids_follow_positions_when_links_are_new() -> None:
 def test_links_outweigh_a_nearer_position() -> None:
     tr = Tracks3D(Tracks3DParams(max_match_distance_m=0.5))
     a, b = tr.assign([cand(0, 0, [("c1", 1), ("c2", 1)]), cand(0.6, 0, [("c1", 2), ("c2", 2)])], 0.0)
-    # Person a is now at 0.45 m (nearer b's last position than a's was), still carrying a's links.
-    out = tr.assign([cand(0.45, 0, [("c1", 1), ("c2", 1)]), cand(0.9, 0, [("c1", 2), ("c2", 2)])], 0.1)
-    assert out == [a, b]
+    # The two crossed over: each is now nearer the other's last position, but carries its own links.
+    out = tr.assign([cand(0.5, 0, [("c1", 1), ("c2", 1)]), cand(0.1, 0, [("c1", 2), ("c2", 2)])], 0.1)
+    assert out == [a, b], "the per-view track links outweigh the positions"
+    # Without links, positions decide.
+    assert tr.assign([cand(0.5, 0), cand(0.1, 0)], 0.2) == [a, b]
     assert tr.prior_user(("c1", 1)) == a and tr.prior_user(("c9", 1)) == -1
 
 
