@@ -79,6 +79,18 @@ def facing_arrow(joints: F32, yaw_deg: float, length_m: float = 0.6) -> F32 | No
     )
 
 
+def body_yaw_deg(joints: F32) -> float:
+    """Facing direction from the hips (else the shoulders): yaw 0 = +Y, counter-clockwise positive."""
+    for left, right in (("l_hip", "r_hip"), ("l_shoulder", "r_shoulder")):
+        a, b = joints[J[left]], joints[J[right]]
+        if np.all(np.isfinite(a)) and np.all(np.isfinite(b)):
+            across = b[:2] - a[:2]  # left -> right
+            if float(np.hypot(*across)) > 1e-3:
+                fx, fy = -across[1], across[0]  # 90 degrees counter-clockwise: the way the body faces
+                return math.degrees(math.atan2(-fx, fy))
+    return math.nan
+
+
 def wall_mesh(cave: CaveGeometry) -> tuple[F32, NDArray[np.int32]]:
     verts = np.concatenate([w.corners_m for w in cave.walls]).astype(np.float32)
     faces = []
@@ -216,8 +228,9 @@ class Viewer:
                 gone.joints.remove()
                 gone.bones.remove()
             arrow = None
-            if nav_joints is not None and action.get("yaw_deg") is not None:
-                arrow = facing_arrow(nav_joints, float(action["yaw_deg"]))
+            if nav_joints is not None:
+                yaw = action.get("yaw_deg")  # the recogniser's smoothed yaw, else the body's own
+                arrow = facing_arrow(nav_joints, float(yaw) if yaw is not None else body_yaw_deg(nav_joints))
             if arrow is None:
                 if self.arrow is not None:
                     self.arrow.visible = False

@@ -90,6 +90,9 @@ class CalibrationService:
         self._lock = threading.Lock()
         self._thread: threading.Thread | None = None
         self.runs_dir = settings.paths.db.parent / "calibration_runs"
+        with session_factory() as db:
+            active = repo.active_calibration_run(db)
+        self.active_id: int | None = active.id if active is not None else None
 
     # -- wall patterns -----------------------------------------------------------------
     @property
@@ -133,6 +136,7 @@ class CalibrationService:
     def activate(self, run_id: int) -> CalibrationRun:
         with self._factory() as db:
             run = repo.activate_calibration_run(db, run_id)
+        self.active_id = run.id
         self._events.record("calibration", {"state": "activated", "run_id": run_id})
         self._pipeline.calibration_changed()
         self._show_cameras(run)

@@ -42,6 +42,7 @@ def test_wall_patterns_are_served_and_decode_to_the_layout_ids(client: TestClien
 
 def test_no_active_calibration_and_unknown_runs(client: TestClient) -> None:
     assert client.get("/api/v1/calibration/runs").json() == []
+    assert client.get("/api/v1/status").json()["active_calibration_id"] is None
     r = client.get("/api/v1/calibration/active")
     assert r.status_code == 404 and "no calibration" in r.json()["detail"]
     assert client.get("/api/v1/calibration/runs/5").status_code == 404
@@ -77,6 +78,7 @@ def test_calibration_run_on_the_simulator_then_roll_back(client: TestClient) -> 
     assert wait_run(client, second)["status"] == "done"
     history = client.get("/api/v1/calibration/runs").json()
     assert [(h["id"], h["active"]) for h in history] == [(second, True), (first, False)]
+    assert client.get("/api/v1/status").json()["active_calibration_id"] == second
     rolled = client.post(f"/api/v1/calibration/runs/{first}/activate").json()
     assert rolled["active"] and client.get("/api/v1/calibration/active").json()["id"] == first
     assert [h["active"] for h in client.get("/api/v1/calibration/runs").json()] == [False, True]

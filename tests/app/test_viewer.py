@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from app.viewer import Viewer, bone_segments, facing_arrow, joints_array, user_color
+from app.viewer import Viewer, body_yaw_deg, bone_segments, facing_arrow, joints_array, user_color
 from pipeline.skeleton import BONES, J
 from tests.app.conftest import make_settings
 
@@ -66,6 +66,10 @@ def test_pure_helpers() -> None:
         d = arrow[0, 1, :2] - arrow[0, 0, :2]
         assert np.allclose(d, direction, atol=1e-6), (yaw, d)
     assert facing_arrow(joints, math.nan) is None
+    # standing_person has its left side at -x: it faces +Y (yaw 0); mirrored, it faces -Y (yaw 180)
+    assert body_yaw_deg(joints_array(standing_person(0, 0))) == pytest.approx(0.0, abs=1e-6)
+    mirrored = joints_array(standing_person(0, 0)) * np.array([-1.0, 1.0, 1.0], dtype=np.float32)
+    assert abs(body_yaw_deg(mirrored)) == pytest.approx(180.0, abs=1e-6)
     assert len({user_color(i) for i in range(12)}) == 12
 
 
@@ -100,6 +104,9 @@ def test_scene_updates_in_place_and_port_is_free_after_stop(tmp_path: Path) -> N
         assert np.allclose(
             viewer.people[3].joints.points[:, 0].mean(), np.mean([j[0] for j in moved]), atol=1e-2
         )
+        snap["action"] = None  # no recogniser: the arrow follows the body's own facing
+        viewer.update(snap)
+        assert viewer.arrow.visible
         snap["navigator"] = None
         viewer.update(snap)
         assert not viewer.arrow.visible

@@ -59,11 +59,24 @@ def demo_server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
     finally:
         proc.send_signal(signal.SIGINT)
         try:
-            proc.wait(timeout=30)
+            code = proc.wait(timeout=30)
         except subprocess.TimeoutExpired:
             os.killpg(proc.pid, signal.SIGKILL)
             proc.wait()
-        log.close()
+            raise AssertionError("cavewalk demo did not stop within 30 s of Ctrl-C") from None
+        finally:
+            log.close()
+        assert code == 0, f"cavewalk demo exited with {code}: {(tmp / 'server.log').read_text()[-2000:]}"
+        deadline = time.monotonic() + 10  # multiprocessing's helpers exit once they see the parent gone
+        while True:
+            left = subprocess.run(["pgrep", "-a", "-g", str(proc.pid)], capture_output=True, text=True)
+            left = left.stdout.strip().splitlines()
+            if not left or time.monotonic() > deadline:
+                break
+            time.sleep(0.2)
+        if left:
+            os.killpg(proc.pid, signal.SIGKILL)
+        assert not left, f"worker processes left after Ctrl-C: {left}"
 
 
 def test_demo_dashboard_live_navigator_and_ssq(demo_server: str, artifacts_dir: Path) -> None:

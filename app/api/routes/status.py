@@ -24,9 +24,10 @@ class DashboardInfo(BaseModel):
 
 
 def live_snapshot(conn: HTTPConnection) -> dict[str, Any]:
-    """The pipeline's snapshot plus the app's own live facts (the running study session)."""
+    """The pipeline's snapshot plus the app's own live facts (running study session, active calibration)."""
     snap = conn.app.state.pipeline.snapshot()
     snap["running_session_id"] = conn.app.state.events.session_id
+    snap["active_calibration_id"] = conn.app.state.calibration.active_id
     return snap
 
 
