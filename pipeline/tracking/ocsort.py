@@ -228,10 +228,9 @@ class OCSort:
         for d in um_d:  # births
             row = int(keep_det[d])
             obs = self._observation(detections, row)
+            # as in the published tracker, the birth box only initialises the filter: it is no
+            # hit, no observation for OCM/OCR (keypoints ride along in the history all the same)
             track = Track(self._next_id, BoxKalmanFilter(obs.box_xyxy), deque([obs], maxlen=cfg.history))
-            track.last_observation = obs.box_xyxy
-            track.observations[0] = obs.box_xyxy
-            track.hits = track.hit_streak = 1
             self._next_id += 1
             self._tracks.append(track)
             taken[len(self._tracks) - 1] = int(d)
