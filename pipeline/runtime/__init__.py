@@ -5,15 +5,16 @@ events, snapshots); ``cavewalk bench`` and ``scripts/soak.py`` measure it.
 """
 
 from pipeline.runtime.config import RuntimeConfig
-from pipeline.runtime.pipeline import (
-    SOURCES,
-    Pipeline,
-    PipelineEvent,
-    PipelineStatus,
-    SimFactory,
+from pipeline.runtime.pipeline import SOURCES, Pipeline, SimFactory
+from pipeline.runtime.stages import (
+    Fusion,
+    FusionFactory,
+    PoseStage,
+    PoseStageFactory,
+    SimWorldFactory,
     fusion_factory_from_settings,
 )
-from pipeline.runtime.stages import Fusion, FusionFactory, PoseStage, PoseStageFactory, SimWorldFactory
+from pipeline.runtime.status import PipelineEvent, PipelineStatus
 
 __all__ = [
     "SOURCES",

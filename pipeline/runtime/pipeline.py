@@ -37,15 +37,16 @@ from pipeline.runtime.messages import FusedFrame, SetNavigator, WorkerEvent, put
 from pipeline.runtime.metrics import RuntimeMetrics
 from pipeline.runtime.shm import FrameRing, RingSpec
 from pipeline.runtime.snapshot import render_snapshot
-from pipeline.runtime.stages import FusionFactory
+from pipeline.runtime.stages import FusionFactory, fusion_factory_from_settings
+from pipeline.runtime.status import PipelineEvent, PipelineStatus, State
 from pipeline.runtime.supervisor import Supervisor, WorkerDef, drain
 from pipeline.runtime.workers import CaptureSpec, DetectSpec, capture_loop, detect_loop, fuse_loop, sim_loop
 from pipeline.sources import source_kind
+from pipeline.sources.opencv import probe_video
 
 log = logging.getLogger(__name__)
 
 SourceName = Literal["simulator", "cameras", "videos"]
-State = Literal["stopped", "starting", "running", "error"]
 SOURCES: tuple[str, ...] = ("simulator", "cameras", "videos")
 QUEUE_SIZE = 2
 EVENT_LOG_SIZE = 2000
@@ -61,51 +62,6 @@ class SimFactory(Protocol):
     def fps(self) -> float: ...
 
     def __call__(self) -> Any: ...
-
-
-@dataclass(frozen=True, slots=True)
-class PipelineEvent:
-    """Something for the session log.
-
-    timestamp_s: Unix time. kind: ``state``, ``action``, ``navigator``, ``worker`` or ``camera``.
-    """
-
-    timestamp_s: float
-    kind: str
-    message: str
-    data: dict[str, Any] = field(default_factory=dict)
-
-
-@dataclass(frozen=True, slots=True)
-class PipelineStatus:
-    """A snapshot of the live pipeline (plain values, ready for JSON).
-
-    latency_ms: {stage: {"p50", "p95", "p99"}} for capture, detect, fuse, emit, end_to_end.
-    cameras: [{"name", "ok", "fps", "last_error"}]. people: [{"user_id", "position_m", "reproj_px"}].
-    action: {"label", "probs", "yaw_deg", "speed_mps"} or None.
-    people3d: [{"user_id", "joints": [[x, y, z] or None] x 17, "reproj_px"}] for the 3D view.
-    dropped: frames the sources delivered that no stage processed (multi-view frames).
-    """
-
-    state: State
-    source: str | None
-    fps: float
-    dropped: int
-    processed: int
-    latency_ms: dict[str, dict[str, float]]
-    cameras: tuple[dict[str, Any], ...]
-    people: tuple[dict[str, Any], ...]
-    navigator: int | None
-    navigator_mode: str
-    action: dict[str, Any] | None
-    people3d: tuple[dict[str, Any], ...]
-    frame_index: int
-    last_error: str | None = None
-    workstations: tuple[tuple[str, int], ...] = ()
-    emitted: int = 0
-
-    def to_dict(self) -> dict[str, Any]:
-        return {name: getattr(self, name) for name in self.__dataclass_fields__}
 
 
 @dataclass
@@ -231,7 +187,10 @@ class Pipeline:
             raise SourceError("no pose detector configured for image sources")
         for name, uri in plan.items():
             if source_kind(uri) == "video":
-                _probe_video(name, Path(uri), self.config.max_frame_bytes)
+                (w, h), _ = probe_video(name, Path(uri))
+                if _slot_bytes(w, h) > self.config.max_frame_bytes:
+                    raise SourceError(f"camera {name}: {w}x{h} frames exceed the ring slots "
+                                      f"({self.config.max_frame_bytes} bytes)")
         return plan
 
     def _launch(self, source: str, plan: dict[str, str]) -> None:
@@ -280,11 +239,15 @@ class Pipeline:
         start_s = time.monotonic() + 0.5  # one trigger for every file source: they stay in step
         pace = self.config.video_pace_fps
         for name, uri in plan.items():
-            ring = FrameRing.create(self.config.ring_slots, _capacity(uri, self.config.max_frame_bytes), name)
-            run.cameras[name] = _Camera(name, ring)
             kind = source_kind(uri)
+            capacity, native_fps = self.config.max_frame_bytes, 30.0
+            if kind == "video":
+                (w, h), fps = probe_video(name, Path(uri))
+                capacity, native_fps = _slot_bytes(w, h), fps or 30.0
+            ring = FrameRing.create(self.config.ring_slots, capacity, name)
+            run.cameras[name] = _Camera(name, ring)
             file_like = kind in ("video", "folder")
-            pace_fps = (None if pace == 0 else pace or _native_fps(uri, kind)) if file_like else None
+            pace_fps = (None if pace == 0 else pace or native_fps) if file_like else None
             spec = CaptureSpec(name, uri, pace_fps=pace_fps,
                                loop=self.config.video_loop if file_like else False,
                                start_s=start_s, retry_s=self.config.camera_retry_s)
@@ -575,17 +538,6 @@ class Pipeline:
 
 
 # ------------------------------------------------------------------------------------ helpers
-def fusion_factory_from_settings(settings: Any, cameras: list[Camera] | None) -> FusionFactory:
-    """The fusion stage's configs from the settings sections that exist (others: their defaults)."""
-    from pipeline.recognition.recognizer import RecognizerConfig
-    from pipeline.tracking.ocsort import OCSortConfig
-
-    tracking = OCSortConfig.from_settings(settings.tracking) if hasattr(settings, "tracking") else None
-    recognition = RecognizerConfig.from_settings(settings.recognition)
-    return FusionFactory(cameras=tuple(cameras) if cameras else None, camera_names=(), tracking=tracking,
-                         recognition=recognition)
-
-
 def _command(result: FrameResult) -> LocomotionCommand | None:
     if result.navigator is None or result.action is None:
         return None
@@ -614,42 +566,6 @@ def _split_endpoint(value: str) -> tuple[str, int]:
     return host.strip("[]"), int(port)
 
 
-def _probe_video(name: str, path: Path, max_bytes: int) -> None:
-    import cv2
-
-    cap = cv2.VideoCapture(str(path))
-    try:
-        if not cap.isOpened():
-            raise SourceError(f"camera {name}: cannot open video {path}")
-        w, h = int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)), int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT))
-        if w * h * 3 > max_bytes:
-            raise SourceError(f"camera {name}: {w}x{h} frames exceed the ring slots ({max_bytes} bytes)")
-    finally:
-        cap.release()
-
-
-def _capacity(uri: str, max_bytes: int) -> int:
-    """Slot size: a video's own frame size (its first frame may be padded: +16 rows), else the maximum."""
-    if source_kind(uri) != "video":
-        return max_bytes
-    import cv2
-
-    cap = cv2.VideoCapture(uri)
-    try:
-        w, h = int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)), int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT))
-    finally:
-        cap.release()
-    return min(max_bytes, (w + 16) * (h + 16) * 3) if w > 0 and h > 0 else max_bytes
-
-
-def _native_fps(uri: str, kind: str) -> float | None:
-    if kind != "video":
-        return 30.0
-    import cv2
-
-    cap = cv2.VideoCapture(uri)
-    try:
-        fps = float(cap.get(cv2.CAP_PROP_FPS) or 0.0)
-    finally:
-        cap.release()
-    return fps if fps > 0 else 30.0
+def _slot_bytes(width: int, height: int) -> int:
+    """A video's ring slot: its frame size, with room for decoders that pad to 16 pixels."""
+    return (width + 16) * (height + 16) * 3

@@ -272,6 +272,17 @@ class FusionFactory:
         return Fusion(tracker, reconstructor, selector, recognizer)  # type: ignore[arg-type]
 
 
+def fusion_factory_from_settings(settings: Any, cameras: list[Camera] | None) -> FusionFactory:
+    """The fusion stage's configs from the settings sections that exist (others: their defaults)."""
+    from pipeline.recognition.recognizer import RecognizerConfig
+    from pipeline.tracking.ocsort import OCSortConfig
+
+    tracking = OCSortConfig.from_settings(settings.tracking) if hasattr(settings, "tracking") else None
+    recognition = RecognizerConfig.from_settings(settings.recognition)
+    return FusionFactory(cameras=tuple(cameras) if cameras else None, camera_names=(), tracking=tracking,
+                         recognition=recognition)
+
+
 # ---------------------------------------------------------------------------------- simulator
 @dataclass(frozen=True, slots=True)
 class SimWorldFactory:

@@ -190,3 +190,18 @@ def _bgr(image: np.ndarray) -> np.ndarray:
     if image.shape[2] == 4:
         return cv2.cvtColor(image, cv2.COLOR_BGRA2BGR)
     return np.ascontiguousarray(image, dtype=np.uint8)
+
+
+def probe_video(name: str, path: Path) -> tuple[tuple[int, int], float | None]:
+    """((width, height), fps or None) of a video file; :class:`SourceError` when it does not open."""
+    cap = cv2.VideoCapture(str(path))
+    try:
+        if not cap.isOpened():
+            raise SourceError(f"camera {name}: cannot open video {path}")
+        size = (int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)), int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT)))
+        fps = float(cap.get(cv2.CAP_PROP_FPS) or 0.0)
+    finally:
+        cap.release()
+    if size[0] <= 0 or size[1] <= 0:
+        raise SourceError(f"camera {name}: video {path} reports no frame size")
+    return size, (fps if fps > 0 else None)

@@ -9,8 +9,7 @@ import pytest
 
 from app.core.config import Settings
 from pipeline.demo_data import DemoData
-from pipeline.runtime import Pipeline, RuntimeConfig, SimWorldFactory
-from pipeline.runtime.pipeline import fusion_factory_from_settings
+from pipeline.runtime import Pipeline, RuntimeConfig, SimWorldFactory, fusion_factory_from_settings
 
 from .live import Listener, shrink_video
 

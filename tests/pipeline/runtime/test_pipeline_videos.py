@@ -12,8 +12,7 @@ import pytest
 from app.core.config import Settings
 from pipeline.demo_data import DemoData
 from pipeline.errors import InputError, SourceError
-from pipeline.runtime import Pipeline, PoseStageFactory, RuntimeConfig
-from pipeline.runtime.pipeline import fusion_factory_from_settings
+from pipeline.runtime import Pipeline, PoseStageFactory, RuntimeConfig, fusion_factory_from_settings
 from pipeline.sources.grouper import GrouperConfig
 
 from .live import children_alive, shm_segments, wait_for
