@@ -142,6 +142,13 @@ class RuntimeSettings(_Section):
     camera_retry_s: float = Field(1.0, gt=0)
     osc: list[str] = Field(default_factory=list)  # HOST:PORT destinations of /cave/locomotion (OSC)
 
+    @field_validator("osc")
+    @classmethod
+    def _osc_host_port(cls, v: list[str]) -> list[str]:
+        for item in v:
+            parse_endpoint(item)
+        return v
+
 
 class TrackingSettings(_Section):
     """OC-SORT per camera view (pipeline.tracking.ocsort.OCSortConfig)."""
