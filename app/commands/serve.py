@@ -72,6 +72,9 @@ def run_server(
         raise ConfigError(f"port {server.port} on {server.host} is in use (choose another with --port)")
     if server.viser and not port_free(server.host, server.viser_port):
         raise ConfigError(f"port {server.viser_port} is in use (choose another with --viser-port)")
+    from app.db.migrate import prepare_database
+
+    prepare_database(paths.db)  # a database that cannot be used ends here with one message
     token = operator_token(settings)
     app = create_app(settings, autostart="simulator" if demo else None, token=token)
     shown = "localhost" if server.host in ("127.0.0.1", "localhost") else server.host

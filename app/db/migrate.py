@@ -46,3 +46,24 @@ def upgrade(engine: Engine, revision: str = "head") -> None:
     after = current_revision(engine)
     if before != after:
         log.info("database migrated from %s to %s", before or "empty", after)
+
+
+def prepare_database(db_path: Path) -> None:
+    """Create or upgrade the database file in place; ConfigError with the reason when it cannot be used."""
+    from sqlalchemy.exc import SQLAlchemyError
+
+    from app.db.engine import make_engine
+    from pipeline.errors import ConfigError
+
+    if db_path.is_dir():
+        raise ConfigError(f"database {db_path} is a folder, not a file")
+    engine = make_engine(db_path)
+    try:
+        upgrade(engine)
+    except SQLAlchemyError as exc:
+        reason = str(getattr(exc, "orig", None) or exc).splitlines()[0]
+        raise ConfigError(f"database {db_path} cannot be used: {reason}") from exc
+    except Exception as exc:  # alembic: an unknown revision (a newer cavewalk's database)
+        raise ConfigError(f"database {db_path} cannot be migrated: {exc}") from exc
+    finally:
+        engine.dispose()

@@ -35,6 +35,7 @@ def busy_port() -> Iterator[int]:
         (["--viser-port", "busy"], "is in use"),
         (["--db", "FOLDER"], "is a folder"),
         (["--config", "missing.toml"], "config file not found"),
+        (["--db", "NOTADB"], "cannot be used: file is not a database"),
     ],
 )
 def test_bad_options_raise_a_cavewalk_error(
@@ -42,12 +43,18 @@ def test_bad_options_raise_a_cavewalk_error(
 ) -> None:
     args = [str(busy_port) if a == "busy" else str(tmp_path) if a == "FOLDER" else a for a in args]
     args = [str(tmp_path / a) if a.endswith(".toml") else a for a in args]
+    if "NOTADB" in args:
+        notes = tmp_path / "notes.txt"
+        notes.write_text("these are my notes, not a database\n" * 100)
+        args[args.index("NOTADB")] = str(notes)
     if "--db" not in args:
         args += ["--db", str(tmp_path / "x.db")]
     result = CliRunner().invoke(cli, ["demo", *args])
     assert isinstance(result.exception, CavewalkError), result.output
     assert match in str(result.exception)
     assert not (tmp_path / "x.db").exists(), "a refused start creates no database"
+    if (tmp_path / "notes.txt").exists():
+        assert (tmp_path / "notes.txt").read_text().startswith("these are my notes"), "left unchanged"
 
 
 @pytest.mark.slow
