@@ -41,7 +41,8 @@ def test_websocket_streams_live_status_about_ten_times_a_second(served: Served) 
         return out
 
     messages = asyncio.run(read(2.0))
-    assert 10 <= len(messages) <= 30, f"about 10 messages a second for 2 s, got {len(messages)}"
+    # paced at server.live_rate_hz = 10: never faster; loose below (2 shared cores may be busy)
+    assert 6 <= len(messages) <= 22, f"about 10 messages a second for 2 s, got {len(messages)}"
     last = messages[-1]
     assert last["type"] == "status" and last["state"] == "running" and last["source"] == "simulator"
     assert last["fps"] > 5, last["fps"]
