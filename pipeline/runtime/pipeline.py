@@ -479,6 +479,11 @@ class Pipeline:
         run = self._run
         return [] if run is None else run.supervisor.pids()
 
+    def workers(self) -> dict[str, int]:
+        """Worker name (``capture-cam01``, ``detect``, ``fuse``, ``simulator``) -> pid."""
+        run = self._run
+        return {} if run is None else run.supervisor.workers()
+
     def set_navigator(self, user_id: int | None) -> None:
         """Choose the navigator (None = automatic). InputError for a user not tracked now."""
         with self._lock:

@@ -159,6 +159,12 @@ class Supervisor:
         with self._lock:
             return [p.pid for g in self._groups.values() for p in g.processes if p.pid is not None]
 
+    def workers(self) -> dict[str, int]:
+        """Worker name -> pid of the running processes."""
+        with self._lock:
+            return {p.name.removeprefix("cavewalk-"): p.pid for g in self._groups.values()
+                    for p in g.processes if p.pid is not None}
+
     def group_alive(self, name: str) -> bool:
         with self._lock:
             g = self._groups.get(name)

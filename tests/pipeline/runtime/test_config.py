@@ -55,5 +55,5 @@ def test_settings_reject_a_bad_osc_destination_by_name() -> None:
     from app.core.config import load_settings
     from pipeline.errors import ConfigError
 
-    with pytest.raises(ConfigError, match="runtime.osc"):
+    with pytest.raises(ConfigError, match=r"runtime\.osc"):
         load_settings(runtime={"osc": ["nowhere"]})

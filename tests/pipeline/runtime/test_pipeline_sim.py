@@ -76,7 +76,7 @@ def test_navigator_choice(sim_pipeline: Pipeline) -> None:
 def test_killing_a_worker_mid_run_recovers(sim_pipeline: Pipeline) -> None:
     sim_pipeline.start("simulator")
     wait_for(lambda: sim_pipeline.status().processed >= 10, 60, "first results")
-    victim = sim_pipeline.worker_pids()[-1]  # the fusion worker
+    victim = sim_pipeline.workers()["fuse"]
     os.kill(victim, signal.SIGKILL)
     wait_for(lambda: victim not in sim_pipeline.worker_pids(), 20, "the chain to be rebuilt")
     count = sim_pipeline.status().processed

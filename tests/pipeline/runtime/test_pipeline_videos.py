@@ -125,3 +125,28 @@ def test_calibration_that_does_not_match_the_videos(
         assert pipeline.status().state == "stopped"
     finally:
         pipeline.close()
+
+
+def test_a_killed_capture_worker_is_restarted_and_its_camera_returns(
+        base_settings: Settings, pose_model_path: Path, small_videos: dict[str, Path]) -> None:
+    import os
+    import signal
+
+    pipeline = video_pipeline(base_settings, pose_model_path)
+    try:
+        pipeline.start("videos", {k: small_videos[k] for k in ("cam01", "cam02")})
+        wait_for(lambda: pipeline.status().processed >= 2, 120, "first results")
+        assert set(pipeline.workers()) == {"capture-cam01", "capture-cam02", "detect", "fuse"}
+        victim = pipeline.workers()["capture-cam02"]
+        os.kill(victim, signal.SIGKILL)
+        wait_for(lambda: pipeline.workers().get("capture-cam02") not in (None, victim), 30,
+                 "the capture worker to be restarted")
+        wait_for(lambda: all(c["ok"] for c in pipeline.status().cameras), 30, "both cameras ok again")
+        count = pipeline.status().processed
+        wait_for(lambda: pipeline.status().processed >= count + 2, 60, "results after the restart")
+        assert pipeline.status().state == "running"
+        events = [e.message for e in pipeline.drain_events()]
+        assert any("capture-cam02 died" in m for m in events), events
+        assert any("capture-cam02 restarted" in m for m in events), events
+    finally:
+        pipeline.close()
