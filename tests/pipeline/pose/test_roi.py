@@ -107,3 +107,23 @@ def test_people_side_by_side_share_a_crop_but_distant_ones_do_not() -> None:
 def test_config_rejects_bad_values(changes: dict[str, float], match: str) -> None:
     with pytest.raises(ValueError, match=match):
         replace(RoiConfig(), **changes)  # type: ignore[arg-type]
+
+
+def test_crops_stay_still_while_the_person_stays_inside() -> None:
+    sched = RoiScheduler(RoiConfig(margin=0.1))
+    sched.report(full=True, lost_track=False)
+    crops = []
+    for k in range(12):
+        plan = sched.plan(SIZES[:1], [{1: person(400 + 10 * k, 900)}])
+        sched.report(full=False, lost_track=False)
+        crops.append(plan.jobs[0][1])
+    assert crops[1] == crops[0], "a person 10 px further on is still inside the first crop"
+    moved = [k for k in range(1, 12) if crops[k] != crops[k - 1]]
+    assert moved, "the crop follows once the person (with margin) would leave it"
+    for k, crop in enumerate(crops):
+        assert crop is not None
+        region = with_margin(person(400 + 10 * k, 900), 0.1)
+        assert crop[0] <= region[0] and crop[2] >= region[2], f"frame {k}: the person is inside the crop"
+    sched.report(full=True, lost_track=False)
+    fresh = sched.plan(SIZES[:1], [{1: person(400, 900)}]).jobs[0][1]
+    assert fresh == crops[0], "after a full pass crops are planned afresh"
