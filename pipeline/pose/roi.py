@@ -1,10 +1,11 @@
 """Region-of-interest mode: run the pose model on crops around tracked people.
 
 Once people are tracked in a view, the next frame only needs to look where the
-tracker expects them. Each expected box (plus a margin) becomes a crop of a small,
-fixed network size; the crops of all views go into one batch. A full-frame pass runs
-every ``full_every`` frames (to find people who walk in) and right after a track
-was lost. A view with no track is looked at whole, at the crop size, in ROI frames.
+tracker expects them. Each expected box (plus a margin) becomes a crop; people close
+together share one. The crops of all views go into one batch at one small network size
+(``long_side`` high, as wide as the widest crop needs). A full-frame pass runs every
+``full_every`` frames (to find people who walk in) and right after a tracked person was
+not found in their crop. A view with no track is looked at whole, at the crop size.
 """
 
 from __future__ import annotations
