@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 from pipeline.errors import SourceError
 
 SHM_PREFIX = "cavewalk_"
-_GLOBAL_WORDS = 2  # [latest seq, writer generation]
+_GLOBAL_WORDS = 2  # [latest seq, reader's demand time (float64 bits)]
 _SLOT_WORDS = 8  # [seq, ts (float64 bits), height, width, channels, frame index, nbytes, reserved]
 
 
@@ -83,6 +83,7 @@ class FrameRing:
         ring = cls(spec, shm, owner=True)
         ring._words[:] = 0
         ring._words[0] = -1
+        ring._ts[1] = 0.0
         ring._words[_GLOBAL_WORDS::_SLOT_WORDS] = -1
         return ring
 
@@ -105,6 +106,15 @@ class FrameRing:
     def _data(self, slot: int, nbytes: int) -> NDArray[np.uint8]:
         start = self.spec.header_bytes + slot * self.spec.capacity_bytes
         return np.ndarray((nbytes,), dtype=np.uint8, buffer=self._buf[start: start + nbytes])
+
+    @property
+    def demand_s(self) -> float:
+        """When the reader next wants a frame (``time.monotonic()``; 0 = always)."""
+        return float(self._ts[1])
+
+    def set_demand(self, when_s: float) -> None:
+        """The reader tells the writer when it will next take a frame (the dynamic frame rate)."""
+        self._ts[1] = float(when_s)
 
     @property
     def latest_seq(self) -> int:

@@ -125,7 +125,12 @@ def worker_main(name: str, body: Callable[..., None], events: Any, stop: Any, pa
 
 # ------------------------------------------------------------------------------------ capture
 def capture_loop(ctx: _Ctx, spec: CaptureSpec, ring_spec: RingSpec) -> None:
-    """Open the camera, copy each frame into its ring; retry a camera that fails or vanishes."""
+    """Open the camera, copy its frames into the ring; retry a camera that fails or vanishes.
+
+    Frames the detector will not look at (it said when it next will, in the ring's
+    header) are grabbed but not converted or copied: the dynamic frame rate saves the
+    capture work too.
+    """
     from pipeline.sources import open_source
 
     ring = FrameRing.attach(ring_spec)
@@ -141,16 +146,20 @@ def capture_loop(ctx: _Ctx, spec: CaptureSpec, ring_spec: RingSpec) -> None:
                     lost = True
                 ctx.stop.wait(spec.retry_s)
                 continue
+            slack_s = 1.5 / (spec.pace_fps or source.nominal_fps or 30.0)
             try:
                 while ctx.running():
-                    frame = source.read()
-                    if frame is None:
+                    if not source.grab():
                         ctx.report("ended", f"camera {spec.camera}: source ended")
                         return
                     if lost:
                         ctx.report("camera_ok", f"camera {spec.camera} delivers again")
                         lost = False
-                    ring.write(frame.image, frame.timestamp_s, frame.index)
+                    if time.monotonic() < ring.demand_s - slack_s:
+                        continue  # the detector will not look before then: skip the conversion
+                    frame = source.retrieve()
+                    if frame is not None:
+                        ring.write(frame.image, frame.timestamp_s, frame.index)
             except SourceError as exc:
                 ctx.report("camera_lost", str(exc))
                 lost = True
@@ -203,6 +212,8 @@ def detect_loop(ctx: _Ctx, spec: DetectSpec, ring_specs: tuple[RingSpec, ...],
             t1 = time.monotonic()
             busy = ema(busy, t1 - t0)
             next_at = t0 + rate.period_s(busy)
+            for ring in rings.values():  # the dynamic frame rate reaches back to the cameras
+                ring.set_demand(next_at)
             dropped = sum(group.skipped.values()) / max(1, len(spec.cameras))
             missing = tuple(c for c in spec.cameras if c not in cams)
             put_latest(out_q, DetectedFrame(frame_index, min(stamps), tuple(views), t0, t1, missing, dropped,

@@ -81,26 +81,35 @@ class VideoFileSource:
         self._cap.set(cv2.CAP_PROP_POS_FRAMES, 0)
         return bool(self._cap.grab())
 
-    def read(self) -> CapturedFrame | None:
+    def grab(self) -> bool:
+        """Take the next frame off the file when it is due, without converting it (False: ended)."""
         if self._cap is None:
-            return None
+            return False
         if self._pacer is not None:
             due = self._pacer.due_slot(time.monotonic())
             if self.drop_late and due > self._next:  # behind the clock: skip what was missed
                 for _ in range(due - self._next):
                     if not self._grab():
-                        return None
+                        return False
                     self.skipped += 1
                 self._next = due
             self._pacer.wait_for(self._next)
         if not self._grab():
+            return False
+        self._next += 1
+        return True
+
+    def retrieve(self) -> CapturedFrame | None:
+        """The frame last grabbed, as a BGR image (None if it cannot be decoded)."""
+        if self._cap is None:
             return None
         ok, image = self._cap.retrieve()
         if not ok or image is None:
             return None
-        frame = CapturedFrame(self.name, self._next, time.monotonic(), _bgr(image))
-        self._next += 1
-        return frame
+        return CapturedFrame(self.name, self._next - 1, time.monotonic(), _bgr(image))
+
+    def read(self) -> CapturedFrame | None:
+        return self.retrieve() if self.grab() else None
 
     def close(self) -> None:
         if self._cap is not None:
@@ -130,20 +139,27 @@ class ImageFolderSource:
     def nominal_fps(self) -> float | None:
         return self._pace_fps
 
-    def read(self) -> CapturedFrame | None:
-        if self._closed:
-            return None
-        if self._next >= len(self.files) and not self.loop:
-            return None
+    def grab(self) -> bool:
+        """Wait for the next image's slot (False: no more images)."""
+        if self._closed or (self._next >= len(self.files) and not self.loop):
+            return False
         if self._pacer is not None:
             self._pacer.wait_for(self._next)
-        path = self.files[self._next % len(self.files)]
+        self._next += 1
+        return True
+
+    def retrieve(self) -> CapturedFrame | None:
+        """Read the image of the last slot grabbed."""
+        if self._closed or self._next == 0:
+            return None
+        path = self.files[(self._next - 1) % len(self.files)]
         image = cv2.imread(str(path), cv2.IMREAD_COLOR)
         if image is None:
             raise SourceError(f"camera {self.name}: cannot read image {path}")
-        frame = CapturedFrame(self.name, self._next, time.monotonic(), _bgr(image))
-        self._next += 1
-        return frame
+        return CapturedFrame(self.name, self._next - 1, time.monotonic(), _bgr(image))
+
+    def read(self) -> CapturedFrame | None:
+        return self.retrieve() if self.grab() else None
 
     def close(self) -> None:
         self._closed = True
@@ -162,21 +178,33 @@ class CameraSource:
         fps = float(self._cap.get(cv2.CAP_PROP_FPS) or 0.0)
         self._fps = fps if fps > 0 else None
         self._index = 0
+        self._grabbed_s = 0.0
         self._timeout_s = open_timeout_s
 
     @property
     def nominal_fps(self) -> float | None:
         return self._fps
 
-    def read(self) -> CapturedFrame | None:
+    def grab(self) -> bool:
+        """Take the next frame from the device (blocks until it comes)."""
+        if self._cap is None:
+            return False
+        if not self._cap.grab():
+            raise SourceError(f"camera {self.name}: {self.device!r} stopped delivering frames")
+        self._index += 1
+        self._grabbed_s = time.monotonic()
+        return True
+
+    def retrieve(self) -> CapturedFrame | None:
         if self._cap is None:
             return None
-        ok, image = self._cap.read()
+        ok, image = self._cap.retrieve()
         if not ok or image is None:
-            raise SourceError(f"camera {self.name}: {self.device!r} stopped delivering frames")
-        frame = CapturedFrame(self.name, self._index, time.monotonic(), _bgr(image))
-        self._index += 1
-        return frame
+            raise SourceError(f"camera {self.name}: {self.device!r} delivered an unreadable frame")
+        return CapturedFrame(self.name, self._index - 1, self._grabbed_s, _bgr(image))
+
+    def read(self) -> CapturedFrame | None:
+        return self.retrieve() if self.grab() else None
 
     def close(self) -> None:
         if self._cap is not None:

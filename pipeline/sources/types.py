@@ -47,12 +47,22 @@ class FrameSource(Protocol):
 
     ``read()`` blocks until the next frame is due (paced sources) and returns None once
     the source has ended; it raises :class:`pipeline.errors.SourceError` when the device
-    fails. ``close()`` releases the device and may be called twice.
+    fails. ``grab()`` takes a frame without the cost of converting it, so a reader that
+    does not need every frame skips the conversion. ``close()`` releases the device and
+    may be called twice.
     """
 
     name: str
 
     def read(self) -> CapturedFrame | None: ...
+
+    def grab(self) -> bool:
+        """Take the next frame without converting it (``read`` = ``grab`` + ``retrieve``)."""
+        ...
+
+    def retrieve(self) -> CapturedFrame | None:
+        """The frame last grabbed, converted to a BGR image."""
+        ...
 
     def close(self) -> None: ...
 
