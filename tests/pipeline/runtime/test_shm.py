@@ -98,3 +98,17 @@ def test_attach_to_missing_ring() -> None:
 def test_bad_ring_spec(slots: int, capacity: int, match: str) -> None:
     with pytest.raises(ValueError, match=match):
         RingSpec("x", slots, capacity)
+
+
+def test_reader_demand_is_shared_through_the_header() -> None:
+    ring = FrameRing.create(2, 30, "t")
+    try:
+        reader = FrameRing.attach(ring.spec)
+        assert ring.demand_s == 0.0, "a new ring wants every frame"
+        reader.set_demand(123.5)
+        assert ring.demand_s == 123.5, "the writer sees when the reader next wants a frame"
+        ring.write(img(1, 2, 5), 1.0, 0)
+        assert reader.demand_s == 123.5 and reader.latest_seq == 0, "writing leaves the demand alone"
+        reader.close()
+    finally:
+        ring.unlink()
