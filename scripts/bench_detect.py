@@ -24,13 +24,13 @@ from pipeline.tracking.benchmark import DetectBenchResult, bench_demo, format_re
 
 
 def bench(frames: int = 100, repeat: int = 1, threads: int = 2,
-          modes: tuple[str, ...] = ("full", "roi")) -> list[DetectBenchResult]:
+          modes: tuple[str, ...] = ("full", "roi"), spinning: bool = False) -> list[DetectBenchResult]:
     """The benchmark with the effective settings (the same call ``cavewalk bench`` makes)."""
     from app.core.config import get_settings
 
     s = get_settings()
     return bench_demo(s.pose, s.tracking, s.pose_model_path, s.paths.cache_dir,
-                      frames, repeat, threads, modes)
+                      frames, repeat, threads, modes, spinning)
 
 
 def main() -> None:
@@ -39,11 +39,13 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=1)
     ap.add_argument("--threads", type=int, default=2, help="onnxruntime intra-op threads")
     ap.add_argument("--modes", default="full,roi")
+    ap.add_argument("--spinning", action="store_true", help="let onnxruntime threads spin-wait")
     ap.add_argument("--json", type=Path, help="write the results as JSON here")
     args = ap.parse_args()
-    results = bench(args.frames, args.repeat, args.threads, tuple(args.modes.split(",")))
+    results = bench(args.frames, args.repeat, args.threads, tuple(args.modes.split(",")), args.spinning)
     print(f"detection + tracking, {results[0].views} views, {results[0].frames} frames, "
-          f"{args.threads} onnxruntime threads, {os.cpu_count()} CPUs, load average "
+          f"{args.threads} onnxruntime threads{' (spinning)' if args.spinning else ''}, "
+          f"{os.cpu_count()} CPUs, load average "
           f"{os.getloadavg()[0]:.1f} (best of {args.repeat})")
     print(format_results(results))
     if args.json:

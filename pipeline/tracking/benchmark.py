@@ -167,6 +167,7 @@ def bench_demo(
     repeat: int = 1,
     threads: int = 2,
     modes: tuple[str, ...] = ("full", "roi"),
+    spinning: bool = False,
 ) -> list[DetectBenchResult]:
     """Full-frame and ROI runs on the real demo (fetched like ``cavewalk data demo``), one model
     session for all; the best median of ``repeat`` runs per mode (other processes share the CPU)."""
@@ -176,7 +177,8 @@ def bench_demo(
     if unknown:
         raise InputError(f"unknown benchmark modes {sorted(unknown)}; use full and/or roi")
     demo = fetch_demo(cache_dir)
-    detector = PoseDetector.load(replace(PoseDetectorConfig.from_settings(pose, model_path), threads=threads))
+    detector = PoseDetector.load(
+        replace(PoseDetectorConfig.from_settings(pose, model_path), threads=threads, spinning=spinning))
     track_cfg = OCSortConfig.from_settings(tracking)
     results = []
     for mode in modes:
