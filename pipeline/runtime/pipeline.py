@@ -209,7 +209,8 @@ class Pipeline:
         try:
             if source == "simulator":
                 sim = self.sim_factory
-                assert sim is not None  # checked in _plan
+                if sim is None:
+                    raise SourceError("the simulator is not available in this pipeline")
                 run.cameras = {c.name: _Camera(c.name, ok=True) for c in sim.cameras}
                 fusion = replace(self.fusion, cameras=tuple(sim.cameras),
                                  camera_names=tuple(c.name for c in sim.cameras))
