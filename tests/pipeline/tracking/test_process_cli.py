@@ -11,12 +11,12 @@ from pathlib import Path
 import pytest
 
 from app.cli import main
-from app.core.config import Settings
+from app.core.config import Settings, set_settings
 from pipeline.demo_data import DemoData
 
 
 def cavewalk(args: list[str], monkeypatch: pytest.MonkeyPatch) -> int:
-    """Run the CLI entry point; its log handler lives on this test's stderr only."""
+    """Run the CLI entry point; its log handler and settings do not outlive the call."""
     root = logging.getLogger()
 
     def drop_handlers() -> None:
@@ -31,6 +31,7 @@ def cavewalk(args: list[str], monkeypatch: pytest.MonkeyPatch) -> int:
         return int(exc.code or 0)
     finally:
         drop_handlers()
+        set_settings(None)  # the CLI installs the settings it read; later tests read their own
     return 0
 
 
