@@ -41,6 +41,8 @@ def main() -> int:
     ap.add_argument("--epochs", type=int, default=_T.epochs)
     ap.add_argument("--windows-per-epoch", type=int, default=_T.windows_per_epoch)
     ap.add_argument("--slow-channels", type=int, default=_T.slow_channels)
+    ap.add_argument("--slow-only", action="store_true", help="no fast pathway (the ablation)")
+    ap.add_argument("--window", type=int, default=_T.window, help="frames per window (a multiple of 4)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument(
         "--threads", type=int, default=1, help="torch threads (1 is fastest on a busy 2-core machine)"
@@ -58,6 +60,8 @@ def main() -> int:
         epochs=args.epochs,
         windows_per_epoch=args.windows_per_epoch,
         slow_channels=args.slow_channels,
+        fast_pathway=not args.slow_only,
+        window=args.window,
         seed=args.seed,
         threads=args.threads,
     )

@@ -111,9 +111,11 @@ class PoseSettings(_Section):
 
 class RecognitionSettings(_Section):
     model: Path | None = None  # default: the committed pipeline/recognition/action.onnx
-    ema_alpha: float = Field(0.35, gt=0, le=1)  # weight of a new model output, per model frame
-    min_dwell_s: float = Field(0.15, ge=0)  # a new class must lead this long before the command changes
-    switch_prob: float = Field(0.5, ge=0, le=1)  # ... with at least this smoothed probability
+    # defaults tuned by scripts/eval_action.py --tune (see pipeline/recognition/MODEL_CARD.md)
+    ema_alpha: float = Field(0.5, gt=0, le=1)  # weight of a new model output, per model frame
+    min_dwell_s: float = Field(0.0, ge=0)  # a new class must lead this long before the command changes
+    stop_dwell_s: float = Field(0.0, ge=0)  # ... before a change to still (stopping late feels worse)
+    switch_prob: float = Field(0.6, ge=0, le=1)  # ... with at least this smoothed probability
     yaw_alpha: float = Field(0.3, gt=0, le=1)  # facing-direction smoothing, per model frame
     max_gap_s: float = Field(0.5, gt=0)  # a longer gap between skeletons resets the recogniser
     speed_alpha: float = Field(0.15, gt=0, le=1)  # speed smoothing, per model frame

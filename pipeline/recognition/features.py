@@ -149,6 +149,8 @@ def fill_unknown(joints: NDArray[np.floating]) -> tuple[NDArray[np.float64], NDA
     """
     arr = _check_joints(joints)
     known: NDArray[np.bool_] = np.asarray(np.isfinite(arr).all(axis=-1))
+    if known.all():
+        return arr.copy(), known
     t = arr.shape[-3]
     filled = np.where(known[..., None], arr, np.nan)
     for i in range(1, t):  # forward: the last known value

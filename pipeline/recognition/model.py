@@ -34,6 +34,7 @@ class SlowFastConfig:
     slow_channels: int = 64
     beta: float = 1 / 8
     dropout: float = 0.2
+    fast_pathway: bool = True  # False: the slow pathway alone (the ablation in MODEL_CARD.md)
 
     def __post_init__(self) -> None:
         if self.window % self.alpha:
@@ -75,12 +76,14 @@ class SkeletonSlowFast(nn.Module):
     def __init__(self, cfg: SlowFastConfig) -> None:
         super().__init__()
         self.cfg = cfg
-        cs, cf, a = cfg.slow_channels, cfg.fast_channels, cfg.alpha
-        self.fast1 = CausalConv(cfg.in_channels, cf, 5)
-        self.fast2 = CausalConv(cf, cf, 3)
-        self.fast3 = CausalConv(cf, cf, 3)
-        self.lat1 = Lateral(cf, a)
-        self.lat2 = Lateral(cf, a)
+        cs, a = cfg.slow_channels, cfg.alpha
+        cf = cfg.fast_channels if cfg.fast_pathway else 0
+        if cfg.fast_pathway:
+            self.fast1 = CausalConv(cfg.in_channels, cf, 5)
+            self.fast2 = CausalConv(cf, cf, 3)
+            self.fast3 = CausalConv(cf, cf, 3)
+            self.lat1 = Lateral(cf, a)
+            self.lat2 = Lateral(cf, a)
         self.slow1 = CausalConv(cfg.in_channels, cs, 1)
         self.slow2 = CausalConv(cs + 2 * cf, cs, 3)
         self.slow3 = CausalConv(cs + 2 * cf, cs, 3)
@@ -90,6 +93,9 @@ class SkeletonSlowFast(nn.Module):
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         a = self.cfg.alpha
         slow = self.slow1(x[:, :, a - 1 :: a])  # the last frame of the window is a slow frame
+        if not self.cfg.fast_pathway:
+            slow = self.slow3(self.slow2(slow))
+            return self.head(self.drop(torch.cat([slow.mean(dim=2), slow[:, :, -1]], dim=1)))
         fast = self.fast1(x)
         slow = self.slow2(torch.cat([slow, self.lat1(fast)], dim=1))
         fast = self.fast2(fast)

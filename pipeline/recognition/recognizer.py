@@ -4,9 +4,15 @@
 (any frame rate, NaN for unknown joints), resamples it to the model's frame rate,
 runs the committed SlowFast ONNX model on the newest window, smooths the class
 probabilities with an exponential moving average (as in the paper) and only
-changes the command when the new class has led for a minimum dwell time
-(hysteresis), so the command does not flicker. It also reports the smoothed
-facing direction and the intended walking speed. onnxruntime only; no torch.
+changes the command when a new class leads with a clearly higher smoothed
+probability than the switching threshold (hysteresis: the current command holds
+while a challenger is between 0.5 and ``switch_prob``), optionally for a minimum
+dwell time, so the command does not flicker. It also reports the smoothed facing
+direction and the intended walking speed. onnxruntime only; no torch.
+
+Timestamps must increase strictly; a frame with an equal or earlier timestamp, or
+a wrong shape, raises :class:`InputError` and changes nothing. A gap longer than
+``max_gap_s`` starts afresh (as :meth:`ActionRecognizer.reset`).
 """
 
 from __future__ import annotations
@@ -45,6 +51,8 @@ class RecognitionSection(Protocol):
     @property
     def min_dwell_s(self) -> float: ...
     @property
+    def stop_dwell_s(self) -> float: ...
+    @property
     def switch_prob(self) -> float: ...
     @property
     def yaw_alpha(self) -> float: ...
@@ -66,7 +74,7 @@ class RecognizerConfig:
 
     ema_alpha: weight of a new model output in the probability EMA, per model frame.
     min_dwell_s: how long a new class must lead (with probability >= switch_prob) before the
-        command changes.
+        command changes; stop_dwell_s: the same for a change to ``still``.
     yaw_alpha: weight of a new frame in the facing-direction EMA, per model frame.
     max_gap_s: a longer gap between frames starts afresh (reset).
     speed_alpha: weight of a new estimate in the speed EMA, per model frame.
@@ -74,8 +82,9 @@ class RecognizerConfig:
 
     model_path: Path = DEFAULT_MODEL_PATH
     ema_alpha: float = 0.5
-    min_dwell_s: float = 0.1
-    switch_prob: float = 0.5
+    min_dwell_s: float = 0.0
+    stop_dwell_s: float = 0.0
+    switch_prob: float = 0.6
     yaw_alpha: float = 0.3
     max_gap_s: float = 0.5
     speed_alpha: float = 0.15
@@ -87,8 +96,10 @@ class RecognizerConfig:
             value = getattr(self, name)
             if not 0 < value <= 1:
                 raise ValueError(f"{name} must be in (0, 1], got {value}")
-        if self.min_dwell_s < 0:
-            raise ValueError(f"min_dwell_s must be >= 0, got {self.min_dwell_s}")
+        if self.min_dwell_s < 0 or self.stop_dwell_s < 0:
+            raise ValueError(
+                f"min_dwell_s and stop_dwell_s must be >= 0, got {self.min_dwell_s}, {self.stop_dwell_s}"
+            )
         if not 0 <= self.switch_prob <= 1:
             raise ValueError(f"switch_prob must be in [0, 1], got {self.switch_prob}")
         if self.max_gap_s <= 0:
@@ -102,6 +113,7 @@ class RecognizerConfig:
             model_path=Path(section.model) if section.model is not None else DEFAULT_MODEL_PATH,
             ema_alpha=section.ema_alpha,
             min_dwell_s=section.min_dwell_s,
+            stop_dwell_s=section.stop_dwell_s,
             switch_prob=section.switch_prob,
             yaw_alpha=section.yaw_alpha,
             max_gap_s=section.max_gap_s,
@@ -183,22 +195,29 @@ def _interpolate(a: NDArray[np.float64], b: NDArray[np.float64], w: float) -> ND
 
 class CommandFilter:
     """EMA over class probabilities plus hysteresis: the command changes only to a class that
-    has led the smoothed probabilities, with at least ``switch_prob``, for ``min_dwell_s``.
+    has led the smoothed probabilities, with at least ``switch_prob``, for ``min_dwell_s``
+    (``stop_dwell_s`` for a change to ``still``: stopping late feels worse than starting late,
+    so it may be shorter; None = ``min_dwell_s``).
 
     ``update(probs, t, ticks)`` takes one model output covering ``ticks`` model frames (the EMA
     weight is ``1 - (1 - ema_alpha) ** ticks``, so skipped frames count) and returns the
     command's class index. It starts at ``still``.
     """
 
-    def __init__(self, ema_alpha: float, min_dwell_s: float, switch_prob: float) -> None:
+    def __init__(
+        self, ema_alpha: float, min_dwell_s: float, switch_prob: float, stop_dwell_s: float | None = None
+    ) -> None:
         if not 0 < ema_alpha <= 1:
             raise ValueError(f"ema_alpha must be in (0, 1], got {ema_alpha}")
-        if min_dwell_s < 0 or not 0 <= switch_prob <= 1:
+        stop = min_dwell_s if stop_dwell_s is None else stop_dwell_s
+        if min_dwell_s < 0 or stop < 0 or not 0 <= switch_prob <= 1:
             raise ValueError(
-                f"expected min_dwell_s >= 0 and switch_prob in [0, 1], got {min_dwell_s}, {switch_prob}"
+                "expected min_dwell_s >= 0, stop_dwell_s >= 0 and switch_prob in [0, 1], got "
+                f"{min_dwell_s}, {stop_dwell_s}, {switch_prob}"
             )
         self.ema_alpha = ema_alpha
         self.min_dwell_s = min_dwell_s
+        self.stop_dwell_s = stop
         self.switch_prob = switch_prob
         self.reset()
 
@@ -224,7 +243,8 @@ class CommandFilter:
             return self.label
         if self._candidate != best:
             self._candidate, self._candidate_since = best, timestamp_s
-        if timestamp_s - self._candidate_since >= self.min_dwell_s - 1e-9:
+        dwell = self.stop_dwell_s if best == _STILL else self.min_dwell_s
+        if timestamp_s - self._candidate_since >= dwell - 1e-9:
             self.label, self._candidate = best, None
         return self.label
 
@@ -240,7 +260,9 @@ class ActionRecognizer:
         history = max(self.info.window, round(2.5 * self.info.fps))
         self._frames: deque[NDArray[np.float64]] = deque(maxlen=history)
         self._yaw = YawSmoother(alpha=config.yaw_alpha, rate_hz=self.info.fps)
-        self._filter = CommandFilter(config.ema_alpha, config.min_dwell_s, config.switch_prob)
+        self._filter = CommandFilter(
+            config.ema_alpha, config.min_dwell_s, config.switch_prob, config.stop_dwell_s
+        )
         self.reset()
 
     @classmethod
@@ -267,6 +289,7 @@ class ActionRecognizer:
         self._next_tick = 0.0
         self._filter.reset()
         self._speed = 0.0
+        self._moving_frames = 0
 
     def _estimate(self) -> ActionEstimate:
         label = self._filter.label
@@ -325,9 +348,12 @@ class ActionRecognizer:
         out = np.asarray(self._session.run(None, {self.info.input_name: x})[0][0], dtype=np.float64)
         label = self._filter.update(out, t, ticks)
         if label == _STILL:
-            self._speed = 0.0
+            self._speed, self._moving_frames = 0.0, 0
             return
-        raw = speed_mps(np.stack(list(self._frames)), self.info.fps, ACTIONS[label], self.config.speed)
+        # cadence from the stepping since the user started moving, not the standing before
+        self._moving_frames = min(self._moving_frames + ticks, len(self._frames))
+        recent = list(self._frames)[-max(self._moving_frames, self.info.window) :]
+        raw = speed_mps(np.stack(recent), self.info.fps, ACTIONS[label], self.config.speed)
         w = 1.0 - (1.0 - self.config.speed_alpha) ** ticks
         self._speed = raw if self._speed == 0.0 else w * raw + (1.0 - w) * self._speed
 

@@ -14,7 +14,7 @@ The cadence comes from the leg heights (knee plus ankle z, metres):
   step) lifts once per step (out, then back).
 
 Rising crossings use a dead band (hysteresis) so that noise makes no extra steps;
-the cadence is one over the median interval. Too few crossings, or legs lifted less
+the cadence is one over the median interval. Fewer than two crossings, or legs lifted less
 than ``min_lift_m`` (knee + ankle): a default cadence.
 """
 
@@ -77,6 +77,13 @@ def leg_height(frames: NDArray[np.floating], side: str) -> NDArray[np.float64]:
     return np.interp(idx, idx[ok], sig[ok])
 
 
+def _robust_range(signal: NDArray[np.float64]) -> tuple[float, float]:
+    """5th and 95th percentiles (nearest rank; faster than np.percentile for short signals)."""
+    s = np.sort(signal)
+    n = s.size - 1
+    return float(s[round(0.05 * n)]), float(s[round(0.95 * n)])
+
+
 def rising_crossings(signal: NDArray[np.floating], fps: float, band: float = 0.25) -> NDArray[np.float64]:
     """Times (s) where the signal rises from below to above its mid-range.
 
@@ -86,7 +93,7 @@ def rising_crossings(signal: NDArray[np.floating], fps: float, band: float = 0.2
     s = np.asarray(signal, dtype=np.float64)
     if s.size < 3:
         return np.zeros(0)
-    lo, hi = np.percentile(s, [5.0, 95.0])
+    lo, hi = _robust_range(s)
     mid, half = 0.5 * (lo + hi), band * (hi - lo)
     if hi - lo < 1e-6:
         return np.zeros(0)
@@ -106,8 +113,8 @@ def lift_amplitude_m(signal: NDArray[np.floating]) -> float:
     s = np.asarray(signal, dtype=np.float64)
     if s.size < 2:
         return 0.0
-    lo, hi = np.percentile(s, [5.0, 95.0])
-    return float(hi - lo)
+    lo, hi = _robust_range(s)
+    return hi - lo
 
 
 def cadence_sps(times: NDArray[np.floating], steps_per_crossing: float, config: SpeedConfig) -> float:
@@ -125,7 +132,9 @@ def speed_mps(frames: NDArray[np.floating], fps: float, action: str, config: Spe
         raise ValueError(f"fps must be positive, got {fps}")
     if action == "still":
         return 0.0
-    left, right = leg_height(frames, "l"), leg_height(frames, "r")
+    kernel = np.ones(3) / 3.0  # a light moving average against triangulation noise
+    left = np.convolve(leg_height(frames, "l"), kernel, mode="same")
+    right = np.convolve(leg_height(frames, "r"), kernel, mode="same")
     if action == "forward":
         signal, step_m = left - right, config.forward_step_m
         # left lifts (rises of L - R) and right lifts (rises of R - L) alternate: one per step

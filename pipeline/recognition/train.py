@@ -8,7 +8,8 @@ virtual cameras above the walls; the projected 2D joints get pixel noise
 triangulated back with the triangulation stage's own weighted DLT
 (``pipeline.triangulation.dlt``), so the training skeletons carry the errors a
 real CAVE produces (fewer than two views = unknown joint, NaN). On top come
-whole-body gaps (everyone occluded for a moment).
+whole-body gaps (everyone occluded for a moment) and body parts lost for a while
+(the face, an arm, the wrists; sometimes the face for a whole routine).
 
 Windows of ``window`` frames ending at every other frame are labelled with their
 last frame's label (the streaming recogniser classifies the newest frame).
@@ -38,6 +39,8 @@ from pipeline.triangulation.dlt import triangulate_linear
 log = logging.getLogger(__name__)
 
 LABEL_INDEX = {name: i for i, name in enumerate(ACTIONS)}
+# Joint groups that go missing together: face, left arm, right arm, both wrists.
+_GROUPS: tuple[list[int], ...] = ([0, 1, 2, 3, 4], [7, 9], [8, 10], [9, 10])
 
 
 @dataclass(frozen=True, slots=True)
@@ -50,6 +53,8 @@ class NoiseConfig:
     outlier_prob: float = 0.01
     outlier_px: float = 60.0
     gap_prob_per_s: float = 0.05
+    group_drop_per_s: float = 0.03  # a body part (face, an arm, the wrists) unknown for 0.5-6 s
+    face_missing_prob: float = 0.05  # no face at all in the whole routine
     focal_px: float = 1000.0
     camera_height_m: float = 2.4
     camera_distance_m: float = 1.7
@@ -83,6 +88,7 @@ class TrainConfig:
     weight_decay: float = 1e-3
     label_smoothing: float = 0.05
     slow_channels: int = 64
+    fast_pathway: bool = True
     alpha: int = 4
     seed: int = 0
     threads: int = 1
@@ -174,6 +180,13 @@ def capture(
     for _ in range(n_gaps):
         s = int(rng.integers(0, t))
         out[s : s + int(rng.integers(1, 9))] = np.nan
+    # body parts lost for a while (a hand behind the back, the face turned away from every camera)
+    for _ in range(rng.poisson(noise.group_drop_per_s * t / fps)):
+        group = _GROUPS[int(rng.integers(len(_GROUPS)))]
+        s = int(rng.integers(0, t))
+        out[s : s + int(rng.uniform(0.5, 6.0) * fps), group] = np.nan
+    if rng.random() < noise.face_missing_prob:
+        out[:, _GROUPS[0]] = np.nan
     return out
 
 
@@ -276,6 +289,7 @@ def train_model(
             window=config.window,
             alpha=config.alpha,
             slow_channels=config.slow_channels,
+            fast_pathway=config.fast_pathway,
         )
     )
     ends_all = window_ends(train)
