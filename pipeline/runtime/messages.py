@@ -81,7 +81,7 @@ def put_latest(q: Any, item: object, retries: int = 3) -> int:
             return dropped
         except queue.Full:
             try:  # a short wait: the oldest item may still be in the feeder thread, not the pipe
-                q.get(timeout=0.01)
+                q.get(timeout=0.05)
                 dropped += 1
             except queue.Empty:
                 pass
