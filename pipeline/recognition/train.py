@@ -11,8 +11,10 @@ real CAVE produces (fewer than two views = unknown joint, NaN). On top come
 whole-body gaps (everyone occluded for a moment) and body parts lost for a while
 (the face, an arm, the wrists; sometimes the face for a whole routine).
 
-Windows of ``window`` frames ending at every other frame are labelled with their
-last frame's label (the streaming recogniser classifies the newest frame).
+Each epoch draws random windows of ``window`` frames (any frame can end one; frames
+before a routine's start repeat its first frame, as in streaming), labelled with
+their last frame's label (the streaming recogniser classifies the newest frame);
+the 0.5 s after each true transition weigh double in the loss.
 Everything is deterministic for a seed. The model is exported to ONNX with a
 softmax output and metadata (window, fps, classes) that the recogniser reads.
 """
