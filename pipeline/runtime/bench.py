@@ -73,7 +73,10 @@ class ProcessSampler:
             seen[p.pid] = used
             cpu_total += used - self._last.get(p.pid, used if p.pid not in self._last else 0.0)
         dt = now - self._t
-        if dt > 0 and self._last:
+        if dt < 0.5:  # CPU times tick at 10 ms: a short interval gives no usable percentage
+            self.rss_samples_mb.append(rss / 1e6)
+            return
+        if self._last:
             self.cpu_samples.append(100.0 * cpu_total / dt)
         self._last, self._t = seen, now
         self.rss_samples_mb.append(rss / 1e6)
