@@ -2,8 +2,9 @@
 
 ``submit()`` hands the emitter the navigator's newest command (or None when no
 navigator is tracked); a new command goes out at once, and a background thread
-repeats the current one so that ``locomotion`` arrives at ``rate_hz`` while a
-navigator is tracked, and sends a ``heartbeat`` every ``heartbeat_s`` always.
+repeats the current one so that ``locomotion`` arrives at ``rate_hz`` on average while
+a navigator is tracked (see FRESH_GAP / REPEAT_GAP), and sends a ``heartbeat`` every
+``heartbeat_s`` always.
 ``seq`` counts per destination. Unicast, broadcast and multicast addresses all work
 (the socket has SO_BROADCAST and a multicast TTL).
 """
@@ -30,6 +31,14 @@ from pipeline.errors import InputError
 log = logging.getLogger(__name__)
 
 Endpoint = tuple[str, int]
+
+# Pacing of ``locomotion``, in periods of ``rate_hz``: a fresh command goes out at once unless
+# the last datagram left less than FRESH_GAP periods ago (then it is coalesced); the current
+# command is repeated after REPEAT_GAP periods without a datagram. With results at the rate the
+# stream carries every result the moment it comes (a repeat never pre-empts a result that is a
+# little late); with results at half the rate one repeat fills each gap: 60 Hz on average.
+FRESH_GAP = 0.75
+REPEAT_GAP = 1.25
 
 
 @dataclass(frozen=True, slots=True)
@@ -80,6 +89,7 @@ class UdpEmitter:
         self._osc: list[object] = []
         self._command: LocomotionCommand | None = None
         self._command_at = 0.0
+        self._pending = False  # a fresh command waits to be sent
         self._last_loco = 0.0
         self._last_beat = 0.0
         self._state = "stopped"
@@ -129,11 +139,18 @@ class UdpEmitter:
                 return
             now = time.monotonic()
             self._command_at = now
-            self._wake.set()  # the repeat thread may be sleeping until the next heartbeat
-            if now - self._last_loco >= 0.5 / self.config.rate_hz:
+            self._pending = True
+            if now - self._last_loco >= FRESH_GAP / self.config.rate_hz:
                 self._send_locomotion(command, now)
+                self._pending = False
                 if self._on_sent is not None:
                     self._on_sent(now - command.timestamp_s)
+            self._wake.set()  # the repeat thread may be sleeping until the next heartbeat
+
+    def _next_gap(self) -> float:
+        """Periods after the last datagram when the next is due: soon for a fresh command not
+        yet sent (coalesced when commands come faster than the rate), later for a repeat."""
+        return FRESH_GAP if self._pending else REPEAT_GAP
 
     def _send(self, build: Callable[[int], bytes]) -> None:
         for ep in self._endpoints:
@@ -172,8 +189,9 @@ class UdpEmitter:
             cmd = self._command
             if cmd is not None and now - self._command_at > self.config.stale_after_s:
                 cmd = self._command = None
-            if cmd is not None and now - self._last_loco >= 1.0 / self.config.rate_hz:
+            if cmd is not None and now - self._last_loco >= self._next_gap() / self.config.rate_hz:
                 self._send_locomotion(cmd, now)
+                self._pending = False
             if now - self._last_beat >= self.config.heartbeat_s:
                 self._send_heartbeat(now)
 
@@ -188,7 +206,7 @@ class UdpEmitter:
                 now = time.monotonic()
                 wait = self._last_beat + self.config.heartbeat_s - now
                 if self._command is not None:
-                    wait = min(wait, self._last_loco + period - now)
+                    wait = min(wait, self._last_loco + self._next_gap() * period - now)
             self._wake.wait(max(0.001, wait))
             self._wake.clear()
 

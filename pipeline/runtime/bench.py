@@ -8,8 +8,8 @@ measures for ``duration_s``. Used by ``cavewalk bench`` and ``scripts/soak.py``.
 from __future__ import annotations
 
 import logging
+import multiprocessing as mp
 import os
-import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from pipeline.emitter.receiver import ReceiverStats, open_receiver_socket, receive
+from pipeline.emitter.receiver import open_receiver_socket, receive
 from pipeline.errors import SourceError
 from pipeline.runtime.metrics import percentiles
 from pipeline.runtime.pipeline import Pipeline
@@ -82,16 +82,36 @@ class ProcessSampler:
         self.rss_samples_mb.append(rss / 1e6)
 
 
+def receiver_process(port_q: Any, go: Any, stop: Any, out_q: Any) -> None:
+    """The workstation end of a benchmark, in its own process (no GIL shared with the pipeline):
+    binds a port, discards what came before ``go``, receives until ``stop``, returns the summary."""
+    import queue as _queue
+
+    sock = open_receiver_socket(0, "127.0.0.1")
+    port_q.put(sock.getsockname()[1])
+    go.wait()
+    sock.setblocking(False)
+    while True:  # what arrived during the warm-up is not measured
+        try:
+            sock.recv(65535)
+        except (BlockingIOError, _queue.Empty):
+            break
+    sock.setblocking(True)
+    stats = receive(sock, should_stop=stop.is_set)
+    sock.close()
+    out_q.put(stats.summary())
+
+
 def run_scenario(scenario: Scenario, duration_s: float, warmup_timeout_s: float = 90.0,
                  warmup_s: float = 2.0, progress: Callable[[str], None] = log.info) -> dict[str, Any]:
     """Run one scenario and return its figures (see the module docstring)."""
-    sock = open_receiver_socket(0, "127.0.0.1")
-    port = sock.getsockname()[1]
+    ctx = mp.get_context("forkserver")
+    port_q, out_q, go, stop_rx = ctx.Queue(), ctx.Queue(), ctx.Event(), ctx.Event()
+    rx = ctx.Process(target=receiver_process, args=(port_q, go, stop_rx, out_q), daemon=True)
+    rx.start()
+    port = int(port_q.get(timeout=60))
     pipeline = scenario.build()
-    stats_box: dict[str, ReceiverStats] = {}
-    stop_rx = threading.Event()
-    rx = threading.Thread(target=lambda: stats_box.update(s=receive(sock, should_stop=stop_rx.is_set)),
-                          daemon=True)
+    rx_summary: dict[str, Any] | None = None
     try:
         pipeline.set_workstations([("127.0.0.1", port)])
         pipeline.start(scenario.source, scenario.videos)  # type: ignore[arg-type]
@@ -105,7 +125,7 @@ def run_scenario(scenario: Scenario, duration_s: float, warmup_timeout_s: float 
                  f"warming up {warmup_s:.0f} s")
         time.sleep(warmup_s)
         pipeline.reset_metrics()
-        rx.start()
+        go.set()
         sampler = ProcessSampler()
         start = time.monotonic()
         s0 = pipeline.status()
@@ -126,14 +146,18 @@ def run_scenario(scenario: Scenario, duration_s: float, warmup_timeout_s: float 
         samples = pipeline.latency_samples()
         sampler.sample()
     finally:
+        go.set()
         stop_rx.set()
         pipeline.close()
+        try:
+            rx_summary = out_q.get(timeout=10)
+        except Exception:  # the receiver died: the figures go on without it
+            log.warning("the benchmark's receiver gave no summary")
+        rx.join(timeout=5)
         if rx.is_alive():
-            rx.join(timeout=2.0)
-        sock.close()
+            rx.kill()
     processed = s1.processed - s0.processed
     dropped = s1.dropped - s0.dropped
-    rx_stats = stats_box.get("s")
     return {
         "source": scenario.source,
         "notes": scenario.notes,
@@ -148,7 +172,7 @@ def run_scenario(scenario: Scenario, duration_s: float, warmup_timeout_s: float 
         "cpu_percent": _summary(sampler.cpu_samples),
         "rss_mb": _summary(sampler.rss_samples_mb),
         "cameras": list(s1.cameras),
-        "receiver": rx_stats.summary() if rx_stats is not None else None,
+        "receiver": rx_summary,
     }
 
 
