@@ -89,7 +89,10 @@ def receiver_process(port_q: Any, go: Any, stop: Any, out_q: Any) -> None:
 
     sock = open_receiver_socket(0, "127.0.0.1")
     port_q.put(sock.getsockname()[1])
-    go.wait()
+    parent = mp.parent_process()
+    while not go.wait(0.25):
+        if parent is not None and not parent.is_alive():
+            return
     sock.setblocking(False)
     while True:  # what arrived during the warm-up is not measured
         try:
@@ -97,7 +100,7 @@ def receiver_process(port_q: Any, go: Any, stop: Any, out_q: Any) -> None:
         except (BlockingIOError, _queue.Empty):
             break
     sock.setblocking(True)
-    stats = receive(sock, should_stop=stop.is_set)
+    stats = receive(sock, should_stop=lambda: stop.is_set() or (parent is not None and not parent.is_alive()))
     sock.close()
     out_q.put(stats.summary())
 
