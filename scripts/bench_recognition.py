@@ -52,7 +52,7 @@ def main() -> int:
         rec.update(frame, i / fps)
         times[i] = time.perf_counter() - t0
 
-    window = joints[:32]
+    window = joints[: rec.info.window]
     x = to_model_input(window_features(window, fps))[None]
     session, name = rec.session, rec.info.input_name
     model_t = np.empty(1000)
