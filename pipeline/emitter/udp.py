@@ -34,9 +34,9 @@ Endpoint = tuple[str, int]
 
 # Pacing of ``locomotion``, in periods of ``rate_hz``: a fresh command goes out at once unless
 # the last datagram left less than FRESH_GAP periods ago (then it is coalesced); the current
-# command is repeated after REPEAT_GAP periods without a datagram. With results at the rate the
-# stream carries every result the moment it comes (a repeat never pre-empts a result that is a
-# little late); with results at half the rate one repeat fills each gap: 60 Hz on average.
+# command is repeated REPEAT_GAP periods after it went out, then every period. With results at
+# the rate the stream carries every result the moment it comes (a repeat never pre-empts a
+# result that is a little late); with slower results repeats fill the gaps: 60 Hz on average.
 FRESH_GAP = 0.75
 REPEAT_GAP = 1.25
 
@@ -46,7 +46,7 @@ class EmitterConfig:
     rate_hz: float = 60.0
     heartbeat_s: float = 1.0
     multicast_ttl: int = 1
-    stale_after_s: float = 0.5  # a command older than this is no longer repeated
+    stale_after_s: float = 1.0  # a command not renewed for this long is no longer repeated
 
     def __post_init__(self) -> None:
         if self.rate_hz <= 0 or self.heartbeat_s <= 0 or self.stale_after_s <= 0:
@@ -90,6 +90,7 @@ class UdpEmitter:
         self._command: LocomotionCommand | None = None
         self._command_at = 0.0
         self._pending = False  # a fresh command waits to be sent
+        self._last_was_fresh = False  # the last locomotion datagram carried a new command
         self._last_loco = 0.0
         self._last_beat = 0.0
         self._state = "stopped"
@@ -143,14 +144,18 @@ class UdpEmitter:
             if now - self._last_loco >= FRESH_GAP / self.config.rate_hz:
                 self._send_locomotion(command, now)
                 self._pending = False
+                self._last_was_fresh = True
                 if self._on_sent is not None:
                     self._on_sent(now - command.timestamp_s)
             self._wake.set()  # the repeat thread may be sleeping until the next heartbeat
 
     def _next_gap(self) -> float:
         """Periods after the last datagram when the next is due: soon for a fresh command not
-        yet sent (coalesced when commands come faster than the rate), later for a repeat."""
-        return FRESH_GAP if self._pending else REPEAT_GAP
+        yet sent (coalesced when commands come faster than the rate); for the first repeat of a
+        command a little later than one period (its successor may be just late), then one."""
+        if self._pending:
+            return FRESH_GAP
+        return REPEAT_GAP if self._last_was_fresh else 1.0
 
     def _send(self, build: Callable[[int], bytes]) -> None:
         for ep in self._endpoints:
@@ -191,6 +196,7 @@ class UdpEmitter:
                 cmd = self._command = None
             if cmd is not None and now - self._last_loco >= self._next_gap() / self.config.rate_hz:
                 self._send_locomotion(cmd, now)
+                self._last_was_fresh = self._pending
                 self._pending = False
             if now - self._last_beat >= self.config.heartbeat_s:
                 self._send_heartbeat(now)
