@@ -14,6 +14,7 @@ from typing import Any, Literal
 
 from pipeline.pose.types import ViewDetections
 from pipeline.results import FrameResult
+from pipeline.tracking.types import TrackedView
 
 WorkerEventKind = Literal["started", "stopped", "error", "camera_lost", "camera_ok", "ended", "info"]
 WORKER_EVENT_KINDS = ("started", "stopped", "error", "camera_lost", "camera_ok", "ended", "info")
@@ -51,6 +52,7 @@ class DetectedFrame:
     missing: tuple[str, ...] = ()
     dropped: float = 0.0
     source_index: int = -1  # the sources' own frame index (counts the frames they skipped too)
+    tracked: tuple[TrackedView, ...] | None = None  # when the pose stage tracked the views too
 
 
 @dataclass(frozen=True, slots=True)

@@ -137,7 +137,8 @@ class Pipeline:
         from pipeline.runtime.stages import PoseStageFactory
 
         config = config or RuntimeConfig.from_settings(settings.runtime)
-        pose_factory = PoseStageFactory.from_settings(settings.pose, settings.pose_model_path)
+        pose_factory = PoseStageFactory.from_settings(settings.pose, settings.pose_model_path,
+                                                      getattr(settings, "tracking", None))
         fusion = fusion_factory_from_settings(settings, cameras_calibrated)
         endpoints = [_split_endpoint(w) for w in settings.workstations]
         sources = {c.name: c.source for c in settings.cameras}
@@ -262,6 +263,9 @@ class Pipeline:
         dspec = DetectSpec(names, self.config.target_fps, self.config.grouper)
         rings = tuple(run.cameras[n].ring.spec for n in names)  # type: ignore[union-attr]
         pose = self.pose_factory
+        with_cameras = getattr(pose, "with_cameras", None)
+        if with_cameras is not None:  # the pose stage tracks each camera's people as well
+            pose = with_cameras(names)
 
         def build_chain() -> list[WorkerDef]:
             run.out_q, run.control_q = ctx.Queue(maxsize=QUEUE_SIZE), ctx.Queue(maxsize=16)

@@ -5,16 +5,16 @@ its stage inside the process, so nothing heavy (an ONNX session) is pickled and 
 can hand a worker any other factory.
 
 - :class:`PoseStage` — the pose detector over all views of a multi-view frame, in ROI
-  mode on crops around the people seen in the previous frame (a full-frame pass every
-  ``full_every`` frames or when a view saw nobody).
-- :class:`Fusion` — tracking, association/triangulation, navigator choice, recognition.
+  mode on crops around each view's predicted tracks, then OC-SORT per view.
+- :class:`Fusion` — association/triangulation, navigator choice, recognition (and the
+  tracking itself for the simulator, whose detections skip the pose stage).
 """
 
 from __future__ import annotations
 
 import logging
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -39,42 +39,31 @@ class DetectStage(Protocol):
 
 
 class PoseStage:
-    """Batched pose detection over the views of a multi-view frame, optionally in ROI mode.
+    """Pose detection over the views of a multi-view frame in one batch, then OC-SORT per view.
 
-    ROI mode uses the pose stage's :class:`pipeline.pose.roi.RoiScheduler`; the boxes it
-    expects are the previous frame's confident detections (the tracker runs in another
-    process), and a view that lost a person since the previous frame triggers a full pass.
+    The tracking engineer's :class:`pipeline.tracking.stage.DetectAndTrack`, for a frame that
+    may lack some cameras (late or gone): ROI crops around each present view's predicted
+    tracks (:class:`pipeline.pose.roi.RoiScheduler`), one detector call, the trackers of the
+    present views updated. Runs in the detect process so the crops follow the tracks.
     """
 
-    def __init__(self, detector: Any, roi: Any = None, min_score: float = 0.35) -> None:
-        from pipeline.pose.roi import RoiScheduler
-
+    def __init__(self, detector: Any, tracker: Any, roi: Any) -> None:
         self.detector = detector
-        self.scheduler = RoiScheduler(roi) if roi is not None else None
-        self.min_score = min_score
-        self._previous: dict[str, NDArray[np.float32]] = {}
+        self.tracker = tracker  # pipeline.tracking.ocsort.MultiViewTracker
+        self.roi = roi  # pipeline.pose.roi.RoiScheduler
         self.full_passes = 0
         self.roi_passes = 0
 
     def detect(self, images: Sequence[NDArray[np.uint8]], cameras: Sequence[str], frame_index: int,
-               timestamp_s: float) -> tuple[ViewDetections, ...]:
-        if self.scheduler is None:
-            views = tuple(self.detector.detect(images, cameras, frame_index, timestamp_s).views)
-            self.full_passes += 1
-            return views
+               timestamp_s: float) -> tuple[TrackedView, ...]:
         sizes = [(int(im.shape[1]), int(im.shape[0])) for im in images]
-        expected = [{i: b.astype(np.float64) for i, b in enumerate(self._previous.get(c, np.zeros((0, 4))))}
-                    for c in cameras]
-        plan = self.scheduler.plan(sizes, expected)
-        batch = self.detector.detect(images, cameras, frame_index, timestamp_s, jobs=plan.jobs,
-                                     net_size=plan.net_size)
-        views = tuple(batch.views)
-        lost = False
-        for v in views:
-            keep = v.boxes_xyxy[v.box_scores >= self.min_score]
-            lost = lost or len(keep) < len(self._previous.get(v.camera, ()))
-            self._previous[v.camera] = keep
-        self.scheduler.report(plan.full, lost)
+        expected = [self.tracker.trackers[c].predicted_boxes() for c in cameras]
+        plan = self.roi.plan(sizes, expected)
+        batch = self.detector.detect(images, cameras, frame_index, timestamp_s, plan.jobs, plan.net_size)
+        views = tuple(self.tracker.update(batch.views))
+        lost = any(not set(exp).issubset(self.tracker.trackers[c].last_matched)
+                   for c, exp in zip(cameras, expected, strict=True))
+        self.roi.report(plan.full, lost)
         if plan.full:
             self.full_passes += 1
         else:
@@ -84,66 +73,39 @@ class PoseStage:
 
 @dataclass(frozen=True, slots=True)
 class PoseStageFactory:
-    """Builds the real pose stage (YOLO-pose on ONNX Runtime) inside the worker.
+    """Builds the pose + tracking stage inside the detect worker (loads the ONNX model there).
 
-    detector_config: pipeline.pose.detector.PoseDetectorConfig; roi: pipeline.pose.roi.RoiConfig or None.
+    detector_config: pipeline.pose.detector.PoseDetectorConfig; roi: pipeline.pose.roi.RoiConfig;
+    tracking: pipeline.tracking.ocsort.OCSortConfig (None: its defaults).
     """
 
     detector_config: Any
-    roi: Any = None
+    roi: Any
+    cameras: tuple[str, ...] = ()
+    tracking: Any = None
 
     def __call__(self) -> PoseStage:
         from pipeline.pose.detector import PoseDetector
+        from pipeline.pose.roi import RoiScheduler
+        from pipeline.tracking.ocsort import MultiViewTracker
 
-        session = load_quiet_session(self.detector_config)
-        return PoseStage(PoseDetector(session, self.detector_config), self.roi,
-                         self.detector_config.score_threshold)
+        if not self.cameras:
+            raise ValueError("PoseStageFactory needs the camera names (use with_cameras)")
+        return PoseStage(PoseDetector.load(self.detector_config),
+                         MultiViewTracker(list(self.cameras), self.tracking), RoiScheduler(self.roi))
+
+    def with_cameras(self, cameras: Sequence[str]) -> PoseStageFactory:
+        return replace(self, cameras=tuple(cameras))
 
     @classmethod
-    def from_settings(cls, pose: Any, model_path: Path) -> PoseStageFactory:
-        """From ``settings.pose`` (duck-typed: pipeline never imports app)."""
+    def from_settings(cls, pose: Any, model_path: Path, tracking: Any = None) -> PoseStageFactory:
+        """From ``settings.pose`` (and ``settings.tracking``); duck-typed: pipeline never imports app."""
         from pipeline.pose.detector import PoseDetectorConfig
         from pipeline.pose.roi import RoiConfig
+        from pipeline.tracking.ocsort import OCSortConfig
 
-        roi = RoiConfig.from_settings(pose) if getattr(pose, "roi", False) else None
-        return cls(PoseDetectorConfig.from_settings(pose, model_path), roi)
-
-
-def load_quiet_session(config: Any) -> Any:
-    """The pose model's onnxruntime session with spin-waiting threads off.
-
-    onnxruntime's worker threads spin between runs by default; in a pipeline of several
-    processes on few cores that spinning takes the CPU the capture decoders need (measured
-    here: detect p50 918 ms spinning vs 141 ms not, four 1088x1920 decoders on 2 cores).
-    Otherwise as ``pipeline.pose.detector.load_session``, whose checks it reuses.
-    """
-    import onnxruntime as ort
-
-    from pipeline.pose import detector as pose
-
-    path = Path(config.model_path)
-    if not path.is_file():
-        raise ModelError(f"pose model not found: {path} (run  cavewalk models prepare)")
-    opts = ort.SessionOptions()
-    opts.graph_optimization_level = ort.GraphOptimizationLevel.ORT_ENABLE_ALL
-    opts.execution_mode = ort.ExecutionMode.ORT_SEQUENTIAL
-    opts.add_session_config_entry("session.intra_op.allow_spinning", "0")
-    opts.add_session_config_entry("session.inter_op.allow_spinning", "0")
-    if config.threads:
-        opts.intra_op_num_threads = config.threads
-        opts.inter_op_num_threads = 1
-    available = set(ort.get_available_providers())
-    providers = [pose.PROVIDERS[p] for p in config.providers if pose.PROVIDERS[p] in available]
-    if "CPUExecutionProvider" not in providers:
-        providers.append("CPUExecutionProvider")
-    try:
-        session = ort.InferenceSession(str(path), opts, providers=providers)
-    except Exception as exc:  # onnxruntime raises its own exception types
-        raise ModelError(f"{path}: onnxruntime cannot load it ({exc})") from exc
-    out = session.get_outputs()[0].shape
-    if len(session.get_inputs()) != 1 or len(out) != 3:
-        raise ModelError(f"{path}: expected one (B, 3, H, W) input and a (B, 56, N) output")
-    return session
+        return cls(PoseDetectorConfig.from_settings(pose, model_path), RoiConfig.from_settings(pose),
+                   tracking=OCSortConfig.from_settings(tracking) if tracking is not None else None)
 
 
 # ------------------------------------------------------------------------------------- fusion
@@ -212,7 +174,9 @@ class Fusion:
     def update(self, frame: DetectedFrame) -> FrameResult:
         views = list(frame.views)
         tracked: tuple[TrackedView, ...] = ()
-        if self.tracker is not None:
+        if frame.tracked is not None:  # tracked in the detect process already
+            tracked = frame.tracked
+        elif self.tracker is not None:
             tracked = tuple(self.tracker.update(views))
         people: tuple[Person3D, ...] = ()
         if self.reconstructor is not None:

@@ -32,6 +32,7 @@ from pipeline.runtime.messages import (
 from pipeline.runtime.metrics import AdaptiveRate, ema
 from pipeline.runtime.shm import FrameRing, RingSpec
 from pipeline.sources.grouper import FrameRef, GrouperConfig, MultiViewGrouper
+from pipeline.tracking.types import TrackedView
 
 log = logging.getLogger(__name__)
 
@@ -208,16 +209,18 @@ def detect_loop(ctx: _Ctx, spec: DetectSpec, ring_specs: tuple[RingSpec, ...],
             if not images:
                 continue
             t0 = time.monotonic()
-            views = stage.detect(images, cams, frame_index, min(stamps))
+            out = tuple(stage.detect(images, cams, frame_index, min(stamps)))
             t1 = time.monotonic()
+            tracked = out if out and isinstance(out[0], TrackedView) else None
+            views = tuple(t.detections for t in tracked) if tracked is not None else out
             busy = ema(busy, t1 - t0)
             next_at = t0 + rate.period_s(busy)
             for ring in rings.values():  # the dynamic frame rate reaches back to the cameras
                 ring.set_demand(next_at)
             dropped = sum(group.skipped.values()) / max(1, len(spec.cameras))
             missing = tuple(c for c in spec.cameras if c not in cams)
-            put_latest(out_q, DetectedFrame(frame_index, min(stamps), tuple(views), t0, t1, missing, dropped,
-                                            max(indices)))
+            put_latest(out_q, DetectedFrame(frame_index, min(stamps), views, t0, t1, missing, dropped,
+                                            max(indices), tracked))
             frame_index += 1
     finally:
         for ring in rings.values():
