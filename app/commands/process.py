@@ -4,27 +4,48 @@ from __future__ import annotations
 
 import logging
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from app.core.config import get_settings
+from app.core.config import Settings, get_settings
+from pipeline.camera import Camera
 from pipeline.errors import InputError
+
+if TYPE_CHECKING:
+    from pipeline.runtime.offline import FusionStage
 
 log = logging.getLogger(__name__)
 
 
-def _check_calibration(path: Path, cameras: list[str]) -> None:
-    """Every video's camera must be in the calibration."""
+def _calibrated_cameras(path: Path, cameras: list[str]) -> list[Camera]:
+    """The calibration's cameras for the videos, in video order; every video must be calibrated."""
     from pipeline.calibration.io import load_calibration
 
-    calibrated = [c.name for c in load_calibration(path)]
-    missing = [c for c in cameras if c not in calibrated]
+    by_name = {c.name: c for c in load_calibration(path)}
+    missing = [c for c in cameras if c not in by_name]
     if missing:
         raise InputError(
-            f"calibration {path} has cameras {calibrated} but not {missing} named by --video "
+            f"calibration {path} has cameras {list(by_name)} but not {missing} named by --video "
             f"(video names must match the calibration's camera names)"
         )
+    return [by_name[c] for c in cameras]
+
+
+def _fusion_stage(settings: Settings, cameras: list[Camera]) -> FusionStage:
+    """Triangulation, navigator choice and action recognition over the tracked views."""
+    from pipeline.recognition.recognizer import ActionRecognizer
+    from pipeline.runtime.offline import FusionStage
+    from pipeline.runtime.stages import Fusion
+    from pipeline.triangulation.navigator import NavigatorSelector
+    from pipeline.triangulation.reconstructor import Reconstructor
+
+    return FusionStage(Fusion(
+        tracker=None,
+        reconstructor=Reconstructor.from_settings(cameras, settings.triangulation),
+        selector=NavigatorSelector.from_settings(settings.navigator),
+        recognizer=ActionRecognizer.from_config(settings.recognition.to_config()),
+    ))
 
 
 def _check_out(out: Path) -> None:
@@ -53,20 +74,21 @@ def register(cli: typer.Typer) -> None:
             help="Crop around tracked people between full-frame passes (default: settings).",
         )] = None,
     ) -> None:
-        """Detect and track people in synchronised videos; write the per-frame JSON Lines of SPEC.md."""
+        """The whole recognition pipeline over synchronised videos: detection, tracking, 3D skeletons,
+        navigator and action per frame, as the per-frame JSON Lines of SPEC.md."""
         from pipeline.results import ResultsWriter
         from pipeline.runtime.offline import OfflinePipeline, RunSummary, SyncedVideos, parse_named_paths
         from pipeline.tracking.stage import DetectAndTrack
 
         settings = get_settings()
         named = parse_named_paths(video, "video")
-        _check_calibration(calibration, list(named))
+        cameras = _calibrated_cameras(calibration, list(named))
         _check_out(out)
         pose = settings.pose if roi is None else settings.pose.model_copy(update={"roi": roi})
         with SyncedVideos(named) as videos:
             stage = DetectAndTrack.from_settings(pose, settings.tracking, settings.pose_model_path,
                                                  list(videos.cameras))
-            pipeline = OfflinePipeline(stage)
+            pipeline = OfflinePipeline(stage, stages=[_fusion_stage(settings, cameras)])
             total = videos.frame_count if frames is None else min(frames, videos.frame_count or frames)
             typer.echo(f"processing {len(named)} videos, {total or '?'} frames at {videos.fps:g} fps "
                        f"(ROI mode {'on' if pose.roi else 'off'}) -> {out}", err=True)
@@ -89,6 +111,9 @@ def register(cli: typer.Typer) -> None:
         typer.echo(f"wrote {summary.frames} frames to {out} in {summary.wall_s:.1f} s "
                    f"(detect+track median {summary.median_ms():.1f} ms/frame, "
                    f"{fulls} full-frame passes)")
+        actions = ", ".join(f"{k}: {n}" for k, n in sorted(summary.actions.items())) or "none"
+        typer.echo(f"  3D people in {summary.people3d_frames} frames, a navigator in "
+                   f"{summary.navigator_frames}; actions {actions}")
         for cam, counts in summary.track_frames.items():
             ids = ", ".join(f"#{tid}: {n}" for tid, n in sorted(counts.items())) or "nobody"
             typer.echo(f"  {cam}: frames per track id {ids}")

@@ -21,6 +21,8 @@ from numpy.typing import NDArray
 
 from pipeline.errors import InputError, SourceError
 from pipeline.results import FrameResult, ResultsWriter
+from pipeline.runtime.messages import DetectedFrame
+from pipeline.runtime.stages import Fusion
 from pipeline.tracking.stage import DetectAndTrack, StepTimings
 
 log = logging.getLogger(__name__)
@@ -42,6 +44,25 @@ class FrameStage(Protocol):
     """A later stage: completes a frame's result (people3d, navigator, action)."""
 
     def __call__(self, result: FrameResult) -> FrameResult: ...
+
+
+class FusionStage:
+    """The later stages as one :class:`FrameStage`: the live runtime's :class:`Fusion`
+    (triangulation, navigator, recognition) fed with views that are already tracked."""
+
+    def __init__(self, fusion: Fusion) -> None:
+        if fusion.tracker is not None:
+            raise ValueError("FusionStage takes tracked views: build its Fusion without a tracker")
+        self.fusion = fusion
+
+    def __call__(self, result: FrameResult) -> FrameResult:
+        frame = DetectedFrame(
+            result.frame_index, result.timestamp_s,
+            views=tuple(v.detections for v in result.views),
+            detect_start_s=result.timestamp_s, detect_end_s=result.timestamp_s,
+            tracked=tuple(result.views),
+        )
+        return self.fusion.update(frame)
 
 
 def parse_named_paths(items: Sequence[str], what: str = "video") -> dict[str, Path]:
@@ -144,6 +165,9 @@ class RunSummary:
     timings: list[StepTimings] = field(default_factory=list)
     track_frames: dict[str, dict[int, int]] = field(default_factory=dict)  # camera -> id -> frames
     wall_s: float = 0.0
+    people3d_frames: int = 0  # frames with at least one 3D person
+    navigator_frames: int = 0  # frames with a navigator
+    actions: dict[str, int] = field(default_factory=dict)  # action label -> frames
 
     def median_ms(self) -> float:
         return float(np.median([t.total_s for t in self.timings]) * 1e3) if self.timings else float("nan")
@@ -189,6 +213,10 @@ class OfflinePipeline:
             writer.write(result)
             summary.frames += 1
             summary.timings.append(timings)
+            summary.people3d_frames += bool(result.people3d)
+            summary.navigator_frames += result.navigator is not None
+            if result.action is not None:
+                summary.actions[result.action.label] = summary.actions.get(result.action.label, 0) + 1
             for view in result.views:
                 counts = summary.track_frames[view.camera]
                 for tid in view.track_ids.tolist():

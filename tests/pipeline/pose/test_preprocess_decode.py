@@ -58,7 +58,8 @@ def test_letterbox_round_trip_and_fit(x1: float, y1: float, w: float, h: float, 
     np.testing.assert_allclose(back, p, rtol=1e-5, atol=1e-2 * max(1.0, abs(p).max() * 1e-3))
     corners = box.to_net(np.array([[x1, y1], [x1 + w, y1 + h]], np.float32))
     # the region fits inside the network input, touching it on at least one axis, centred
-    assert corners.min() >= -1e-3 and corners[1, 0] <= nw + 1e-2 and corners[1, 1] <= nh + 1e-2
+    # tolerance: float32 rounding at image coordinates of a few thousand pixels is ~2e-3 px
+    assert corners.min() >= -1e-2 and corners[1, 0] <= nw + 1e-2 and corners[1, 1] <= nh + 1e-2
     assert min(abs(corners[1, 0] - corners[0, 0] - nw), abs(corners[1, 1] - corners[0, 1] - nh)) < 1e-2
     np.testing.assert_allclose(corners.mean(axis=0), [nw / 2, nh / 2], atol=1e-2)
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import logging
 import sys
+from collections import Counter
 from pathlib import Path
 
 import pytest
@@ -64,6 +65,42 @@ def test_process_writes_views_for_every_frame(
     ids = {(v["camera"], p["track_id"]) for rec in lines for v in rec["views"] for p in v["people"]}
     assert {cam for cam, _ in ids} == set(demo_data.videos)
     assert not out.with_name(out.name + ".partial").exists()
+
+
+@pytest.mark.slow
+def test_process_writes_3d_people_navigator_and_action(
+    demo_data: DemoData, pose_model_path: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """The whole pipeline on the real demo with its Qualisys calibration: 3D skeletons of a
+    person-sized subject, one persistent user id, an automatic navigator and its action."""
+    out = tmp_path / "r.jsonl"
+    monkeypatch.setenv("CAVEWALK_POSE__MODEL", str(pose_model_path))
+    rc = cavewalk(["process", *video_args(demo_data), "--calibration", str(demo_data.calibration),
+                   "--out", str(out), "--frames", "60"], monkeypatch)
+    captured = capsys.readouterr()
+    assert rc == 0, captured.err
+    lines = [json.loads(line) for line in out.read_text().splitlines()]
+    assert len(lines) == 60
+    seen = Counter(p["user_id"] for rec in lines for p in rec["people3d"])
+    subject, frames_seen = seen.most_common(1)[0]
+    assert frames_seen >= 55, f"the subject (user {subject}) is in only {frames_seen} of 60 frames: {seen}"
+    for rec in lines[::10]:
+        person = next((p for p in rec["people3d"] if p["user_id"] == subject), None)
+        if person is None:
+            continue
+        nose, l_ankle = person["joints"][0], person["joints"][15]
+        if nose is not None and l_ankle is not None:
+            height = abs(nose[2] - l_ankle[2])
+            assert 1.2 < height < 2.0, f"frame {rec['frame']}: nose-to-ankle {height:.2f} m is not a person"
+        assert person["reproj_px"] is not None and person["reproj_px"] < 40
+    navigated = [rec for rec in lines if rec["navigator"] is not None]
+    assert navigated, "auto mode picks a navigator within the first second"
+    assert {rec["navigator"] for rec in navigated} == {subject}, "the subject, not the bystander, navigates"
+    assert all(rec["action"] is not None for rec in navigated[5:]), "the navigator's action is reported"
+    labels = {rec["action"]["label"] for rec in navigated if rec["action"]}
+    assert labels <= {"still", "forward", "left", "right"}
+    assert "a navigator in" in captured.out
 
 
 @pytest.mark.parametrize(
