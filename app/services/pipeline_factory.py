@@ -17,12 +17,9 @@ log = logging.getLogger(__name__)
 def simulator_factory(settings: Settings) -> object | None:
     """The simulator source of the settings (None when the simulator is not installed)."""
     try:
-        from app.services.sim_source import SimWorldFactory
+        from pipeline.runtime import SimWorldFactory
 
-        sim = settings.sim
-        return SimWorldFactory.from_parts(
-            settings.cave.geometry(), sim.camera_preset, sim.fps, sim.bystanders, sim.seed
-        )
+        return SimWorldFactory.from_settings(settings.sim, settings.cave.geometry())
     except ImportError as exc:
         log.warning("no simulator source: %s", exc)
         return None

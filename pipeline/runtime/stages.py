@@ -243,8 +243,10 @@ def fusion_factory_from_settings(settings: Any, cameras: list[Camera] | None) ->
 
     tracking = OCSortConfig.from_settings(settings.tracking) if hasattr(settings, "tracking") else None
     recognition = RecognizerConfig.from_settings(settings.recognition)
+    reconstruction = settings.triangulation.to_config() if hasattr(settings, "triangulation") else None
+    navigator = settings.navigator.to_config() if hasattr(settings, "navigator") else None
     return FusionFactory(cameras=tuple(cameras) if cameras else None, camera_names=(), tracking=tracking,
-                         recognition=recognition)
+                         reconstruction=reconstruction, navigator=navigator, recognition=recognition)
 
 
 # ---------------------------------------------------------------------------------- simulator
@@ -260,6 +262,7 @@ class SimWorldFactory:
     cameras: tuple[Camera, ...]
     config: Any
     fps: float
+    script: Any = None  # pipeline.sim.script.MotionScript of the navigator; None = random routines
 
     def __post_init__(self) -> None:
         if not self.cameras:
@@ -270,17 +273,16 @@ class SimWorldFactory:
     def __call__(self) -> Any:
         from pipeline.sim.world import SimWorld
 
-        return SimWorld(self.cave, list(self.cameras), self.config)
+        return SimWorld(self.cave, list(self.cameras), self.config, self.script)
 
     @classmethod
     def from_settings(cls, sim: Any, cave: Any, camera_count: int = 4, **overrides: Any) -> SimWorldFactory:
-        """From ``settings.sim`` and the CAVE geometry; ``overrides`` go to SimConfig (e.g. fps=60)."""
+        """From ``settings.sim`` (its ``to_config()``: scene, people, faults, routine) and the CAVE
+        geometry; ``overrides`` go to SimConfig (e.g. fps=60)."""
         from pipeline.sim.scene import default_cameras
-        from pipeline.sim.world import SimConfig
+        from pipeline.sim.script import load_script
 
-        fields = {"fps": sim.fps, "bystanders": sim.bystanders, "seed": sim.seed,
-                  "camera_preset": sim.camera_preset, "camera_count": camera_count}
-        fields.update(overrides)
-        config = SimConfig(**fields)
+        config = sim.to_config(camera_count=camera_count, **overrides)
+        script = load_script(sim.script) if sim.script is not None else None
         cameras = tuple(default_cameras(cave, config.camera_preset, config.camera_count))
-        return cls(cave, cameras, config, config.fps)
+        return cls(cave, cameras, config, config.fps, script)
