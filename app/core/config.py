@@ -12,6 +12,7 @@ Each pipeline stage gets its own small frozen config dataclass, built here once
 
 from __future__ import annotations
 
+from contextvars import ContextVar
 from functools import lru_cache
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -28,6 +29,8 @@ from pipeline.cave import CaveGeometry, Wall, box_cave
 from pipeline.errors import ConfigError
 
 DEFAULT_CONFIG_FILE = Path("cavewalk.toml")
+# The TOML file given to load_settings(); read by Settings.settings_customise_sources.
+_TOML_FILE: ContextVar[Path | None] = ContextVar("cavewalk_toml_file", default=None)
 _HOME = Path.home()
 
 
@@ -324,7 +327,7 @@ class Settings(BaseSettings):
         dotenv_settings: PydanticBaseSettingsSource,
         file_secret_settings: PydanticBaseSettingsSource,
     ) -> tuple[PydanticBaseSettingsSource, ...]:
-        toml_path = _ConfigPath().config or DEFAULT_CONFIG_FILE
+        toml_path = _TOML_FILE.get() or _ConfigPath().config or DEFAULT_CONFIG_FILE
         sources: list[PydanticBaseSettingsSource] = [init_settings, env_settings]
         if toml_path.is_file():
             sources.append(TomlConfigSettingsSource(settings_cls, toml_file=toml_path))
@@ -377,24 +380,11 @@ def load_settings(config_path: Path | None = None, **overrides: Any) -> Settings
         if config_path is None:
             return Settings(**overrides)
 
-        class _FromFile(Settings):
-            @classmethod
-            def settings_customise_sources(
-                cls,
-                settings_cls: type[BaseSettings],
-                init_settings: PydanticBaseSettingsSource,
-                env_settings: PydanticBaseSettingsSource,
-                dotenv_settings: PydanticBaseSettingsSource,
-                file_secret_settings: PydanticBaseSettingsSource,
-            ) -> tuple[PydanticBaseSettingsSource, ...]:
-                return (
-                    init_settings,
-                    env_settings,
-                    TomlConfigSettingsSource(settings_cls, toml_file=config_path),
-                )
-
-        loaded = _FromFile(**overrides)
-        return Settings.model_construct(**{k: getattr(loaded, k) for k in Settings.model_fields})
+        token = _TOML_FILE.set(Path(config_path))
+        try:
+            return Settings(**overrides)
+        finally:
+            _TOML_FILE.reset(token)
     except ValidationError as exc:
         raise ConfigError(format_validation_error(exc, source)) from exc
     except ValueError as exc:  # TOML syntax errors
