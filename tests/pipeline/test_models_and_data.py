@@ -9,10 +9,18 @@ import sys
 from pathlib import Path
 
 import cv2
+import onnx
 import pytest
 
 from pipeline.demo_data import DemoData, fetch_demo
-from pipeline.pose.prepare import prepare_pose_model, sha256_file, verify_onnx
+from pipeline.pose.prepare import (
+    PreparedModel,
+    int8_path,
+    prepare_int8_model,
+    prepare_pose_model,
+    sha256_file,
+    verify_onnx,
+)
 
 
 def test_prepared_model_is_verified_and_checksummed(pose_model_path: Path) -> None:
@@ -37,10 +45,36 @@ def test_prepare_reexports_a_corrupted_file(pose_model_path: Path, tmp_path: Pat
         f.seek(1000)
         f.write(b"\x00" * 64)
     messages: list[str] = []
-    prepared = prepare_pose_model(tmp_path, progress=messages.append)
+    prepared = prepare_pose_model(tmp_path, progress=messages.append, int8=False)
     assert prepared.created is True
     assert any("does not match" in m for m in messages)
     verify_onnx(prepared.path)
+
+
+def test_int8_model_is_produced_verified_and_checksummed(pose_model_path: Path) -> None:
+    path = int8_path(pose_model_path)
+    assert path.name == "yolo11n-pose.int8.onnx"
+    meta = json.loads(path.with_suffix(".json").read_text())
+    assert meta["sha256"] == sha256_file(path)
+    assert meta["source_sha256"] == sha256_file(pose_model_path), "made from the current fp32 file"
+    assert verify_onnx(path)[:2] == (2, 56)
+    nodes = onnx.load(str(path)).graph.node
+    quantized = {n.input[0] for n in nodes if n.op_type == "DequantizeLinear"}
+    convs = {n.name: n for n in nodes if n.op_type == "Conv"}
+    backbone = convs["/model.0/conv/Conv"]
+    keypoint_out = next(n for name, n in convs.items() if "/cv4.0/cv4.0.2/" in name)
+    assert any(i.endswith("_DequantizeLinear_Output") for i in backbone.input), "backbone runs in int8"
+    assert not any(i.endswith("_DequantizeLinear_Output") for i in keypoint_out.input), \
+        "the keypoint head stays float32"
+    assert quantized, "the file has quantized tensors"
+
+
+def test_int8_prepare_is_idempotent(pose_model_path: Path, demo_data: DemoData) -> None:
+    fp32 = PreparedModel(pose_model_path, sha256_file(pose_model_path), created=False)
+    messages: list[str] = []
+    again = prepare_int8_model(fp32, demo_data.root.parents[2], progress=messages.append)
+    assert again is not None and again.created is False, messages
+    assert again.path == int8_path(pose_model_path)
 
 
 def test_missing_models_extra_gives_a_clear_message(tmp_path: Path) -> None:
