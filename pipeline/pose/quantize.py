@@ -1,11 +1,14 @@
 """INT8 static quantization of the pose model (onnxruntime QDQ, calibrated on the demo videos).
 
-The backbone, the neck and the box/class branches of the head run in int8 (per-channel
-S8 weights, U8 activations, MinMax ranges from real frames); the keypoint branch, the
-last 1x1 convolutions of every branch and the decoding that turns the head's outputs
-into pixels stay in float32: their values are pixel coordinates, where one U8 step
-would be several pixels. Measured on the Pose2Sim demo (2 CPU cores, AVX-512 VNNI):
-the median keypoint moves 3.7 px (in 1088x1920 images) against the float32 model.
+The backbone, the neck and the class branch of the head run in int8 (per-channel S8
+weights, U8 activations, MinMax ranges from real whole frames and ROI-style crops); the
+box and keypoint branches, the class branch's last 1x1 convolutions and the decoding
+that turns the head's outputs into pixels stay in float32: their values are pixel
+coordinates, where one U8 step would be several pixels. With the box branch in int8 too
+the model is a little faster, but in ROI mode it lost the demo subject in one crop of
+cam01 (boxes touching the crop edge are dropped), which broke its track for 3 frames.
+Measured on the Pose2Sim demo (this 2-core machine, AVX-512 VNNI): keypoints a median
+4.4 px (1088x1920 images) from the float32 model's; see ``scripts/bench_detect.py``.
 
 Only ``cavewalk models prepare`` runs this (through :mod:`pipeline.pose.prepare`).
 """
@@ -29,7 +32,7 @@ log = logging.getLogger(__name__)
 F32 = NDArray[np.float32]
 Region = tuple[float, float, float, float]
 HEAD_PREFIX = "/model.23/"  # the YOLO11 pose head (Ultralytics' module index 23)
-QUANTIZED_BRANCHES = ("/cv2.", "/cv3.")  # box and class convolution stacks; /cv4. = keypoints
+QUANTIZED_BRANCHES = ("/cv3.",)  # the class convolution stack; /cv2. = boxes, /cv4. = keypoints
 CALIBRATION_EVERY = 12  # every this many frames of each video
 CROP_ASPECT = 0.6  # crops around the people found, like the ROI mode's (w / h)
 CROP_MARGIN = 0.1
