@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from pipeline.errors import CavewalkError, ModelError
+from pipeline.pose.quantize import RECIPE
 
 log = logging.getLogger(__name__)
 
@@ -124,6 +125,8 @@ def prepare_int8_model(
         meta = json.loads(meta_path.read_text())
         if meta.get("source_sha256") != fp32.sha256:
             progress(f"{path.name} was made from another {fp32.path.name}; quantizing again")
+        elif meta.get("recipe") != RECIPE:
+            progress(f"{path.name} was quantized another way ({meta.get('recipe')}); quantizing again")
         elif meta.get("sha256") == sha256_file(path):
             verify_onnx(path)
             progress(f"int8 pose model ready: {path} (sha256 {meta['sha256'][:12]}, verified)")
@@ -155,6 +158,7 @@ def prepare_int8_model(
         "source_sha256": fp32.sha256,
         "sha256": digest,
         "quantization": "static QDQ, per-channel S8 weights, U8 activations, MinMax",
+        "recipe": RECIPE,
         "float32_nodes": kept,
         "calibration_inputs": len(inputs),
         "dynamic": True,

@@ -33,6 +33,8 @@ F32 = NDArray[np.float32]
 Region = tuple[float, float, float, float]
 HEAD_PREFIX = "/model.23/"  # the YOLO11 pose head (Ultralytics' module index 23)
 QUANTIZED_BRANCHES = ("/cv3.",)  # the class convolution stack; /cv2. = boxes, /cv4. = keypoints
+# names what was quantized and how; an int8 file made by another recipe is made again
+RECIPE = "qdq-u8s8-perchannel-minmax; int8: backbone, neck, class branch"
 CALIBRATION_EVERY = 12  # every this many frames of each video
 CROP_ASPECT = 0.6  # crops around the people found, like the ROI mode's (w / h)
 CROP_MARGIN = 0.1

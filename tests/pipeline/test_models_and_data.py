@@ -77,6 +77,27 @@ def test_int8_prepare_is_idempotent(pose_model_path: Path, demo_data: DemoData) 
     assert again.path == int8_path(pose_model_path)
 
 
+@pytest.mark.slow
+def test_int8_made_another_way_is_made_again(
+    pose_model_path: Path, demo_data: DemoData, tmp_path: Path
+) -> None:
+    for src in (pose_model_path, int8_path(pose_model_path)):
+        for f in (src, src.with_suffix(".json")):
+            shutil.copy2(f, tmp_path / f.name)
+    meta_file = tmp_path / "yolo11n-pose.int8.json"
+    meta = json.loads(meta_file.read_text())
+    meta["recipe"] = "an older recipe"
+    meta_file.write_text(json.dumps(meta))
+    fp32 = PreparedModel(tmp_path / pose_model_path.name, sha256_file(pose_model_path), created=False)
+    messages: list[str] = []
+    made = prepare_int8_model(fp32, demo_data.root.parents[2], progress=messages.append)
+    assert made is not None and made.created is True, messages
+    assert any("quantized another way" in m for m in messages), messages
+    assert json.loads(meta_file.read_text())["recipe"] != "an older recipe"
+    assert json.loads(meta_file.read_text())["sha256"] == sha256_file(made.path)
+    assert verify_onnx(made.path)[:2] == (2, 56)
+
+
 def test_missing_models_extra_gives_a_clear_message(tmp_path: Path) -> None:
     code = (
         "import sys, importlib.abc\n"
