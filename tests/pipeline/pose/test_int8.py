@@ -14,6 +14,10 @@ from pipeline.pose.decode import iou_matrix
 from pipeline.pose.detector import PoseDetector, PoseDetectorConfig
 from pipeline.pose.prepare import int8_path
 from pipeline.pose.quantize import excluded_head_nodes
+from pipeline.pose.roi import RoiConfig, RoiScheduler
+from pipeline.tracking.benchmark import run_detect_benchmark
+from pipeline.tracking.ocsort import MultiViewTracker, OCSortConfig
+from pipeline.tracking.stage import DetectAndTrack
 
 FRAMES = (10, 55, 90)
 KEYPOINT_SCORE = 0.5
@@ -68,6 +72,27 @@ def test_int8_finds_the_same_people_with_keypoints_a_few_px_from_fp32(
     assert len(distances) > 200, "enough confident keypoints to compare"
     median = float(np.median(distances))
     assert median < 6.0, f"median keypoint distance int8 vs fp32 {median:.2f} px (1088x1920 images)"
+
+
+@pytest.mark.slow
+def test_int8_keeps_the_demo_ids_in_roi_mode(demo_data: DemoData, pose_model_path: Path) -> None:
+    """The figures of issue 5 with the int8 model (the default precision), 4 views x 100 frames."""
+    detector = PoseDetector.load(PoseDetectorConfig(int8_path(pose_model_path), threads=2))
+
+    def make(cams: list[str]) -> DetectAndTrack:
+        return DetectAndTrack(detector, MultiViewTracker(cams, OCSortConfig()), RoiScheduler(RoiConfig()))
+
+    result = run_detect_benchmark(demo_data.videos, make, "roi")
+    assert result.frames == 100 and result.views == 4
+    bystander_views = 0
+    for f in result.figures:
+        assert f.subject_ids == {1: 100}, f"{f.camera}: the subject had ids {f.subject_ids} (id: frames)"
+        if f.other_ids:
+            bystander_views += 1
+            assert len(f.other_ids) == 1 and 1 not in f.other_ids, f"{f.camera}: bystander ids {f.other_ids}"
+            assert min(f.other_ids.values()) >= 95, f"{f.camera}: bystander tracked in {f.other_ids}"
+    assert bystander_views >= 1, "the bystander is visible in some views"
+    assert result.keypoint_coverage >= 0.95, f"subject keypoints in {100 * result.keypoint_coverage:.1f}%"
 
 
 @pytest.mark.parametrize(("name", "stays_fp32"), [
