@@ -82,7 +82,7 @@ def test_net_size_widens_for_wide_people_within_bounds() -> None:
     wide = cfg.net_size([with_margin(person(w=700, h=800), 0.1)])
     assert narrow == (128, 320), "a 200x800 box plus margins (0.375) is held at min_aspect 0.4"
     assert wide[0] > narrow[0] and wide[1] == 320
-    assert cfg.net_size([person(w=3000, h=500)]) == (320, 320), "capped at max_aspect"
+    assert cfg.net_size([with_margin(person(w=3000, h=500), 0.0)]) == (320, 320), "capped at max_aspect"
 
 
 def test_people_side_by_side_share_a_crop_but_distant_ones_do_not() -> None:
