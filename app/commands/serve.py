@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import socket
+from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated
 
@@ -89,9 +90,8 @@ def run_server(
     uvicorn.run(app, host=server.host.strip("[]"), port=server.port, log_level="warning", ws="websockets")
 
 
-def register(cli: typer.Typer) -> None:
-    @cli.command("serve")
-    def serve(
+def _command(demo: bool, doc: str) -> Callable[..., None]:
+    def command(
         host: HostOpt = None,
         port: PortOpt = None,
         viser_port: ViserOpt = None,
@@ -99,17 +99,13 @@ def register(cli: typer.Typer) -> None:
         config: ConfigOpt = None,
         emit: EmitOpt = None,
     ) -> None:
-        """The dashboard, REST API, WebSocket and viser 3D view (cameras from the settings)."""
-        run_server(demo=False, host=host, port=port, viser_port=viser_port, db=db, config=config, emit=emit)
+        run_server(demo=demo, host=host, port=port, viser_port=viser_port, db=db, config=config, emit=emit)
 
-    @cli.command("demo")
-    def demo(
-        host: HostOpt = None,
-        port: PortOpt = None,
-        viser_port: ViserOpt = None,
-        db: DbOpt = None,
-        config: ConfigOpt = None,
-        emit: EmitOpt = None,
-    ) -> None:
-        """``serve`` with a simulated CAVE and user: no cameras needed."""
-        run_server(demo=True, host=host, port=port, viser_port=viser_port, db=db, config=config, emit=emit)
+    command.__doc__ = doc
+    return command
+
+
+def register(cli: typer.Typer) -> None:
+    serve_doc = "The dashboard, REST API, WebSocket and viser 3D view (cameras from the settings)."
+    cli.command("serve")(_command(False, serve_doc))
+    cli.command("demo")(_command(True, "``serve`` with a simulated CAVE and user: no cameras needed."))
