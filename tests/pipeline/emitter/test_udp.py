@@ -9,6 +9,7 @@ from typing import Any
 import pytest
 from pythonosc.dispatcher import Dispatcher
 from pythonosc.osc_server import ThreadingOSCUDPServer
+from runtime.live import Listener  # tests/pipeline/runtime/live.py: the reference receiver in a thread
 
 from pipeline.emitter import (
     OSC_ADDRESS,
@@ -16,8 +17,6 @@ from pipeline.emitter import (
     LocomotionCommand,
     ReceiverStats,
     UdpEmitter,
-    open_receiver_socket,
-    receive,
 )
 from pipeline.errors import InputError
 
@@ -25,30 +24,6 @@ from pipeline.errors import InputError
 def cmd(label: str = "forward", ts: float | None = None) -> LocomotionCommand:
     return LocomotionCommand(2, label, 0.75, 30.0, 1.1, (0.5, -0.25, 0.0),
                              time.monotonic() if ts is None else ts)
-
-
-class Listener:
-    """The reference receiver on an ephemeral port, in a thread, keeping every message."""
-
-    def __init__(self) -> None:
-        self.sock = open_receiver_socket(0, "127.0.0.1")
-        self.port = self.sock.getsockname()[1]
-        self.messages: list[dict[str, Any] | None] = []
-        self.stats: ReceiverStats | None = None
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, daemon=True)
-        self._thread.start()
-
-    def _run(self) -> None:
-        self.stats = receive(self.sock, on_message=lambda m, _d: self.messages.append(m),
-                             should_stop=self._stop.is_set)
-
-    def close(self) -> ReceiverStats:
-        self._stop.set()
-        self._thread.join(timeout=2)
-        self.sock.close()
-        assert self.stats is not None
-        return self.stats
 
 
 def test_datagrams_validate_and_arrive_in_order_at_the_rate() -> None:
