@@ -1,6 +1,6 @@
 """Detection + tracking benchmark on the real Pose2Sim demo: full-frame vs ROI, side by side.
 
-    .venv/bin/python scripts/bench_detect.py [--frames 100] [--repeat 3] [--threads 2]
+    .venv/bin/python scripts/bench_detect.py [--frames 100] [--repeat 3] [--threads N] [--parallel N]
         [--precision fp32|int8|both] [--json out.json]
 
 Median milliseconds per four-view frame for detection + tracking (video decoding
@@ -24,9 +24,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from pipeline.tracking.benchmark import DetectBenchResult, bench_demo, format_results
 
 
-def bench(frames: int = 100, repeat: int = 1, threads: int = 2,
+def bench(frames: int = 100, repeat: int = 1, threads: int | None = None,
           modes: tuple[str, ...] = ("full", "roi"), spinning: bool = False,
-          precision: str | None = None) -> list[DetectBenchResult]:
+          precision: str | None = None, parallel: int | None = None) -> list[DetectBenchResult]:
     """The benchmark with the effective settings (the same call ``cavewalk bench`` makes);
     ``precision`` ("fp32" or "int8") overrides ``pose.precision``."""
     from app.core.config import get_settings
@@ -35,14 +35,15 @@ def bench(frames: int = 100, repeat: int = 1, threads: int = 2,
     if precision is not None:
         s = s.model_copy(update={"pose": s.pose.model_copy(update={"precision": precision})})
     return bench_demo(s.pose, s.tracking, s.pose_model_path, s.paths.cache_dir,
-                      frames, repeat, threads, modes, spinning)
+                      frames, repeat, threads, modes, spinning, parallel)
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--frames", type=int, default=100)
     ap.add_argument("--repeat", type=int, default=1)
-    ap.add_argument("--threads", type=int, default=2, help="onnxruntime intra-op threads")
+    ap.add_argument("--threads", type=int, help="onnxruntime threads per call (default: pose.threads)")
+    ap.add_argument("--parallel", type=int, help="model calls side by side (default: pose.parallel)")
     ap.add_argument("--modes", default="full,roi")
     ap.add_argument("--spinning", action="store_true", help="let onnxruntime threads spin-wait")
     ap.add_argument("--precision", choices=("fp32", "int8", "both"),
@@ -53,10 +54,11 @@ def main() -> None:
     out = []
     for precision in precisions:
         results = bench(args.frames, args.repeat, args.threads, tuple(args.modes.split(",")),
-                        args.spinning, precision)
+                        args.spinning, precision, args.parallel)
         print(f"detection + tracking, {results[0].views} views, {results[0].frames} frames, "
               f"model {precision or 'from the settings'}, "
-              f"{args.threads} onnxruntime threads{' (spinning)' if args.spinning else ''}, "
+              f"threads {args.threads or 'as set'}, parallel {args.parallel or 'as set'}"
+              f"{' (spinning)' if args.spinning else ''}, "
               f"{os.cpu_count()} CPUs, load average "
               f"{os.getloadavg()[0]:.1f} (best of {args.repeat})")
         print(format_results(results))

@@ -103,13 +103,15 @@ class PoseSettings(_Section):
     input_long_side: int = Field(640, ge=32, multiple_of=32)
     roi: bool = True  # ROI mode: run tracked views on crops around their tracks
     roi_long_side: int = Field(320, ge=32, multiple_of=32)  # network long side of the crops
-    roi_margin: float = Field(0.1, ge=0, le=2)  # crop margin, fraction of the tracks' box size
+    roi_margin: float = Field(0.15, ge=0, le=2)  # crop margin, fraction of the tracks' box size
     roi_full_every: int = Field(30, ge=1)  # a full-frame pass at least every this many frames
     score_threshold: float = Field(0.35, ge=0, le=1)
     nms_iou: float = Field(0.6, ge=0, le=1)
     keypoint_threshold: float = Field(0.3, ge=0, le=1)
     providers: list[Literal["cpu", "cuda"]] = Field(default_factory=lambda: ["cpu"])  # type: ignore[arg-type]
-    threads: int = Field(0, ge=0)  # 0 = onnxruntime's choice
+    threads: int = Field(0, ge=0)  # onnxruntime threads per model call (0 = its choice; 1 if parallel > 1)
+    # model calls of a frame run side by side on this many threads (0 = one per CPU core)
+    parallel: int = Field(0, ge=0)
     # which model file: yolo11n-pose.onnx or the int8 copy `cavewalk models prepare` makes
     # beside it (yolo11n-pose.int8.onnx); ignored when `model` names a file
     precision: Literal["fp32", "int8"] = "int8"  # int8: 6-14 % faster, same tracks (bench_detect)
@@ -148,6 +150,7 @@ class RuntimeSettings(_Section):
     group_max_wait_s: float = Field(0.015, ge=0)  # how long to wait for a late camera
     camera_gone_s: float = Field(1.0, gt=0)  # a camera silent this long is reported and not waited for
     camera_retry_s: float = Field(1.0, gt=0)
+    capture_nice: int = Field(5, ge=0, le=19)  # capture workers' niceness: decoding gives way to detection
     osc: list[str] = Field(default_factory=list)  # HOST:PORT destinations of /cave/locomotion (OSC)
 
     @field_validator("osc")

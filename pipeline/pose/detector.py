@@ -1,15 +1,22 @@
-"""Multi-view 2D pose detection: YOLO-pose on ONNX Runtime, one batched call per multi-view frame.
+"""Multi-view 2D pose detection: YOLO-pose on ONNX Runtime, batched over the views of a frame.
 
-Every view of a frame (or a region of it, in ROI mode) is letterboxed into the same
-network rectangle, the batch goes through one ``session.run``, and each image's output
-is decoded, suppressed and mapped back to its own image pixels as :class:`ViewDetections`.
+Every view of a frame (or a region of it, in ROI mode) is letterboxed into its network
+rectangle; slots of equal size form one batch and go through one ``session.run``, and
+each slot's output is decoded, suppressed and mapped back to its own image pixels as
+:class:`ViewDetections`. With ``parallel`` > 1 the batches are split over that many
+threads, each running single-threaded model calls side by side (onnxruntime releases
+the GIL): on a few cores shared with video decoders this keeps the cores busier than
+onnxruntime's own per-operator threading, whose threads wait for each other at every
+operator when one of them is pre-empted.
 """
 
 from __future__ import annotations
 
 import logging
+import os
 import time
 from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol
@@ -18,15 +25,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.errors import InputError, ModelError
-from pipeline.pose.decode import OUTPUT_CHANNELS, RawPoses, decode, nms
+from pipeline.pixels import image_size
+from pipeline.pose.decode import OUTPUT_CHANNELS, RawPoses, decode, iou_matrix, nms
 from pipeline.pose.preprocess import Letterbox, fit_region, letterbox_into, net_size_for
-from pipeline.pose.types import ViewDetections
+from pipeline.pose.types import Job, Region, ViewDetections
 from pipeline.skeleton import NUM_JOINTS
 
 log = logging.getLogger(__name__)
 
 U8 = NDArray[np.uint8]
-Region = tuple[float, float, float, float]
 PROVIDERS = {"cpu": "CPUExecutionProvider", "cuda": "CUDAExecutionProvider"}
 EDGE_PX = 2.0  # a box this close to a crop edge inside the image is cut by the crop
 
@@ -44,6 +51,8 @@ class PoseSettingsLike(Protocol):
     def providers(self) -> Sequence[str]: ...
     @property
     def threads(self) -> int: ...
+    @property
+    def parallel(self) -> int: ...
 
 
 @dataclass(frozen=True, slots=True)
@@ -55,7 +64,9 @@ class PoseDetectorConfig:
         short side follows the images' aspect (1088x1920 portrait -> 384x640).
     score_threshold: minimum person score. nms_iou: IoU above which NMS drops a box.
     providers: ``"cpu"`` and/or ``"cuda"``, in order of preference.
-    threads: onnxruntime intra-op threads (0 = its own choice).
+    threads: onnxruntime intra-op threads per model call (0 = its own choice; 1 when
+        ``parallel`` > 1).
+    parallel: model calls run side by side, each on its own thread (0 = one per CPU core).
     max_people: at most this many people per image.
     spinning: let onnxruntime's idle threads spin-wait between runs (faster alone on a
         machine, but it takes CPU from video decoders and other processes on few cores).
@@ -69,6 +80,7 @@ class PoseDetectorConfig:
     threads: int = 0
     max_people: int = 16
     spinning: bool = False
+    parallel: int = 1
 
     def __post_init__(self) -> None:
         if self.input_long_side <= 0 or self.input_long_side % 32:
@@ -81,9 +93,19 @@ class PoseDetectorConfig:
         if unknown or not self.providers:
             raise ValueError(
                 f"providers must be a non-empty subset of {sorted(PROVIDERS)}, got {self.providers}")
-        if self.threads < 0 or self.max_people <= 0:
-            raise ValueError(
-                f"threads must be >= 0 and max_people > 0, got {self.threads}, {self.max_people}")
+        if self.threads < 0 or self.max_people <= 0 or self.parallel < 0:
+            raise ValueError(f"threads and parallel must be >= 0 and max_people > 0, got {self.threads}, "
+                             f"{self.parallel}, {self.max_people}")
+
+    @property
+    def runs(self) -> int:
+        """How many model calls run side by side (``parallel``, 0 resolved to the CPU count)."""
+        return self.parallel or min(os.cpu_count() or 1, 4)
+
+    @property
+    def intra_op_threads(self) -> int:
+        """onnxruntime intra-op threads per call (0 = its choice)."""
+        return self.threads or (1 if self.runs > 1 else 0)
 
     @classmethod
     def from_settings(cls, pose: PoseSettingsLike, model_path: Path) -> PoseDetectorConfig:
@@ -94,6 +116,7 @@ class PoseDetectorConfig:
             nms_iou=float(pose.nms_iou),
             providers=tuple(pose.providers),
             threads=int(pose.threads),
+            parallel=int(pose.parallel),
         )
 
 
@@ -121,8 +144,8 @@ def load_session(config: PoseDetectorConfig) -> Any:
     spin = "1" if config.spinning else "0"
     opts.add_session_config_entry("session.intra_op.allow_spinning", spin)
     opts.add_session_config_entry("session.inter_op.allow_spinning", spin)
-    if config.threads:
-        opts.intra_op_num_threads = config.threads
+    if config.intra_op_threads:
+        opts.intra_op_num_threads = config.intra_op_threads
         opts.inter_op_num_threads = 1
     available = set(ort.get_available_providers())
     providers = [PROVIDERS[p] for p in config.providers if PROVIDERS[p] in available]
@@ -147,7 +170,7 @@ def load_session(config: PoseDetectorConfig) -> Any:
 
 
 class PoseDetector:
-    """Runs the pose model over all views of a multi-view frame in one batched call."""
+    """Runs the pose model over all views of a multi-view frame, batched by network size."""
 
     def __init__(self, session: Any, config: PoseDetectorConfig) -> None:
         self._session = session
@@ -161,7 +184,9 @@ class PoseDetector:
             if isinstance(shape[2], int) and isinstance(shape[3], int) else None
         )
         self._fixed_batch: int | None = int(shape[0]) if isinstance(shape[0], int) else None
-        self._buffer: NDArray[np.float32] = np.zeros((0, 3, 1, 1), np.float32)
+        self._buffers: dict[tuple[int, tuple[int, ...]], NDArray[np.float32]] = {}  # (lane, shape) ->
+        self._pool: ThreadPoolExecutor | None = (
+            ThreadPoolExecutor(config.runs, thread_name_prefix="pose") if config.runs > 1 else None)
 
     @classmethod
     def load(cls, config: PoseDetectorConfig) -> PoseDetector:
@@ -170,6 +195,17 @@ class PoseDetector:
     @classmethod
     def from_settings(cls, pose: PoseSettingsLike, model_path: Path) -> PoseDetector:
         return cls.load(PoseDetectorConfig.from_settings(pose, model_path))
+
+    def close(self) -> None:
+        """Stop the threads of parallel runs (also done when the detector is collected)."""
+        if self._pool is not None:
+            self._pool.shutdown(wait=True)
+            self._pool = None
+
+    def __del__(self) -> None:
+        pool = getattr(self, "_pool", None)
+        if pool is not None:
+            pool.shutdown(wait=False)
 
     @property
     def providers(self) -> list[str]:
@@ -181,11 +217,14 @@ class PoseDetector:
             return self._fixed_hw[1], self._fixed_hw[0]
         return net_size_for(image_size[0] / image_size[1], self.config.input_long_side)
 
-    def _batch_buffer(self, n: int, net_size: tuple[int, int]) -> NDArray[np.float32]:
+    def _buffer(self, lane: int, n: int, net_size: tuple[int, int]) -> NDArray[np.float32]:
         shape = (n, 3, net_size[1], net_size[0])
-        if self._buffer.shape != shape:
-            self._buffer = np.empty(shape, np.float32)
-        return self._buffer
+        buf = self._buffers.get((lane, shape))
+        if buf is None:
+            if len(self._buffers) > 64:  # crop sizes come and go; keep the cache small
+                self._buffers.clear()
+            buf = self._buffers[(lane, shape)] = np.empty(shape, np.float32)
+        return buf
 
     def run(self, batch: NDArray[np.float32]) -> NDArray[np.float32]:
         """Raw model output (B, 56, N) for a prepared input batch."""
@@ -194,24 +233,72 @@ class PoseDetector:
             return np.concatenate(outs, axis=0)
         return np.asarray(self._session.run(None, {self._input_name: batch})[0])
 
+    def _lanes(self, nets: Sequence[tuple[int, int]]) -> list[list[list[int]]]:
+        """Slots grouped into batches of one network size, the batches spread over the lanes
+        (threads) so that each lane has about as many input pixels; lane -> batches -> slots."""
+        groups: dict[tuple[int, int], list[int]] = {}
+        for k, net in enumerate(nets):
+            groups.setdefault(net, []).append(k)
+        batches = list(groups.values())
+        lanes = self.config.runs
+        while len(batches) < lanes:  # split the biggest batch while a lane would stay idle
+            big = max(batches, key=len)
+            if len(big) < 2:
+                break
+            batches.remove(big)
+            batches += [big[: len(big) // 2], big[len(big) // 2:]]
+
+        def pixels(batch: list[int]) -> int:
+            return len(batch) * nets[batch[0]][0] * nets[batch[0]][1]
+
+        out: list[list[list[int]]] = [[] for _ in range(min(lanes, len(batches)))]
+        load = [0] * len(out)
+        for batch in sorted(batches, key=pixels, reverse=True):  # largest first, to the least loaded
+            lane = load.index(min(load))
+            out[lane].append(batch)
+            load[lane] += pixels(batch)
+        return out
+
+    def _run_lane(self, lane: int, batches: list[list[int]], images: Sequence[U8], jobs: Sequence[Job],
+                  boxes: Sequence[Letterbox]) -> tuple[dict[int, RawPoses], tuple[float, float, float]]:
+        """Letterbox, run and decode this lane's batches; raw detections per slot, and timings."""
+        pre = inf = dec = 0.0
+        raws: dict[int, RawPoses] = {}
+        for batch_slots in batches:
+            t0 = time.perf_counter()
+            batch = self._buffer(lane, len(batch_slots), boxes[batch_slots[0]].net_size)
+            for b, k in enumerate(batch_slots):
+                letterbox_into(images[jobs[k].image], boxes[k], batch[b])
+            t1 = time.perf_counter()
+            out = self.run(batch)
+            t2 = time.perf_counter()
+            cfg = self.config
+            for b, k in enumerate(batch_slots):
+                raws[k] = decode(out[b], cfg.score_threshold, cfg.nms_iou, cfg.max_people)
+            t3 = time.perf_counter()
+            pre, inf, dec = pre + t1 - t0, inf + t2 - t1, dec + t3 - t2
+        return raws, (pre, inf, dec)
+
     def detect(
         self,
         images: Sequence[U8],
         cameras: Sequence[str],
         frame_index: int,
         timestamp_s: float,
-        jobs: Sequence[tuple[int, Region | None]] | None = None,
+        jobs: Sequence[Job | tuple[int, Region | None]] | None = None,
         net_size: tuple[int, int] | None = None,
     ) -> PoseBatch:
-        """Detect people in every image (one per camera) with one model call.
+        """Detect people in every image (one per camera; BGR or I420, see :mod:`pipeline.pixels`).
 
-        jobs: what goes into the batch, as (image index, region) pairs; region
-            [x1, y1, x2, y2] in image px (ROI mode) or None for the whole image. Default:
+        jobs: what goes into the batches, as :class:`Job` (image index, region or None for
+            the whole image, network size or None) or (image index, region) pairs. Default:
             every whole image once. A view with several crops gets their detections merged
             (NMS across crops); detections cut by a crop edge that lies inside the image are
             dropped (the person continues outside the crop and has a crop of its own).
-        net_size: network (w, h) for this batch; default: from the first image's aspect and
-            ``input_long_side``.
+        net_size: network (w, h) for the crops whose job names none; whole images without
+            one run at the full-frame size (``input_long_side``, the image's aspect).
+
+        The timings are those of the slowest lane when batches run side by side.
         """
         if len(images) != len(cameras) or not images:
             raise InputError(
@@ -219,37 +306,52 @@ class PoseDetector:
         t0 = time.perf_counter()
         sizes: list[tuple[int, int]] = []
         for cam, img in zip(cameras, images, strict=True):
-            if img is None or img.ndim != 3 or img.shape[2] != 3 or img.dtype != np.uint8:
-                shape = None if img is None else (img.shape, img.dtype)
-                raise InputError(f"{cam}: expected an (H, W, 3) uint8 BGR image, got {shape}")
-            sizes.append((int(img.shape[1]), int(img.shape[0])))
-        if jobs is None:
-            jobs = [(i, None) for i in range(len(images))]
-        if not jobs or any(not 0 <= j < len(images) for j, _ in jobs):
-            raise InputError(f"jobs must name images 0..{len(images) - 1}, got {[j for j, _ in jobs]}")
-        if net_size is None or self._fixed_hw is not None:
-            net_size = self.full_net_size(sizes[0])
+            if not isinstance(img, np.ndarray):
+                raise InputError(f"{cam}: expected an image array, got {type(img).__name__}")
+            try:
+                sizes.append(image_size(img))
+            except ValueError as exc:
+                raise InputError(f"{cam}: {exc}") from None
+        slots = [Job(i) for i in range(len(images))] if jobs is None else [Job(*j) for j in jobs]
+        if not slots or any(not 0 <= j.image < len(images) for j in slots):
+            raise InputError(f"jobs must name images 0..{len(images) - 1}, got {[j.image for j in slots]}")
         boxes: list[Letterbox] = []
-        batch = self._batch_buffer(len(jobs), net_size)
-        for k, (i, region) in enumerate(jobs):
-            w, h = sizes[i]
-            lb = fit_region(region if region is not None else (0.0, 0.0, float(w), float(h)), net_size)
-            letterbox_into(images[i], lb, batch[k])
-            boxes.append(lb)
+        for job in slots:
+            w, h = sizes[job.image]
+            net = job.net_size or (net_size if job.region is not None else None)
+            if net is None or self._fixed_hw is not None:
+                net = self.full_net_size(sizes[job.image])
+            region = job.region if job.region is not None else (0.0, 0.0, float(w), float(h))
+            boxes.append(fit_region(region, net))
+        lanes = self._lanes([b.net_size for b in boxes])
+        t_setup = time.perf_counter() - t0
+        if self._pool is None or len(lanes) == 1:
+            results = [self._run_lane(0, lane, images, slots, boxes) for lane in lanes]
+        else:
+            futures = [self._pool.submit(self._run_lane, n, lane, images, slots, boxes)
+                       for n, lane in enumerate(lanes)]
+            results = [f.result() for f in futures]
+        raws: dict[int, RawPoses] = {}
+        for part, _ in results:
+            raws.update(part)
         t1 = time.perf_counter()
-        out = self.run(batch)
-        t2 = time.perf_counter()
         parts: list[list[RawPoses]] = [[] for _ in images]
-        for k, (i, region) in enumerate(jobs):
-            raw = decode(out[k], self.config.score_threshold, self.config.nms_iou, self.config.max_people)
-            parts[i].append(to_image(raw, boxes[k], sizes[i], cropped=region is not None))
+        wholes: list[list[RawPoses]] = [[] for _ in images]
+        for k, job in enumerate(slots):
+            cropped = job.region is not None
+            found = to_image(raws[k], boxes[k], sizes[job.image], cropped=cropped)
+            (parts if cropped else wholes)[job.image].append(found)
         views = []
         for i, cam in enumerate(cameras):
-            merged = merge(parts[i], self.config.nms_iou, self.config.max_people)
+            if parts[i] and wholes[i]:  # crops + a look at the whole view (finds who walked in)
+                merged = merge(parts[i], self.config.nms_iou, self.config.max_people, wholes[i])
+            else:
+                merged = merge(parts[i] or wholes[i], self.config.nms_iou, self.config.max_people)
             views.append(ViewDetections(cam, frame_index, timestamp_s, sizes[i], merged.boxes_xyxy,
                                         merged.scores, merged.keypoints_xy, merged.keypoint_scores))
-        t3 = time.perf_counter()
-        return PoseBatch(tuple(views), tuple(boxes), t1 - t0, t2 - t1, t3 - t2)
+        t_merge = time.perf_counter() - t1
+        pre, inf, dec = max((t for _, t in results), key=sum)
+        return PoseBatch(tuple(views), tuple(boxes), t_setup + pre, inf, dec + t_merge)
 
 
 def to_image(raw: RawPoses, box: Letterbox, image_size: tuple[int, int], cropped: bool = False) -> RawPoses:
@@ -285,15 +387,31 @@ def to_image(raw: RawPoses, box: Letterbox, image_size: tuple[int, int], cropped
     return RawPoses(xyxy, raw.scores, box.to_image(raw.keypoints_xy), raw.keypoint_scores)
 
 
-def merge(parts: Sequence[RawPoses], iou_threshold: float, max_people: int) -> RawPoses:
-    """One view's detections from several crops, duplicates removed by NMS."""
-    if len(parts) == 1:
-        return parts[0]
+def _concat(parts: Sequence[RawPoses]) -> RawPoses:
     if not parts:
         return RawPoses(np.zeros((0, 4), np.float32), np.zeros((0,), np.float32),
                         np.zeros((0, NUM_JOINTS, 2), np.float32), np.zeros((0, NUM_JOINTS), np.float32))
-    allp = RawPoses(
+    return RawPoses(
         np.concatenate([p.boxes_xyxy for p in parts]), np.concatenate([p.scores for p in parts]),
         np.concatenate([p.keypoints_xy for p in parts]), np.concatenate([p.keypoint_scores for p in parts]),
     )
-    return allp.take(nms(allp.boxes_xyxy, allp.scores, iou_threshold, max_out=max_people))
+
+
+def merge(parts: Sequence[RawPoses], iou_threshold: float, max_people: int,
+          extra: Sequence[RawPoses] = ()) -> RawPoses:
+    """One view's detections from several crops, duplicates removed by NMS; then those of
+    ``extra`` (a coarser look at the whole view) that overlap none of them: a person found in
+    a crop keeps the crop's finer keypoints, whatever the scores."""
+    if len(parts) == 1 and not extra:
+        return parts[0]
+    allp = _concat(parts)
+    kept = allp.take(nms(allp.boxes_xyxy, allp.scores, iou_threshold, max_out=max_people))
+    if not extra:
+        return kept
+    more = _concat(extra)
+    more = more.take(nms(more.boxes_xyxy, more.scores, iou_threshold, max_out=max_people))
+    if len(kept) and len(more):
+        overlap = iou_matrix(more.boxes_xyxy, kept.boxes_xyxy).max(axis=1)
+        more = more.take(np.flatnonzero(overlap < iou_threshold))
+    both = _concat([kept, more])
+    return both.take(np.arange(min(len(both), max_people)))

@@ -4,6 +4,8 @@ A letterbox is one similarity transform ``net = scale * image + offset``: the re
 scaled uniformly to fit the network rectangle and centred, the rest is filled with grey
 (114, as Ultralytics does). One ``cv2.warpAffine`` does crop + resize + pad in a single
 pass whose cost depends on the output size only, so a crop never copies the source.
+An I420 image (:mod:`pipeline.pixels`) is warped plane by plane and turned into RGB at
+the network size, so the full frame is never converted.
 """
 
 from __future__ import annotations
@@ -15,9 +17,12 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+from pipeline.pixels import i420_planes, pixel_format
+
 F32 = NDArray[np.float32]
 U8 = NDArray[np.uint8]
 PAD_VALUE = 114
+CHROMA_PAD = 128  # U and V of grey: the I420 letterbox pads with the same grey (Y = 114)
 STRIDE = 32
 
 
@@ -102,18 +107,43 @@ def fit_region(region_xyxy: tuple[float, float, float, float], net_size: tuple[i
 
 
 def letterbox_into(image: U8, box: Letterbox, out_chw: F32) -> None:
-    """Warp ``image`` (H, W, 3) BGR uint8 through ``box`` into ``out_chw`` (3, h, w) RGB float32 in [0, 1]."""
+    """Warp ``image`` through ``box`` into ``out_chw`` (3, h, w) RGB float32 in [0, 1].
+
+    image: (H, W, 3) BGR uint8, or (H * 3 / 2, W) I420 uint8 (see :mod:`pipeline.pixels`).
+    """
     nw, nh = box.net_size
     if out_chw.shape != (3, nh, nw):
         raise ValueError(f"output must have shape (3, {nh}, {nw}), got {out_chw.shape}")
-    if image.ndim != 3 or image.shape[2] != 3:
-        raise ValueError(f"image must be (H, W, 3) BGR, got {image.shape}")
-    warped = cv2.warpAffine(
-        image, box.matrix, (nw, nh), flags=cv2.INTER_LINEAR,
-        borderMode=cv2.BORDER_CONSTANT, borderValue=(PAD_VALUE, PAD_VALUE, PAD_VALUE),
-    )
-    # BGR HWC uint8 -> RGB CHW float32 / 255 in one strided pass
-    np.multiply(warped[:, :, ::-1].transpose(2, 0, 1), np.float32(1.0 / 255.0), out=out_chw)
+    if pixel_format(image) == "i420":
+        rgb = _warp_i420(image, box)
+    else:
+        warped = cv2.warpAffine(
+            image, box.matrix, (nw, nh), flags=cv2.INTER_LINEAR,
+            borderMode=cv2.BORDER_CONSTANT, borderValue=(PAD_VALUE, PAD_VALUE, PAD_VALUE),
+        )
+        rgb = warped[:, :, ::-1]
+    # HWC uint8 -> RGB CHW float32 / 255 in one strided pass
+    np.multiply(rgb.transpose(2, 0, 1), np.float32(1.0 / 255.0), out=out_chw)
+
+
+def _warp_i420(image: U8, box: Letterbox) -> U8:
+    """The letterboxed (h, w, 3) RGB of an I420 image: Y warped at the network size, U and V at
+    half of it (a chroma pixel spans two luma pixels: same scale, half the offset), then one
+    YUV -> RGB conversion of the small result. The network size is a multiple of 32, so even."""
+    nw, nh = box.net_size
+    y, u, v = i420_planes(image)
+    yuv = np.empty((nh * 3 // 2, nw), np.uint8)
+    flags, border = cv2.INTER_LINEAR, cv2.BORDER_CONSTANT
+    cv2.warpAffine(y, box.matrix, (nw, nh), dst=yuv[:nh], flags=flags, borderMode=border,
+                   borderValue=PAD_VALUE)
+    half = Letterbox(box.scale, (box.offset_xy[0] / 2.0, box.offset_xy[1] / 2.0), (nw // 2, nh // 2),
+                     box.region_xyxy).matrix
+    quarter = nh // 4
+    for k, plane in enumerate((u, v)):
+        warped = cv2.warpAffine(plane, half, (nw // 2, nh // 2), flags=flags, borderMode=border,
+                                borderValue=CHROMA_PAD)
+        yuv[nh + k * quarter: nh + (k + 1) * quarter] = warped.reshape(quarter, nw)
+    return np.asarray(cv2.cvtColor(yuv, cv2.COLOR_YUV2RGB_I420), dtype=np.uint8)
 
 
 def expand_to_aspect(region_xyxy: tuple[float, float, float, float], aspect_wh: float,

@@ -2,24 +2,30 @@
 
 Once people are tracked in a view, the next frame only needs to look where the
 tracker expects them. Each expected box (plus a margin) becomes a crop; people close
-together share one. The crops of all views go into one batch at one small network size
-(``long_side`` high, as wide as the widest crop needs). A full-frame pass runs every
-``full_every`` frames (to find people who walk in) and right after a tracked person was
-not found in their crop. A view with no track is looked at whole, at the crop size.
+together share one. Every crop gets its own network size: as tall as the crop needs to
+be sampled as finely as the full-frame pass samples the image (at most ``long_side``),
+as wide as the person needs. A person far from the camera costs a small crop, not a
+big one. The detector batches crops of equal size together.
+
+Full-frame passes are per view: a view is looked at whole on its first frame and right
+after a tracked person was not found in its crop. To find people who walk in, every
+``full_every`` frames a view is also looked at whole at the crop size (a coarse look
+beside its crops, which keep the tracked people's keypoints). These looks are staggered
+over the views (at most one per frame), so no frame pays for all views at once. A view
+with no track while others have some is looked at whole at the crop size every frame.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Hashable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.pose.preprocess import expand_to_aspect, net_size_for
-
-Region = tuple[float, float, float, float]
+from pipeline.pose.preprocess import STRIDE, expand_to_aspect, net_size_for, round_up
+from pipeline.pose.types import Job, Region
 
 
 class RoiSettingsLike(Protocol):
@@ -33,31 +39,42 @@ class RoiSettingsLike(Protocol):
     def roi_margin(self) -> float: ...
     @property
     def roi_full_every(self) -> int: ...
+    @property
+    def input_long_side(self) -> int: ...
 
 
 @dataclass(frozen=True, slots=True)
 class RoiConfig:
-    """enabled: use crops at all. long_side: crop network height, px (multiple of 32).
+    """enabled: use crops at all. long_side: the tallest crop network, px (multiple of 32).
+    min_side: the shortest crop network height, px (multiple of 32).
+    full_long_side: long side of the full-frame network input; a crop is not sampled
+    more finely than that pass samples the image (small people get small crops).
     margin: crop margin on each side, as a fraction of the expected box's larger side.
-    full_every: a full-frame pass at least every this many frames.
+    full_every: a full-frame pass of each view at least every this many frames.
     max_crops: more crops than this in a frame -> full frame instead.
-    min_aspect, max_aspect: bounds of the crop aspect w / h; within them a frame's crops
-    take the widest box-plus-margin aspect (so a person with arms out is not shrunk).
+    min_aspect, max_aspect: bounds of a crop's aspect w / h (a person with arms out
+    widens the crop, not shrinks the person).
     merge_growth: two people of a view share one crop when their union is at most this
     many times the larger one's area."""
 
     enabled: bool = True
     long_side: int = 320
-    margin: float = 0.1
+    min_side: int = 128
+    full_long_side: int = 640
+    margin: float = 0.15
     full_every: int = 30
     max_crops: int = 12
     min_aspect: float = 0.4
     max_aspect: float = 1.0
-    merge_growth: float = 1.3
+    merge_growth: float = 1.1
 
     def __post_init__(self) -> None:
-        if self.long_side <= 0 or self.long_side % 32:
-            raise ValueError(f"long_side must be a positive multiple of 32, got {self.long_side}")
+        for name in ("long_side", "min_side", "full_long_side"):
+            value = getattr(self, name)
+            if value <= 0 or value % STRIDE:
+                raise ValueError(f"{name} must be a positive multiple of {STRIDE}, got {value}")
+        if self.min_side > self.long_side:
+            raise ValueError(f"min_side {self.min_side} must not exceed long_side {self.long_side}")
         if self.margin < 0 or self.full_every < 1 or self.max_crops < 1:
             raise ValueError(
                 f"need margin >= 0, full_every >= 1, max_crops >= 1; got {self.margin}, "
@@ -70,15 +87,19 @@ class RoiConfig:
     @classmethod
     def from_settings(cls, pose: RoiSettingsLike) -> RoiConfig:
         return cls(enabled=bool(pose.roi), long_side=int(pose.roi_long_side), margin=float(pose.roi_margin),
-                   full_every=int(pose.roi_full_every))
+                   full_every=int(pose.roi_full_every), full_long_side=int(pose.input_long_side),
+                   min_side=min(128, int(pose.roi_long_side)))
 
-    def net_size(self, regions: Sequence[Region]) -> tuple[int, int]:
-        """Network (w, h) for a batch of crops of these regions (margins included): height
-        ``long_side``, width for the widest region (within the aspect bounds)."""
-        aspect = self.min_aspect
-        for x1, y1, x2, y2 in regions:
-            aspect = max(aspect, (x2 - x1) / max(y2 - y1, 1.0))
-        return net_size_for(min(aspect, self.max_aspect), self.long_side)
+    def net_size(self, region: Region, image_size: tuple[int, int]) -> tuple[int, int]:
+        """Network (w, h) for a crop of ``region`` (margins included) of an image of ``image_size``:
+        height for the full pass's sampling (within ``min_side``..``long_side``), width for the
+        region's aspect (within the aspect bounds)."""
+        x1, y1, x2, y2 = region
+        w, h = max(x2 - x1, 1.0), max(y2 - y1, 1.0)
+        full_scale = self.full_long_side / max(image_size)
+        net_h = min(max(round_up(h * full_scale), self.min_side), self.long_side)
+        aspect = min(max(w / h, self.min_aspect), self.max_aspect)
+        return net_size_for(aspect, net_h)
 
 
 def with_margin(box_xyxy: NDArray[np.float64] | Region, margin: float) -> Region:
@@ -115,15 +136,22 @@ def merge_regions(regions: Sequence[Region], max_growth: float) -> list[Region]:
 
 @dataclass(frozen=True, slots=True)
 class RoiPlan:
-    """What the detector runs for one frame: jobs (image index, region or None) and the network size.
+    """What the detector runs for one frame.
 
-    full: True for a full-frame pass (net_size None = the detector's full-frame size).
+    jobs: (image index, region or None for the whole image, network size or None for the
+        detector's full-frame size).
+    full_views: indices of the images looked at whole at the full-frame size.
+    reason: why those views were (``"roi"`` when none was).
     """
 
-    full: bool
-    jobs: tuple[tuple[int, Region | None], ...]
-    net_size: tuple[int, int] | None
+    jobs: tuple[Job, ...]
+    full_views: frozenset[int]
     reason: str
+
+    @property
+    def full(self) -> bool:
+        """Every image whole at the full-frame size (no crop at all)."""
+        return all(j.region is None and j.net_size is None for j in self.jobs)
 
 
 def crop_region(region: Region, image_size: tuple[int, int], net_size: tuple[int, int]) -> Region:
@@ -146,73 +174,100 @@ def _contains(outer: Region, inner: Region) -> bool:
 
 
 class RoiScheduler:
-    """Decides per frame between a full-frame pass and crops around the expected boxes.
+    """Decides per frame and view between a full-frame pass and crops around the expected boxes.
 
-    Crops are kept still while the people stay inside them (a crop moving with every
-    frame resamples the image differently each time, which shows as keypoint jitter),
-    and the crop network size only shrinks when it would save a whole 64 px column.
+    Views are named by the keys given to :meth:`plan` (camera names; image indices by
+    default), so a camera missing from a frame keeps its state. Crops are kept still
+    while the people stay inside them (a crop moving with every frame resamples the image
+    differently each time, which shows as keypoint jitter).
     """
 
     def __init__(self, config: RoiConfig) -> None:
         self.config = config
-        self._since_full: int | None = None  # frames since the last full pass; None = never
-        self._lost = False
-        self._net: tuple[int, int] | None = None
-        self._crops: dict[int, list[Region]] = {}  # view -> the crops of the last ROI frame
+        self._since_full: dict[Hashable, int] = {}  # view -> frames since its last full pass
+        self._lost: set[Hashable] = set()
+        self._crops: dict[Hashable, list[tuple[Region, tuple[int, int]]]] = {}  # view -> (crop, net)
+        self._planned: tuple[list[Hashable], frozenset[int], frozenset[int]] | None = None
 
-    def report(self, full: bool, lost_track: bool) -> None:
-        """After a frame: was it a full pass, and did a confirmed track go unmatched?"""
-        self._since_full = 0 if full else (self._since_full or 0) + 1
-        self._lost = lost_track
-        if full:
-            self._crops.clear()
+    def report(self, lost: Collection[Hashable] = ()) -> None:
+        """After the frame last planned: the views (keys) where a tracked person went unmatched."""
+        if self._planned is None:
+            raise RuntimeError("report() without a plan() before it")
+        keys, full_views, looked = self._planned
+        self._planned = None
+        everything = len(full_views) == len(keys)
+        for rank, key in enumerate(keys):
+            if rank in full_views:
+                # after a pass of every view at once, stagger their next periodic looks
+                self._since_full[key] = (rank * self.config.full_every) // len(keys) if everything else 0
+                self._crops.pop(key, None)
+            elif rank in looked:
+                self._since_full[key] = 0
+            else:
+                self._since_full[key] = self._since_full.get(key, 0) + 1
+        self._lost = {k for k in keys if k in set(lost)}
 
-    def _stable_net(self, wanted: tuple[int, int]) -> tuple[int, int]:
-        last = self._net
-        if last is not None and last[1] == wanted[1] and wanted[0] <= last[0] < wanted[0] + 64:
-            return last
-        self._net = wanted
-        return wanted
-
-    def _stable_crop(self, view: int, region: Region, image_size: tuple[int, int],
-                     net_size: tuple[int, int]) -> Region:
-        fresh = crop_region(region, image_size, net_size)
-        aspect = net_size[0] / net_size[1]
-        for old in self._crops.get(view, ()):
-            w, h = old[2] - old[0], old[3] - old[1]
-            if (_contains(old, region) and abs(w / h - aspect) < 1e-6
-                    and h <= 1.15 * (fresh[3] - fresh[1])):
-                return old
-        return fresh
+    def _stable_crop(self, key: Hashable, region: Region, image_size: tuple[int, int]
+                     ) -> tuple[Region, tuple[int, int]]:
+        net = self.config.net_size(region, image_size)
+        fresh = crop_region(region, image_size, net)
+        for old, old_net in self._crops.get(key, ()):
+            if (_contains(old, region) and old_net[1] == net[1] and old_net[0] < net[0] + 2 * STRIDE
+                    and old[3] - old[1] <= 1.15 * (fresh[3] - fresh[1])):
+                return old, old_net
+        return fresh, net
 
     def plan(self, image_sizes: Sequence[tuple[int, int]],
-             expected: Sequence[Mapping[int, NDArray[np.float64]]]) -> RoiPlan:
-        """expected[i]: track id -> box the tracker expects in image i this frame."""
+             expected: Sequence[Mapping[int, NDArray[np.float64]]],
+             views: Sequence[Hashable] | None = None) -> RoiPlan:
+        """expected[i]: track id -> box the tracker expects in image i this frame; views[i]: its key."""
         cfg = self.config
-        full = RoiPlan(True, tuple((i, None) for i in range(len(image_sizes))), None, "")
+        keys: list[Hashable] = list(views) if views is not None else list(range(len(image_sizes)))
+        if len(keys) != len(image_sizes) or len(expected) != len(image_sizes):
+            raise ValueError(f"need one size, expectation and key per image, got {len(image_sizes)}, "
+                             f"{len(expected)}, {len(keys)}")
+        everything = frozenset(range(len(keys)))
+
+        def whole(reason: str) -> RoiPlan:
+            self._planned = (keys, everything, everything)
+            return RoiPlan(tuple(Job(i) for i in range(len(keys))), everything, reason)
+
         if not cfg.enabled:
-            return RoiPlan(True, full.jobs, None, "roi off")
-        if self._since_full is None:
-            return RoiPlan(True, full.jobs, None, "first frame")
-        if self._since_full + 1 >= cfg.full_every:
-            return RoiPlan(True, full.jobs, None, "periodic")
-        if self._lost:
-            return RoiPlan(True, full.jobs, None, "track lost")
+            return whole("roi off")
+        if all(k not in self._since_full for k in keys):
+            return whole("first frame")
         if not any(expected):
-            return RoiPlan(True, full.jobs, None, "nobody tracked")
-        regions = [
-            merge_regions([with_margin(boxes[t], cfg.margin) for t in sorted(boxes)], cfg.merge_growth)
-            for boxes in expected
-        ]
-        net_size = self._stable_net(cfg.net_size([r for rs in regions for r in rs]))
-        jobs: list[tuple[int, Region | None]] = []
-        crops: dict[int, list[Region]] = {}
-        for i, rs in enumerate(regions):
-            if not rs:
-                jobs.append((i, None))  # the whole view, at crop size
-            crops[i] = [self._stable_crop(i, r, image_sizes[i], net_size) for r in rs]
-            jobs.extend((i, c) for c in crops[i])
+            return whole("nobody tracked")
+        full: dict[int, str] = {}
+        for i, key in enumerate(keys):
+            if key not in self._since_full:
+                full[i] = "new view"
+            elif key in self._lost:
+                full[i] = "track lost"
+        due = [(self._since_full[k], i) for i, k in enumerate(keys)
+               if i not in full and self._since_full[k] + 1 >= cfg.full_every]
+        look = max(due)[1] if due else None  # the most overdue view; the others wait a frame
+        jobs: list[Job] = []
+        crops: dict[Hashable, list[tuple[Region, tuple[int, int]]]] = {}
+        for i, (key, boxes) in enumerate(zip(keys, expected, strict=True)):
+            if i in full:
+                jobs.append(Job(i))
+                continue
+            size = image_sizes[i]
+            coarse = Job(i, None, net_size_for(size[0] / size[1], cfg.long_side))
+            if not boxes:  # nobody here while others have people: whole, at the crop size
+                jobs.append(coarse)
+                continue
+            if i == look:
+                jobs.append(coarse)
+            regions = merge_regions([with_margin(boxes[t], cfg.margin) for t in sorted(boxes)],
+                                    cfg.merge_growth)
+            crops[key] = [self._stable_crop(key, r, size) for r in regions]
+            jobs.extend(Job(i, crop, net) for crop, net in crops[key])
         if len(jobs) > cfg.max_crops:
-            return RoiPlan(True, full.jobs, None, "too many crops")
-        self._crops = crops
-        return RoiPlan(False, tuple(jobs), net_size, "roi")
+            return whole("too many crops")
+        self._crops.update(crops)
+        looked = frozenset(full) | ({look} if look is not None else set())
+        self._planned = (keys, frozenset(full), looked)
+        reasons = sorted(set(full.values()) | ({"look for newcomers"} if look is not None else set()))
+        return RoiPlan(tuple(jobs), frozenset(full), ", ".join(reasons) if reasons else "roi")

@@ -7,6 +7,7 @@ both produce :class:`ViewDetections`, so no later stage can tell them apart.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -14,6 +15,16 @@ from numpy.typing import NDArray
 from pipeline.skeleton import NUM_JOINTS
 
 F32 = NDArray[np.float32]
+Region = tuple[float, float, float, float]  # [x1, y1, x2, y2] in image pixels
+
+
+class Job(NamedTuple):
+    """One slot of a detector batch: image ``image`` (its index), the ``region`` of it that goes
+    in (None: the whole image), at network size ``net_size`` (w, h; None: the full-frame size)."""
+
+    image: int
+    region: Region | None = None
+    net_size: tuple[int, int] | None = None
 
 
 def _check(name: str, arr: np.ndarray, shape: tuple[int | None, ...], camera: str) -> None:

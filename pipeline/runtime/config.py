@@ -21,6 +21,9 @@ class RuntimeConfig:
     snapshot_interval_s: dashboard snapshots are re-encoded at most this often.
     start_method: multiprocessing start method of the workers.
     osc: OSC destinations (host, port) that also get ``/cave/locomotion``.
+    capture_nice: the capture workers' niceness (added to the main process's): decoding
+        gives way to pose detection, which is what the frame rate waits for, and takes the
+        cores' idle moments instead.
     """
 
     target_fps: float = 30.0
@@ -37,6 +40,7 @@ class RuntimeConfig:
     start_method: Literal["forkserver", "spawn", "fork"] = "forkserver"
     osc: tuple[tuple[str, int], ...] = ()
     latency_window: int = 600
+    capture_nice: int = 5
 
     def __post_init__(self) -> None:
         if self.target_fps <= 0 or self.emit_rate_hz <= 0 or self.heartbeat_s <= 0:
@@ -47,6 +51,8 @@ class RuntimeConfig:
         if self.ring_slots < 2 or self.max_frame_bytes <= 0:
             raise ValueError(f"need ring_slots >= 2 and max_frame_bytes > 0, got {self.ring_slots}, "
                              f"{self.max_frame_bytes}")
+        if not 0 <= self.capture_nice <= 19:
+            raise ValueError(f"capture_nice must be in 0..19, got {self.capture_nice}")
         if self.start_method not in ("forkserver", "spawn", "fork"):
             raise ValueError(f"start_method must be forkserver, spawn or fork, got {self.start_method!r}")
 

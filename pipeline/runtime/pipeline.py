@@ -252,7 +252,8 @@ class Pipeline:
             pace_fps = (None if pace == 0 else pace or native_fps) if file_like else None
             spec = CaptureSpec(name, uri, pace_fps=pace_fps,
                                loop=self.config.video_loop if file_like else False,
-                               start_s=start_s, retry_s=self.config.camera_retry_s)
+                               start_s=start_s, retry_s=self.config.camera_retry_s,
+                               nice=self.config.capture_nice)
             run.supervisor.add_group(f"capture-{name}", _capture_group(spec, ring.spec))
         calibrated = None
         if self.cameras_calibrated is not None:

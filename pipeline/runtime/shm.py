@@ -25,7 +25,8 @@ from pipeline.errors import SourceError
 
 SHM_PREFIX = "cavewalk_"
 _GLOBAL_WORDS = 2  # [latest seq, reader's demand time (float64 bits)]
-_SLOT_WORDS = 8  # [seq, ts (float64 bits), height, width, channels, frame index, nbytes, reserved]
+_SLOT_WORDS = 8  # [seq, ts (float64 bits), rows, width, channels (0: a 2-D image), frame index, nbytes,
+#                  reserved]
 
 
 @dataclass(frozen=True, slots=True)
@@ -122,9 +123,9 @@ class FrameRing:
         return int(self._words[0])
 
     def write(self, image: NDArray[np.uint8], timestamp_s: float, index: int) -> int:
-        """Store a frame in the next slot; returns its sequence number."""
-        if image.dtype != np.uint8 or image.ndim != 3:
-            raise ValueError(f"frames must be (H, W, C) uint8, got {image.shape} {image.dtype}")
+        """Store a frame (H, W, C) or 2-D (an I420 image) in the next slot; returns its sequence number."""
+        if image.dtype != np.uint8 or image.ndim not in (2, 3):
+            raise ValueError(f"frames must be (H, W, C) or (H, W) uint8, got {image.shape} {image.dtype}")
         if image.nbytes > self.spec.capacity_bytes:
             raise SourceError(f"frame of {image.shape} ({image.nbytes} bytes) exceeds the ring's slot "
                               f"capacity of {self.spec.capacity_bytes} bytes")
@@ -133,7 +134,7 @@ class FrameRing:
         base = self._slot_base(slot)
         self._words[base] = -1
         self._data(slot, image.nbytes)[:] = np.ascontiguousarray(image).reshape(-1)
-        h, w, c = image.shape
+        h, w, c = image.shape if image.ndim == 3 else (*image.shape, 0)
         self._ts[base + 1] = timestamp_s
         self._words[base + 2: base + 7] = (h, w, c, index, image.nbytes)
         self._words[base] = seq
@@ -167,7 +168,7 @@ class FrameRing:
             return None
         ts = float(self._ts[base + 1])
         h, w, c, index, nbytes = (int(v) for v in self._words[base + 2: base + 7])
-        image = self._data(slot, nbytes).copy().reshape(h, w, c)
+        image = self._data(slot, nbytes).copy().reshape((h, w, c) if c else (h, w))
         if int(self._words[base]) != seq:  # overwritten while copying
             return None
         return SlotFrame(seq, ts, index, image)

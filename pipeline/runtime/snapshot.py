@@ -7,6 +7,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+from pipeline.pixels import to_bgr
 from pipeline.pose.types import ViewDetections
 from pipeline.skeleton import BONES
 
@@ -16,7 +17,10 @@ COLOURS = ((0, 200, 255), (80, 220, 80), (255, 160, 60), (200, 90, 255), (90, 90
 
 def render_snapshot(image: NDArray[np.uint8] | None, view: ViewDetections | None, long_side: int = 640,
                     min_score: float = 0.3, quality: int = 80) -> bytes:
-    """JPEG bytes of ``image`` (or a canvas of the view's size) scaled to ``long_side``, skeletons drawn."""
+    """JPEG bytes of ``image`` (BGR or I420; or a canvas of the view's size) scaled to ``long_side``,
+    skeletons drawn."""
+    if image is not None:
+        image = to_bgr(image)
     if image is None:
         if view is None:
             raise ValueError("need an image or a view to draw")

@@ -39,32 +39,24 @@ class DetectStage(Protocol):
 
 
 class PoseStage:
-    """Pose detection over the views of a multi-view frame in one batch, then OC-SORT per view.
+    """Pose detection over the views of a multi-view frame, then OC-SORT per view.
 
-    The tracking engineer's :class:`pipeline.tracking.stage.DetectAndTrack`, for a frame that
-    may lack some cameras (late or gone): ROI crops around each present view's predicted
-    tracks (:class:`pipeline.pose.roi.RoiScheduler`), one detector call, the trackers of the
-    present views updated. Runs in the detect process so the crops follow the tracks.
+    :class:`pipeline.tracking.stage.DetectAndTrack` for a frame that may lack some cameras
+    (late or gone): ROI crops around each present view's predicted tracks, the trackers of
+    the present views updated. Runs in the detect process so the crops follow the tracks.
     """
 
     def __init__(self, detector: Any, tracker: Any, roi: Any) -> None:
-        self.detector = detector
-        self.tracker = tracker  # pipeline.tracking.ocsort.MultiViewTracker
-        self.roi = roi  # pipeline.pose.roi.RoiScheduler
-        self.full_passes = 0
+        from pipeline.tracking.stage import DetectAndTrack
+
+        self.step = DetectAndTrack(detector, tracker, roi)
+        self.full_passes = 0  # frames with every view whole at the full-frame size
         self.roi_passes = 0
 
     def detect(self, images: Sequence[NDArray[np.uint8]], cameras: Sequence[str], frame_index: int,
                timestamp_s: float) -> tuple[TrackedView, ...]:
-        sizes = [(int(im.shape[1]), int(im.shape[0])) for im in images]
-        expected = [self.tracker.trackers[c].predicted_boxes() for c in cameras]
-        plan = self.roi.plan(sizes, expected)
-        batch = self.detector.detect(images, cameras, frame_index, timestamp_s, plan.jobs, plan.net_size)
-        views = tuple(self.tracker.update(batch.views))
-        lost = any(not set(exp).issubset(self.tracker.trackers[c].last_matched)
-                   for c, exp in zip(cameras, expected, strict=True))
-        self.roi.report(plan.full, lost)
-        if plan.full:
+        views, timings = self.step.step(images, frame_index, timestamp_s, cameras)
+        if timings.full:
             self.full_passes += 1
         else:
             self.roi_passes += 1

@@ -42,10 +42,12 @@ def source_kind(uri: str) -> str:
 
 
 def open_source(uri: str, name: str, *, pace_fps: float | None = None, loop: bool = False,
-                start_s: float | None = None) -> FrameSource:
+                start_s: float | None = None, native: bool = False) -> FrameSource:
     """Open the image source a camera setting names; :class:`SourceError` when it does not open.
 
     pace_fps / loop / start_s apply to files and folders (live cameras pace themselves).
+    native: a video file delivers its decoder's I420 frames instead of BGR (see
+    :mod:`pipeline.pixels`); other sources deliver BGR either way.
     """
     from pipeline.sources.opencv import CameraSource, ImageFolderSource, VideoFileSource
 
@@ -64,4 +66,4 @@ def open_source(uri: str, name: str, *, pace_fps: float | None = None, loop: boo
         return ImageFolderSource(name, path, loop=loop, pace_fps=pace_fps, start_s=start_s)
     if not path.exists():
         raise SourceError(f"camera {name}: source {uri!r} is not a device index, URL, video file or folder")
-    return VideoFileSource(name, path, loop=loop, pace_fps=pace_fps, start_s=start_s)
+    return VideoFileSource(name, path, loop=loop, pace_fps=pace_fps, start_s=start_s, native=native)

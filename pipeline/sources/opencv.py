@@ -1,5 +1,7 @@
 """Sources read with OpenCV: live cameras (device index, RTSP/HTTP URL), video files, image folders.
 
+Video files can also be decoded with PyAV into their native I420 frames (``native=True``).
+
 Paced sources deliver frame ``k`` at ``start_s + k / pace_fps`` on ``time.monotonic()``;
 several sources given the same ``start_s`` stay in step, like cameras on one trigger.
 A paced source that falls behind its clock skips the frames it missed (a live camera
@@ -11,6 +13,7 @@ from __future__ import annotations
 import logging
 import time
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
@@ -45,11 +48,92 @@ class Pacer:
         return due
 
 
+class _OpenCVReader:
+    """Frames of a video file through OpenCV, as BGR."""
+
+    def __init__(self, name: str, path: Path) -> None:
+        self._cap = cv2.VideoCapture(str(path))
+        if not self._cap.isOpened():
+            raise SourceError(f"camera {name}: cannot open video {path}")
+        fps = float(self._cap.get(cv2.CAP_PROP_FPS) or 0.0)
+        self.fps = fps if fps > 0 else None
+        self.frame_count = int(self._cap.get(cv2.CAP_PROP_FRAME_COUNT) or 0)
+
+    def grab(self) -> bool:
+        return bool(self._cap.grab())
+
+    def rewind(self) -> None:
+        self._cap.set(cv2.CAP_PROP_POS_FRAMES, 0)
+
+    def retrieve(self) -> np.ndarray | None:
+        ok, image = self._cap.retrieve()
+        return _bgr(image) if ok and image is not None else None
+
+    def release(self) -> None:
+        self._cap.release()
+
+
+class _PyAVReader:
+    """Frames of a video file through PyAV (FFmpeg), as the decoder's own I420.
+
+    One decoding thread per file: the capture workers already decode the cameras side by
+    side, and frame threading would only add hand-over work on a few cores.
+    """
+
+    def __init__(self, name: str, path: Path) -> None:
+        import av  # a runtime dependency; imported here so OpenCV-only uses do not load it
+
+        try:
+            self._container = av.open(str(path))
+            self._stream = self._container.streams.video[0]
+        except (av.FFmpegError, IndexError) as exc:
+            raise SourceError(f"camera {name}: cannot open video {path} ({exc})") from exc
+        self._stream.thread_count = 1
+        self._name = name
+        self._path = path
+        rate = self._stream.average_rate or self._stream.guessed_rate
+        self.fps = float(rate) if rate else None
+        self.frame_count = int(self._stream.frames or 0)
+        self._frames = self._container.decode(self._stream)
+        self._frame: Any = None
+
+    def grab(self) -> bool:
+        import av
+
+        try:
+            self._frame = next(self._frames)
+        except StopIteration:
+            self._frame = None
+            return False
+        except av.FFmpegError as exc:
+            raise SourceError(f"camera {self._name}: decoding {self._path} failed ({exc})") from exc
+        return True
+
+    def rewind(self) -> None:
+        self._container.seek(0, stream=self._stream)
+        self._frames = self._container.decode(self._stream)
+
+    def retrieve(self) -> np.ndarray | None:
+        if self._frame is None:
+            return None
+        even = self._frame.width % 2 == 0 and self._frame.height % 2 == 0
+        if even:
+            return np.ascontiguousarray(self._frame.to_ndarray(format="yuv420p"))
+        return np.ascontiguousarray(self._frame.to_ndarray(format="bgr24"))
+
+    def release(self) -> None:
+        self._container.close()
+
+
 class VideoFileSource:
-    """A video file, once or looping, paced in real time or read flat out (``pace_fps=None``)."""
+    """A video file, once or looping, paced in real time or read flat out (``pace_fps=None``).
+
+    native: frames in the decoder's own I420 (:mod:`pipeline.pixels`), decoded with PyAV,
+    instead of BGR through OpenCV; the live pipeline's capture workers ask for them.
+    """
 
     def __init__(self, name: str, path: Path, *, loop: bool = False, pace_fps: float | None = None,
-                 start_s: float | None = None, drop_late: bool = True) -> None:
+                 start_s: float | None = None, drop_late: bool = True, native: bool = False) -> None:
         path = Path(path)
         if not path.is_file():
             raise SourceError(f"camera {name}: video file not found: {path}")
@@ -57,12 +141,10 @@ class VideoFileSource:
         self.path = path
         self.loop = loop
         self.drop_late = drop_late
-        self._cap = cv2.VideoCapture(str(path))
-        if not self._cap.isOpened():
-            raise SourceError(f"camera {name}: cannot open video {path}")
-        fps = float(self._cap.get(cv2.CAP_PROP_FPS) or 0.0)
-        self._fps = fps if fps > 0 else None
-        self.frame_count = int(self._cap.get(cv2.CAP_PROP_FRAME_COUNT) or 0)
+        self._reader: _OpenCVReader | _PyAVReader | None = (
+            _PyAVReader(name, path) if native else _OpenCVReader(name, path))
+        self._fps = self._reader.fps
+        self.frame_count = self._reader.frame_count
         self._pacer = Pacer(pace_fps, start_s) if pace_fps else None
         self._next = 0  # next delivery slot (paced) / frame counter (flat out)
         self.skipped = 0
@@ -73,17 +155,18 @@ class VideoFileSource:
         return self._fps
 
     def _grab(self) -> bool:
-        if self._cap.grab():
+        assert self._reader is not None
+        if self._reader.grab():
             return True
         if not self.loop:
             return False
         self.loops += 1
-        self._cap.set(cv2.CAP_PROP_POS_FRAMES, 0)
-        return bool(self._cap.grab())
+        self._reader.rewind()
+        return self._reader.grab()
 
     def grab(self) -> bool:
         """Take the next frame off the file when it is due, without converting it (False: ended)."""
-        if self._cap is None:
+        if self._reader is None:
             return False
         if self._pacer is not None:
             due = self._pacer.due_slot(time.monotonic())
@@ -100,21 +183,21 @@ class VideoFileSource:
         return True
 
     def retrieve(self) -> CapturedFrame | None:
-        """The frame last grabbed, as a BGR image (None if it cannot be decoded)."""
-        if self._cap is None:
+        """The frame last grabbed (BGR, or I420 when native; None if it cannot be decoded)."""
+        if self._reader is None:
             return None
-        ok, image = self._cap.retrieve()
-        if not ok or image is None:
+        image = self._reader.retrieve()
+        if image is None:
             return None
-        return CapturedFrame(self.name, self._next - 1, time.monotonic(), _bgr(image))
+        return CapturedFrame(self.name, self._next - 1, time.monotonic(), image)
 
     def read(self) -> CapturedFrame | None:
         return self.retrieve() if self.grab() else None
 
     def close(self) -> None:
-        if self._cap is not None:
-            self._cap.release()
-            self._cap = None
+        if self._reader is not None:
+            self._reader.release()
+            self._reader = None
 
 
 class ImageFolderSource:

@@ -9,6 +9,8 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import NDArray
 
+from pipeline.pixels import image_size, pixel_format
+
 U8 = NDArray[np.uint8]
 
 
@@ -19,7 +21,8 @@ class CapturedFrame:
     camera: camera name.
     index: running index of this camera's frames (0, 1, 2, ...; gaps where frames were skipped).
     timestamp_s: capture time, seconds on ``time.monotonic()`` (one clock for every process).
-    image: (H, W, 3) uint8 BGR image.
+    image: (H, W, 3) uint8 BGR, or (H * 3 / 2, W) uint8 I420 from a video decoder that was
+        asked for its native frames (see :mod:`pipeline.pixels`).
     """
 
     camera: str
@@ -28,17 +31,17 @@ class CapturedFrame:
     image: U8
 
     def __post_init__(self) -> None:
-        if self.image.ndim != 3 or self.image.shape[2] != 3 or self.image.dtype != np.uint8:
-            raise ValueError(
-                f"{self.camera}: image must be (H, W, 3) uint8, got {self.image.shape} {self.image.dtype}"
-            )
+        try:
+            pixel_format(self.image)
+        except ValueError as exc:
+            raise ValueError(f"{self.camera}: {exc}") from None
         if self.index < 0:
             raise ValueError(f"{self.camera}: index must be >= 0, got {self.index}")
 
     @property
     def image_size(self) -> tuple[int, int]:
         """(width, height) in pixels."""
-        return int(self.image.shape[1]), int(self.image.shape[0])
+        return image_size(self.image)
 
 
 @runtime_checkable

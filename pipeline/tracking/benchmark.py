@@ -52,18 +52,22 @@ class ViewFigures:
 
 @dataclass(frozen=True, slots=True)
 class DetectBenchResult:
-    """One run (full-frame or ROI mode); times in milliseconds per multi-view frame."""
+    """One run (full-frame or ROI mode); times in milliseconds per multi-view frame.
+    full_frames: frames with every view whole at the full-frame size; full_views: views
+    looked at whole at that size, all frames together (ROI mode does them one at a time)."""
 
     mode: str
     frames: int
     views: int
     median_ms: float
+    mean_ms: float
     p90_ms: float
     preprocess_ms: float
     inference_ms: float
     decode_ms: float
     tracking_ms: float
     full_frames: int
+    full_views: int
     figures: tuple[ViewFigures, ...]
 
     @property
@@ -109,9 +113,10 @@ def summarise(
 
     return DetectBenchResult(
         mode=mode, frames=len(timings), views=len(per_camera),
-        median_ms=float(np.median(tot)), p90_ms=float(np.percentile(tot, 90)),
+        median_ms=float(np.median(tot)), mean_ms=float(np.mean(tot)), p90_ms=float(np.percentile(tot, 90)),
         preprocess_ms=med("preprocess_s"), inference_ms=med("inference_s"), decode_ms=med("decode_s"),
         tracking_ms=med("tracking_s"), full_frames=sum(t.full for t in timings),
+        full_views=sum(t.full_views for t in timings),
         figures=tuple(view_figures(c, v) for c, v in per_camera.items()),
     )
 
@@ -145,12 +150,12 @@ def run_detect_benchmark(
 
 def format_results(results: list[DetectBenchResult]) -> str:
     """A side-by-side table of the runs and their identity figures."""
-    lines = [f"{'mode':<10}{'frames':>7}{'median ms':>11}{'p90 ms':>9}{'pre':>8}{'infer':>8}{'decode':>8}"
-             f"{'track':>8}{'full':>6}{'kp cover':>10}"]
+    lines = [f"{'mode':<10}{'frames':>7}{'median ms':>11}{'mean ms':>9}{'p90 ms':>9}{'pre':>8}{'infer':>8}"
+             f"{'decode':>8}{'track':>8}{'full views':>12}{'kp cover':>10}"]
     for r in results:
-        lines.append(f"{r.mode:<10}{r.frames:>7}{r.median_ms:>11.1f}{r.p90_ms:>9.1f}{r.preprocess_ms:>8.1f}"
-                     f"{r.inference_ms:>8.1f}{r.decode_ms:>8.1f}{r.tracking_ms:>8.2f}{r.full_frames:>6}"
-                     f"{100 * r.keypoint_coverage:>9.1f}%")
+        lines.append(f"{r.mode:<10}{r.frames:>7}{r.median_ms:>11.1f}{r.mean_ms:>9.1f}{r.p90_ms:>9.1f}"
+                     f"{r.preprocess_ms:>8.1f}{r.inference_ms:>8.1f}{r.decode_ms:>8.1f}{r.tracking_ms:>8.2f}"
+                     f"{r.full_views:>12}{100 * r.keypoint_coverage:>9.1f}%")
     for r in results:
         for f in r.figures:
             lines.append(f"  {r.mode:<8} {f.camera}: subject ids {f.subject_ids}, others {f.other_ids}, "
@@ -165,20 +170,26 @@ def bench_demo(
     cache_dir: Path,
     frames: int | None = 100,
     repeat: int = 1,
-    threads: int = 2,
+    threads: int | None = None,
     modes: tuple[str, ...] = ("full", "roi"),
     spinning: bool = False,
+    parallel: int | None = None,
 ) -> list[DetectBenchResult]:
     """Full-frame and ROI runs on the real demo (fetched like ``cavewalk data demo``), one model
-    session for all; the best median of ``repeat`` runs per mode (other processes share the CPU)."""
+    session for all; the best median of ``repeat`` runs per mode (other processes share the CPU).
+    threads, parallel: override ``pose.threads`` / ``pose.parallel``."""
     from pipeline.demo_data import fetch_demo
 
     unknown = set(modes) - {"full", "roi"}
     if unknown:
         raise InputError(f"unknown benchmark modes {sorted(unknown)}; use full and/or roi")
     demo = fetch_demo(cache_dir)
-    detector = PoseDetector.load(
-        replace(PoseDetectorConfig.from_settings(pose, model_path), threads=threads, spinning=spinning))
+    config = replace(PoseDetectorConfig.from_settings(pose, model_path), spinning=spinning)
+    if threads is not None:
+        config = replace(config, threads=threads)
+    if parallel is not None:
+        config = replace(config, parallel=parallel)
+    detector = PoseDetector.load(config)
     track_cfg = OCSortConfig.from_settings(tracking)
     results = []
     for mode in modes:

@@ -15,6 +15,7 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from pipeline.pixels import image_size
 from pipeline.pose.detector import PoseDetector, PoseSettingsLike
 from pipeline.pose.roi import RoiConfig, RoiScheduler, RoiSettingsLike
 from pipeline.tracking.ocsort import MultiViewTracker, OCSortConfig, TrackingSettingsLike
@@ -29,7 +30,8 @@ class PoseStageSettings(PoseSettingsLike, RoiSettingsLike, Protocol):
 
 @dataclass(frozen=True, slots=True)
 class StepTimings:
-    """Where one frame's time went, seconds; ``full`` = a full-frame pass, ``crops`` = batch size."""
+    """Where one frame's time went, seconds; ``full`` = every view whole at the full-frame size,
+    ``crops`` = batch slots, ``full_views`` = views looked at whole at the full-frame size."""
 
     preprocess_s: float
     inference_s: float
@@ -38,6 +40,7 @@ class StepTimings:
     full: bool
     crops: int
     reason: str
+    full_views: int = 0
 
     @property
     def total_s(self) -> float:
@@ -66,22 +69,24 @@ class DetectAndTrack:
     def cameras(self) -> tuple[str, ...]:
         return self.tracker.cameras
 
-    def step(self, images: Sequence[NDArray[np.uint8]], frame_index: int,
-             timestamp_s: float) -> tuple[tuple[TrackedView, ...], StepTimings]:
-        """One multi-view frame (images in camera order) -> tracked views and timings."""
-        cams = self.cameras
-        sizes = [(int(im.shape[1]), int(im.shape[0])) for im in images]
+    def step(self, images: Sequence[NDArray[np.uint8]], frame_index: int, timestamp_s: float,
+             cameras: Sequence[str] | None = None) -> tuple[tuple[TrackedView, ...], StepTimings]:
+        """One multi-view frame -> tracked views and timings. images: in the order of
+        ``cameras`` (default: all cameras; a frame may lack some, late or gone)."""
+        cams = tuple(cameras) if cameras is not None else self.cameras
+        sizes = [image_size(im) for im in images]
         expected = [self.tracker.trackers[c].predicted_boxes() for c in cams]
-        plan = self.roi.plan(sizes, expected)
-        batch = self.detector.detect(images, cams, frame_index, timestamp_s, plan.jobs, plan.net_size)
+        plan = self.roi.plan(sizes, expected, cams)
+        batch = self.detector.detect(images, cams, frame_index, timestamp_s, plan.jobs)
         t0 = time.perf_counter()
         views = self.tracker.update(batch.views)
         t1 = time.perf_counter()
-        lost = any(not set(exp).issubset(self.tracker.trackers[c].last_matched)
-                   for c, exp in zip(cams, expected, strict=True))
-        self.roi.report(plan.full, lost)
-        if lost and not plan.full:
-            log.debug("frame %d: a tracked person was not found in its crop; full frame next", frame_index)
+        lost = [c for c, exp in zip(cams, expected, strict=True)
+                if not set(exp).issubset(self.tracker.trackers[c].last_matched)]
+        self.roi.report(lost)
+        if lost:
+            log.debug("frame %d: a tracked person was not found in %s; full frame there next",
+                      frame_index, ", ".join(lost))
         timings = StepTimings(batch.preprocess_s, batch.inference_s, batch.decode_s, t1 - t0,
-                              plan.full, len(plan.jobs), plan.reason)
-        return views, timings
+                              plan.full, len(plan.jobs), plan.reason, len(plan.full_views))
+        return tuple(views), timings

@@ -11,10 +11,11 @@ import pytest
 
 from pipeline.demo_data import DemoData
 from pipeline.errors import InputError, ModelError
-from pipeline.pose.decode import iou_matrix
-from pipeline.pose.detector import PoseDetector, PoseDetectorConfig
+from pipeline.pixels import to_i420
+from pipeline.pose.decode import RawPoses, iou_matrix
+from pipeline.pose.detector import PoseDetector, PoseDetectorConfig, merge
 from pipeline.pose.roi import RoiConfig, crop_region, with_margin
-from pipeline.pose.types import ViewDetections
+from pipeline.pose.types import Job, ViewDetections
 from pipeline.skeleton import J
 
 FRAMES = (0, 60)
@@ -80,14 +81,16 @@ def test_roi_crops_find_the_same_person(
     cams, images = demo_frames[FRAMES[1]]
     full = detector.detect(images, cams, 1, 0.0)
     cfg = RoiConfig()
-    regions = [with_margin(view.boxes_xyxy[subject(view)], cfg.margin) for view in full.views]
-    net = cfg.net_size(regions)
-    assert net[1] == cfg.long_side and net[0] <= cfg.long_side
-    jobs = [(i, crop_region(r, v.image_size, net))
-            for i, (r, v) in enumerate(zip(regions, full.views, strict=True))]
-    roi = detector.detect(images, cams, 1, 0.0, jobs=jobs, net_size=net)
-    assert roi.letterboxes[0].net_size == net
-    assert roi.letterboxes[0].scale > 0.9 * full.letterboxes[0].scale, "crops keep the full-frame resolution"
+    jobs = []
+    for i, view in enumerate(full.views):
+        region = with_margin(view.boxes_xyxy[subject(view)], cfg.margin)
+        net = cfg.net_size(region, view.image_size)
+        assert net[1] <= cfg.long_side and net[0] <= cfg.long_side
+        jobs.append(Job(i, crop_region(region, view.image_size, net), net))
+    roi = detector.detect(images, cams, 1, 0.0, jobs=jobs)
+    assert [b.net_size for b in roi.letterboxes] == [j.net_size for j in jobs], "each crop at its own size"
+    for crop, whole in zip(roi.letterboxes, full.letterboxes, strict=True):
+        assert crop.scale > 0.85 * whole.scale, "crops keep about the full-frame resolution"
     for f, r in zip(full.views, roi.views, strict=True):
         i = subject(f)
         assert len(r) >= 1, f"{r.camera}: subject lost in its crop"
@@ -134,6 +137,7 @@ def test_a_file_that_is_not_a_model_is_a_model_error(tmp_path: Path) -> None:
         ({"providers": ("tpu",)}, "providers"),
         ({"providers": ()}, "providers"),
         ({"threads": -1}, "threads"),
+        ({"parallel": -1}, "parallel"),
     ],
 )
 def test_config_rejects_bad_values(changes: dict[str, object], match: str) -> None:
@@ -161,3 +165,63 @@ def test_an_empty_scene_gives_no_people(detector: PoseDetector) -> None:
     views = detector.detect([grey, grey], ["a", "b"], 7, 1.5).views
     assert [len(v) for v in views] == [0, 0]
     assert views[0].frame_index == 7 and views[0].timestamp_s == 1.5
+
+
+def test_i420_frames_give_the_same_people_as_bgr(
+    detector: PoseDetector, demo_frames: dict[int, tuple[list[str], list[np.ndarray]]]
+) -> None:
+    """The live pipeline hands the decoder's I420 frames to the detector: same people, same keypoints."""
+    cams, images = demo_frames[FRAMES[1]]
+    bgr = detector.detect(images, cams, 1, 0.0)
+    yuv = detector.detect([to_i420(im) for im in images], cams, 1, 0.0)
+    for a, b in zip(bgr.views, yuv.views, strict=True):
+        assert b.image_size == a.image_size
+        assert len(a) == len(b) > 0, f"{a.camera}: {len(a)} people from BGR, {len(b)} from I420"
+        iou = iou_matrix(a.boxes_xyxy, b.boxes_xyxy)
+        assert iou.max(axis=1).min() > 0.95, f"{a.camera}: boxes moved, IoU {iou.max(axis=1)}"
+        i, j = subject(a), int(iou[subject(a)].argmax())
+        good = (a.keypoint_scores[i] > 0.5) & (b.keypoint_scores[j] > 0.5)
+        err = np.linalg.norm(a.keypoints_xy[i][good] - b.keypoints_xy[j][good], axis=1)
+        height = float(a.boxes_xyxy[i, 3] - a.boxes_xyxy[i, 1])
+        assert np.median(err) < 0.01 * height, f"{a.camera}: keypoints {np.median(err):.1f} px apart"
+
+
+def test_parallel_runs_give_what_one_run_gives(
+    pose_model_path: Path, demo_frames: dict[int, tuple[list[str], list[np.ndarray]]]
+) -> None:
+    """Crops of several sizes split over two threads: the same detections as one thread in turn."""
+    cams, images = demo_frames[FRAMES[1]]
+    one = PoseDetector.load(PoseDetectorConfig(pose_model_path, threads=1, parallel=1))
+    two = PoseDetector.load(PoseDetectorConfig(pose_model_path, parallel=2))
+    assert two.config.intra_op_threads == 1, "side-by-side runs use one onnxruntime thread each"
+    full = one.detect(images, cams, 1, 0.0)
+    cfg = RoiConfig()
+    jobs = [Job(i, None, (192, 320)) for i in range(len(images))]  # coarse whole views, one size
+    for i, view in enumerate(full.views):  # and crops, of sizes that differ by view
+        region = with_margin(view.boxes_xyxy[subject(view)], cfg.margin)
+        net = cfg.net_size(region, view.image_size)
+        jobs.append(Job(i, crop_region(region, view.image_size, net), net))
+    assert len({j.net_size for j in jobs}) >= 2
+    a, b = one.detect(images, cams, 1, 0.0, jobs), two.detect(images, cams, 1, 0.0, jobs)
+    for va, vb in zip(a.views, b.views, strict=True):
+        assert len(va) == len(vb) > 0
+        np.testing.assert_allclose(va.boxes_xyxy, vb.boxes_xyxy, atol=0.05)
+        np.testing.assert_allclose(va.keypoints_xy, vb.keypoints_xy, atol=0.05)
+    two.close()
+
+
+def _poses(boxes: list[list[float]], scores: list[float]) -> RawPoses:
+    n = len(boxes)
+    kp = np.zeros((n, 17, 2), np.float32)
+    return RawPoses(np.array(boxes, np.float32).reshape(n, 4), np.array(scores, np.float32), kp,
+                    np.ones((n, 17), np.float32))
+
+
+def test_a_whole_view_look_adds_newcomers_but_crops_keep_their_people() -> None:
+    crop = _poses([[100, 100, 300, 700]], [0.6])
+    whole = _poses([[105, 95, 305, 705], [600, 100, 800, 700]], [0.9, 0.8])  # the same person + a newcomer
+    out = merge([crop], 0.6, 16, [whole])
+    assert len(out) == 2
+    np.testing.assert_array_equal(out.boxes_xyxy[0], crop.boxes_xyxy[0], err_msg="the crop's detection wins")
+    np.testing.assert_array_equal(out.boxes_xyxy[1], whole.boxes_xyxy[1])
+    assert len(merge([crop], 0.6, 1, [whole])) == 1, "max_people still holds"

@@ -1,13 +1,15 @@
-"""The ROI scheduler: when it crops, where, and when it falls back to the full frame."""
+"""The ROI scheduler: when it crops, where, at what network size, and when a view is looked at whole."""
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from pipeline.pose.roi import RoiConfig, RoiScheduler, crop_region, merge_regions, with_margin
+from pipeline.pose.types import Job
 
 SIZES = [(1080, 1920), (1080, 1920)]
 
@@ -16,59 +18,121 @@ def person(cx: float = 540, cy: float = 900, w: float = 300, h: float = 800) -> 
     return np.array([cx - w / 2, cy - h / 2, cx + w / 2, cy + h / 2])
 
 
+def started(config: RoiConfig | None = None, views: int = 2) -> RoiScheduler:
+    """A scheduler past its first frame (every view looked at whole once)."""
+    sched = RoiScheduler(config or RoiConfig())
+    plan = sched.plan(SIZES[:1] * views, [{}] * views)
+    assert plan.full and plan.reason in ("first frame", "roi off")
+    sched.report()
+    return sched
+
+
 def test_first_frame_is_full_then_crops_per_track() -> None:
     sched = RoiScheduler(RoiConfig())
     plan = sched.plan(SIZES, [{}, {}])
-    assert plan.full and plan.reason == "first frame" and plan.net_size is None
-    assert plan.jobs == ((0, None), (1, None))
-    sched.report(full=True, lost_track=False)
+    assert plan.full and plan.reason == "first frame" and plan.full_views == {0, 1}
+    assert plan.jobs == (Job(0), Job(1))
+    sched.report()
     plan = sched.plan(SIZES, [{1: person(), 2: person(200, 900, 150, 500)}, {1: person()}])
-    assert not plan.full
-    assert [i for i, _ in plan.jobs] == [0, 0, 1], "one crop per tracked person, all views in one batch"
-    assert plan.net_size is not None and plan.net_size[1] == 320
-    for _, region in plan.jobs:
-        assert region is not None
-        x1, y1, x2, y2 = region
-        assert (x2 - x1) / (y2 - y1) == pytest.approx(plan.net_size[0] / plan.net_size[1]), "no padding waste"
+    assert not plan.full and plan.reason == "roi" and not plan.full_views
+    assert [j.image for j in plan.jobs] == [0, 0, 1], "one crop per tracked person, all views in one plan"
+    for job in plan.jobs:
+        assert job.region is not None and job.net_size is not None
+        x1, y1, x2, y2 = job.region
+        assert (x2 - x1) / (y2 - y1) == pytest.approx(job.net_size[0] / job.net_size[1]), "no padding waste"
+    big, small = plan.jobs[0].net_size, plan.jobs[1].net_size
+    assert big is not None and small is not None
+    assert big[1] == 320 and small[1] < big[1], "a smaller person gets a smaller network input"
 
 
-def test_a_view_without_tracks_is_looked_at_whole() -> None:
-    sched = RoiScheduler(RoiConfig())
-    sched.report(full=True, lost_track=False)
+def test_crops_are_sampled_no_finer_than_the_full_frame_pass() -> None:
+    cfg = RoiConfig()
+    full_scale = cfg.full_long_side / 1920
+    for h in (300, 600, 900, 1500):
+        region = with_margin(person(h=h, w=h / 3), cfg.margin)
+        net_w, net_h = cfg.net_size(region, (1080, 1920))
+        crop = crop_region(region, (1080, 1920), (net_w, net_h))
+        crop_h = crop[3] - crop[1]
+        assert cfg.min_side <= net_h <= cfg.long_side and net_h % 32 == 0 and net_w % 32 == 0
+        # the smallest multiple of 32 that samples at least as finely as the full pass (or a bound)
+        assert net_h - 32 < crop_h * full_scale or net_h == cfg.min_side, f"h={h}: {net_h} px for {crop_h}"
+        assert net_h >= min(crop_h * full_scale, cfg.long_side) - 1e-6, f"h={h}: coarser than the full pass"
+
+
+def test_a_view_without_tracks_is_looked_at_whole_at_the_crop_size() -> None:
+    sched = started()
     plan = sched.plan(SIZES, [{1: person()}, {}])
-    assert not plan.full and plan.jobs[1] == (1, None)
+    assert not plan.full and plan.jobs[1] == Job(1, None, (192, 320))
+
+
+def test_a_lost_track_gets_that_view_a_full_pass_and_only_that_view() -> None:
+    sched = started()
+    sched.plan(SIZES, [{1: person()}, {1: person()}])
+    sched.report(lost=[1])
+    plan = sched.plan(SIZES, [{1: person()}, {1: person()}])
+    assert plan.reason == "track lost" and plan.full_views == {1}
+    assert plan.jobs[-1] == Job(1) and plan.jobs[0].region is not None, "view 0 keeps its crop"
+
+
+def test_looks_for_newcomers_are_staggered_over_the_views() -> None:
+    views = 4
+    sched = started(RoiConfig(full_every=8), views)
+    looked: dict[int, list[int]] = {}
+    for frame in range(1, 25):
+        plan = sched.plan(SIZES[:1] * views, [{1: person()}] * views)
+        sched.report()
+        coarse = [j.image for j in plan.jobs if j.region is None]
+        assert len(coarse) <= 1, f"frame {frame}: at most one view looked at whole, got {coarse}"
+        assert not plan.full_views, "a look for newcomers is not a full-frame pass"
+        for view in coarse:
+            looked.setdefault(view, []).append(frame)
+            assert plan.reason == "look for newcomers"
+            assert [j.image for j in plan.jobs].count(view) == 2, "the view keeps its crop beside the look"
+    assert sorted(looked) == [0, 1, 2, 3], "every view is looked at"
+    for view, frames in looked.items():
+        assert all(b - a == 8 for a, b in itertools.pairwise(frames)), f"view {view}: {frames}"
+    firsts = sorted(frames[0] for frames in looked.values())
+    assert len(set(firsts)) == 4, f"the views' looks fall on different frames: {firsts}"
 
 
 @pytest.mark.parametrize(
-    ("config", "lost", "frames_since_full", "reason"),
+    ("config", "expected", "reason"),
     [
-        (RoiConfig(enabled=False), False, 1, "roi off"),
-        (RoiConfig(full_every=5), False, 5, "periodic"),  # frames 0 and 5 full, 1-4 crops
-        (RoiConfig(full_every=5), True, 1, "track lost"),
-        (RoiConfig(max_crops=1), False, 1, "too many crops"),
+        (RoiConfig(enabled=False), [{1: person()}, {1: person()}], "roi off"),
+        (RoiConfig(), [{}, {}], "nobody tracked"),
+        (RoiConfig(max_crops=1), [{1: person()}, {1: person()}], "too many crops"),
     ],
 )
-def test_falls_back_to_the_full_frame(
-    config: RoiConfig, lost: bool, frames_since_full: int, reason: str
-) -> None:
-    sched = RoiScheduler(config)
-    for k in range(frames_since_full):
-        sched.report(full=k == 0, lost_track=lost and k == frames_since_full - 1)
-    plan = sched.plan(SIZES, [{1: person()}, {1: person()}])
-    assert plan.full and plan.reason == reason
+def test_falls_back_to_full_frames(config: RoiConfig, expected: list[dict[int, np.ndarray]],
+                                   reason: str) -> None:
+    sched = started(config)
+    plan = sched.plan(SIZES, expected)
+    assert plan.full and plan.reason == reason and plan.full_views == {0, 1}
 
 
-def test_nobody_tracked_means_full_frames() -> None:
+def test_camera_keys_keep_their_state_when_a_camera_is_missing() -> None:
     sched = RoiScheduler(RoiConfig())
-    sched.report(full=True, lost_track=False)
-    assert sched.plan(SIZES, [{}, {}]).reason == "nobody tracked"
+    sched.plan(SIZES, [{}, {}], ["a", "b"])
+    sched.report()
+    sched.plan(SIZES, [{1: person()}, {1: person()}], ["a", "b"])
+    sched.report(lost=["b"])
+    plan = sched.plan(SIZES[:1], [{1: person()}], ["b"])  # camera a is late this frame
+    assert plan.reason == "track lost" and plan.full_views == {0}
+    sched.report()
+    plan = sched.plan(SIZES[:1], [{1: person()}], ["c"])
+    assert plan.reason == "first frame", "a camera never seen starts with a full pass"
+
+
+def test_report_needs_a_plan() -> None:
+    with pytest.raises(RuntimeError, match="plan"):
+        RoiScheduler(RoiConfig()).report()
 
 
 def test_crop_region_contains_the_box_with_margin_and_stays_in_the_image() -> None:
     b = person(100, 500, 200, 600)  # near the left edge
     region = with_margin(b, 0.1)
     assert region == pytest.approx((-60, 140, 260, 860))
-    net = RoiConfig().net_size([region])
+    net = RoiConfig().net_size(region, (1080, 1920))
     x1, y1, x2, y2 = crop_region(region, (1080, 1920), net)
     assert x1 >= 0 and y1 >= 0 and x2 <= 1080 and y2 <= 1920, "shifted into the image"
     assert x1 <= b[0] and y1 <= b[1] - 60 + 1e-6 and x2 >= b[2] and y2 >= b[3] + 60 - 1e-6
@@ -78,30 +142,30 @@ def test_crop_region_contains_the_box_with_margin_and_stays_in_the_image() -> No
 
 def test_net_size_widens_for_wide_people_within_bounds() -> None:
     cfg = RoiConfig()
-    narrow = cfg.net_size([with_margin(person(w=200, h=800), 0.1)])
-    wide = cfg.net_size([with_margin(person(w=700, h=800), 0.1)])
-    assert narrow == (128, 320), "a 200x800 box plus margins (0.375) is held at min_aspect 0.4"
+    narrow = cfg.net_size(with_margin(person(w=200, h=900), 0.1), (1080, 1920))
+    wide = cfg.net_size(with_margin(person(w=700, h=900), 0.1), (1080, 1920))
+    assert narrow == (128, 320), "a 200x900 box plus margins (0.35) is held at min_aspect 0.4"
     assert wide[0] > narrow[0] and wide[1] == 320
-    assert cfg.net_size([with_margin(person(w=3000, h=500), 0.0)]) == (320, 320), "capped at max_aspect"
+    assert cfg.net_size(with_margin(person(w=3000, h=1000), 0.0), (1080, 1920)) == (320, 320), "max_aspect"
 
 
 def test_people_side_by_side_share_a_crop_but_distant_ones_do_not() -> None:
-    a, b = with_margin(person(400, 900), 0.1), with_margin(person(500, 900), 0.1)  # overlapping
+    a, b = with_margin(person(400, 900), 0.1), with_margin(person(420, 900), 0.1)  # nearly on top
     far = with_margin(person(60, 700, 120, 400), 0.1)
-    merged = merge_regions([a, b, far], max_growth=1.3)
+    merged = merge_regions([a, b, far], max_growth=1.1)
     assert len(merged) == 2
     assert merged[0] == (min(a[0], b[0]), a[1], max(a[2], b[2]), a[3])
     assert merged[1] == far
     assert merge_regions([a, b], max_growth=1.0) == [a, b], "no growth allowed: no merge"
-    sched = RoiScheduler(RoiConfig())
-    sched.report(full=True, lost_track=False)
-    plan = sched.plan(SIZES[:1], [{1: person(400, 900), 2: person(500, 900), 3: person(60, 700, 120, 400)}])
+    sched = started(views=1)
+    plan = sched.plan(SIZES[:1], [{1: person(400, 900), 2: person(420, 900), 3: person(60, 700, 120, 400)}])
     assert len(plan.jobs) == 2, "three people, two crops"
 
 
 @pytest.mark.parametrize(
     ("changes", "match"),
-    [({"long_side": 100}, "multiple of 32"), ({"margin": -1}, "margin"), ({"full_every": 0}, "full_every"),
+    [({"long_side": 100}, "multiple of 32"), ({"min_side": 40}, "multiple of 32"),
+     ({"min_side": 352}, "min_side"), ({"margin": -1}, "margin"), ({"full_every": 0}, "full_every"),
      ({"min_aspect": 2.0}, "min_aspect"), ({"merge_growth": 0.5}, "merge_growth")],
 )
 def test_config_rejects_bad_values(changes: dict[str, float], match: str) -> None:
@@ -110,13 +174,12 @@ def test_config_rejects_bad_values(changes: dict[str, float], match: str) -> Non
 
 
 def test_crops_stay_still_while_the_person_stays_inside() -> None:
-    sched = RoiScheduler(RoiConfig(margin=0.1))
-    sched.report(full=True, lost_track=False)
+    sched = started(RoiConfig(margin=0.1), views=1)
     crops = []
     for k in range(12):
         plan = sched.plan(SIZES[:1], [{1: person(400 + 10 * k, 900)}])
-        sched.report(full=False, lost_track=False)
-        crops.append(plan.jobs[0][1])
+        sched.report()
+        crops.append(plan.jobs[0].region)
     assert crops[1] == crops[0], "a person 10 px further on is still inside the first crop"
     moved = [k for k in range(1, 12) if crops[k] != crops[k - 1]]
     assert moved, "the crop follows once the person (with margin) would leave it"
@@ -124,6 +187,9 @@ def test_crops_stay_still_while_the_person_stays_inside() -> None:
         assert crop is not None
         region = with_margin(person(400 + 10 * k, 900), 0.1)
         assert crop[0] <= region[0] and crop[2] >= region[2], f"frame {k}: the person is inside the crop"
-    sched.report(full=True, lost_track=False)
-    fresh = sched.plan(SIZES[:1], [{1: person(400, 900)}]).jobs[0][1]
+    sched.plan(SIZES[:1], [{1: person(400, 900)}])
+    sched.report(lost=[0])
+    assert sched.plan(SIZES[:1], [{1: person(400, 900)}]).full_views == {0}
+    sched.report()
+    fresh = sched.plan(SIZES[:1], [{1: person(400, 900)}]).jobs[0].region
     assert fresh == crops[0], "after a full pass crops are planned afresh"

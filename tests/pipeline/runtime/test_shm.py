@@ -47,8 +47,20 @@ def test_frames_of_other_sizes_fit_while_within_capacity() -> None:
         with pytest.raises(SourceError, match="exceeds the ring's slot capacity"):
             ring.write(img(3, 11, 10), 0.0, 2)
         assert ring.latest_seq == 1, "a rejected frame leaves the ring unchanged"
-        with pytest.raises(ValueError, match="must be \\(H, W, C\\) uint8"):
-            ring.write(np.zeros((4, 4), np.uint8), 0.0, 3)
+        with pytest.raises(ValueError, match="must be \\(H, W, C\\) or \\(H, W\\) uint8"):
+            ring.write(np.zeros((4, 4, 3), np.float32), 0.0, 3)
+    finally:
+        ring.unlink()
+
+
+def test_a_2d_i420_frame_comes_back_2d() -> None:
+    ring = FrameRing.create(2, 100 * 3, "t")
+    try:
+        yuv = np.arange(12 * 8, dtype=np.uint8).reshape(12, 8)  # an 8x8 I420 image
+        ring.write(yuv, 1.5, 4)
+        frame = ring.read_latest()
+        assert frame is not None and frame.image.shape == (12, 8) and frame.index == 4
+        np.testing.assert_array_equal(frame.image, yuv)
     finally:
         ring.unlink()
 

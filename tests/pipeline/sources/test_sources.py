@@ -11,6 +11,7 @@ import pytest
 
 from pipeline.demo_data import DemoData
 from pipeline.errors import SourceError
+from pipeline.pixels import pixel_format, to_bgr
 from pipeline.sources import CapturedFrame, FrameSource, iter_frames, open_source, source_kind
 from pipeline.sources.opencv import ImageFolderSource, Pacer, VideoFileSource
 
@@ -37,6 +38,34 @@ def test_video_loop_continues_the_index(demo_data: DemoData) -> None:
         src.close()
     assert indices == list(range(130)), "looping keeps counting frames"
     assert src.loops == 1
+
+
+def test_native_video_frames_are_the_decoders_i420(demo_data: DemoData) -> None:
+    """PyAV hands over I420 (half the bytes, no conversion); as BGR it is OpenCV's frame within 2 levels."""
+    native = VideoFileSource("cam01", demo_data.videos["cam01"], native=True, loop=True)
+    plain = VideoFileSource("cam01", demo_data.videos["cam01"])
+    try:
+        assert native.nominal_fps == pytest.approx(plain.nominal_fps or 0.0, abs=0.01)
+        assert native.frame_count == plain.frame_count == 100
+        a, b = native.read(), plain.read()
+        assert a is not None and b is not None
+        assert pixel_format(a.image) == "i420" and pixel_format(b.image) == "bgr"
+        assert a.image_size == b.image_size and a.image.nbytes * 2 == b.image.nbytes
+        diff = np.abs(to_bgr(a.image).astype(int) - b.image.astype(int))
+        assert diff.mean() < 2.0 and np.percentile(diff, 99) <= 3, f"colours differ by {diff.mean():.2f}"
+        indices = [a.index] + [f.index for f in (native.read() for _ in range(120)) if f is not None]
+        assert indices == list(range(121)) and native.loops == 1, "native frames loop like the others"
+    finally:
+        native.close()
+        plain.close()
+    assert native.read() is None
+
+
+def test_native_open_of_a_broken_video_is_a_source_error(tmp_path: Path) -> None:
+    bad = tmp_path / "broken.mp4"
+    bad.write_bytes(b"\x00" * 1000)
+    with pytest.raises(SourceError, match="cannot open video"):
+        open_source(str(bad), "cam09", native=True)
 
 
 def test_paced_source_keeps_its_clock_and_skips_what_it_missed(demo_data: DemoData) -> None:
@@ -123,8 +152,8 @@ def test_open_source_opens_video_and_folder(demo_data: DemoData, tmp_path: Path)
 @pytest.mark.parametrize(
     ("image", "index", "match"),
     [
-        (np.zeros((4, 4), np.uint8), 0, "must be \\(H, W, 3\\) uint8"),
-        (np.zeros((4, 4, 3), np.float32), 0, "must be \\(H, W, 3\\) uint8"),
+        (np.zeros((4, 4), np.uint8), 0, "expected an \\(H, W, 3\\) uint8 BGR image"),
+        (np.zeros((4, 4, 3), np.float32), 0, "expected an \\(H, W, 3\\) uint8 BGR image"),
         (np.zeros((4, 4, 3), np.uint8), -1, "index must be >= 0"),
     ],
 )
