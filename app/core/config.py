@@ -112,6 +112,9 @@ class PoseSettings(_Section):
     threads: int = Field(0, ge=0)  # onnxruntime threads per model call (0 = its choice; 1 if parallel > 1)
     # model calls of a frame run side by side on this many threads (0 = one per CPU core)
     parallel: int = Field(0, ge=0)
+    # ROI crops run on the crop model beside the model file (yolo11n-pose.crop*.onnx, made by
+    # `cavewalk models prepare`: the head without its stride-8 level, a third faster in int8)
+    crop_model: bool = True
     # which model file: yolo11n-pose.onnx or the int8 copy `cavewalk models prepare` makes
     # beside it (yolo11n-pose.int8.onnx); ignored when `model` names a file
     precision: Literal["fp32", "int8"] = "int8"  # int8: 6-14 % faster, same tracks (bench_detect)

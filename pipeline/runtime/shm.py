@@ -149,29 +149,38 @@ class FrameRing:
         ts = float(self._ts[base + 1])
         return ts if int(self._words[base]) == seq else None
 
-    def read_latest(self, after_seq: int = -1) -> SlotFrame | None:
-        """A copy of the newest frame if it is newer than ``after_seq``, else None."""
+    def read_latest(self, after_seq: int = -1, out: NDArray[np.uint8] | None = None) -> SlotFrame | None:
+        """A copy of the newest frame if it is newer than ``after_seq``, else None (``out``: see
+        :meth:`read_seq`)."""
         for _ in range(3):
             seq = self.latest_seq
             if seq < 0 or seq <= after_seq:
                 return None
-            frame = self.read_seq(seq)
+            frame = self.read_seq(seq, out)
             if frame is not None:
                 return frame
         return None
 
-    def read_seq(self, seq: int) -> SlotFrame | None:
-        """A copy of frame ``seq`` if it is still in the ring and intact, else None."""
+    def read_seq(self, seq: int, out: NDArray[np.uint8] | None = None) -> SlotFrame | None:
+        """A copy of frame ``seq`` if it is still in the ring and intact, else None.
+
+        out: a buffer of at least the frame's bytes to copy into (the image is a view of it),
+        so a reader that keeps one per camera does not pay for fresh pages every frame.
+        """
         slot = seq % self.spec.slots
         base = self._slot_base(slot)
         if int(self._words[base]) != seq:
             return None
         ts = float(self._ts[base + 1])
         h, w, c, index, nbytes = (int(v) for v in self._words[base + 2: base + 7])
-        image = self._data(slot, nbytes).copy().reshape((h, w, c) if c else (h, w))
+        if out is not None and out.nbytes >= nbytes:
+            flat = out.reshape(-1)[:nbytes]
+            np.copyto(flat, self._data(slot, nbytes))
+        else:
+            flat = self._data(slot, nbytes).copy()
         if int(self._words[base]) != seq:  # overwritten while copying
             return None
-        return SlotFrame(seq, ts, index, image)
+        return SlotFrame(seq, ts, index, flat.reshape((h, w, c) if c else (h, w)))
 
     def close(self) -> None:
         """Detach (every process); the owner also unlinks with :meth:`unlink`."""

@@ -19,6 +19,9 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
+from numpy.typing import NDArray
+
 from pipeline.errors import CavewalkError, SourceError
 from pipeline.runtime.messages import (
     DetectedFrame,
@@ -190,6 +193,7 @@ def detect_loop(ctx: _Ctx, spec: DetectSpec, ring_specs: tuple[RingSpec, ...],
         busy: float | None = None
         next_at = 0.0
         frame_index = 0
+        buffers: dict[str, NDArray[np.uint8]] = {}  # per camera: frames are copied into these
         while ctx.running():
             now = time.monotonic()
             for cam, ring in rings.items():
@@ -207,7 +211,11 @@ def detect_loop(ctx: _Ctx, spec: DetectSpec, ring_specs: tuple[RingSpec, ...],
                 continue
             images, cams, stamps, indices = [], [], [], []
             for m in group.members:
-                slot = rings[m.camera].read_seq(m.seq) or rings[m.camera].read_latest(m.seq - 1)
+                ring = rings[m.camera]
+                buf = buffers.get(m.camera)
+                if buf is None:
+                    buf = buffers[m.camera] = np.empty(ring.spec.capacity_bytes, np.uint8)
+                slot = ring.read_seq(m.seq, buf) or ring.read_latest(m.seq - 1, buf)
                 if slot is not None:
                     images.append(slot.image)
                     cams.append(m.camera)
@@ -221,7 +229,7 @@ def detect_loop(ctx: _Ctx, spec: DetectSpec, ring_specs: tuple[RingSpec, ...],
             tracked = out if out and isinstance(out[0], TrackedView) else None
             views = tuple(t.detections for t in tracked) if tracked is not None else out
             busy = ema(busy, t1 - t0)
-            next_at = t0 + rate.period_s(busy)
+            next_at = now + rate.period_s(busy)  # from when this group was taken, reading included
             for ring in rings.values():  # the dynamic frame rate reaches back to the cameras
                 ring.set_demand(next_at)
             dropped = sum(group.skipped.values()) / max(1, len(spec.cameras))

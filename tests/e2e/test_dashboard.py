@@ -105,8 +105,9 @@ def test_demo_dashboard_live_navigator_and_ssq(demo_server: str, artifacts_dir: 
             people = page.locator("button.person")
             expect(people.nth(1)).to_be_visible(timeout=30_000)
             current = page.locator("#navigator").inner_text()
-            candidates = [people.nth(i).get_attribute("data-user-id") for i in range(people.count())]
-            target = next(uid for uid in candidates if uid != current)
+            # read the ids in one go (the list re-renders live); the lowest other id is the longest-lived
+            candidates = people.evaluate_all("els => els.map(e => e.dataset.userId)")
+            target = min((uid for uid in candidates if uid != current), key=int)
             page.locator(f'button.person[data-user-id="{target}"]').click()
             expect(page.locator("#navigator")).to_have_text(target, timeout=10_000)
             expect(page.locator("#navigator-mode")).to_have_text("manual")

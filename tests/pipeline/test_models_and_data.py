@@ -15,6 +15,7 @@ import pytest
 from pipeline.demo_data import DemoData, fetch_demo
 from pipeline.pose.prepare import (
     PreparedModel,
+    crop_model_path,
     int8_path,
     prepare_int8_model,
     prepare_pose_model,
@@ -67,6 +68,20 @@ def test_int8_model_is_produced_verified_and_checksummed(pose_model_path: Path) 
     assert not any(i.endswith("_DequantizeLinear_Output") for i in keypoint_out.input), \
         "the keypoint head stays float32"
     assert quantized, "the file has quantized tensors"
+
+
+def test_crop_model_is_the_model_without_its_stride8_level(pose_model_path: Path) -> None:
+    crop = crop_model_path(pose_model_path)
+    assert crop.name == "yolo11n-pose.crop.onnx"
+    assert crop_model_path(int8_path(pose_model_path)).name == "yolo11n-pose.crop.int8.onnx"
+    for path in (crop, int8_path(crop)):
+        meta = json.loads(path.with_suffix(".json").read_text())
+        assert meta["sha256"] == sha256_file(path), f"{path.name} is checksummed"
+    assert json.loads(crop.with_suffix(".json").read_text())["head_strides"] == [16, 32]
+    full_anchors = verify_onnx(pose_model_path)[2]
+    crop_shape = verify_onnx(crop)
+    assert crop_shape[:2] == (2, 56) and verify_onnx(int8_path(crop))[:2] == (2, 56)
+    assert full_anchors - crop_shape[2] == (384 // 8) * (640 // 8), "exactly the stride-8 anchors are gone"
 
 
 def test_int8_prepare_is_idempotent(pose_model_path: Path, demo_data: DemoData) -> None:

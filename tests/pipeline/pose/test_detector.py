@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import shutil
 from dataclasses import replace
 from pathlib import Path
 
@@ -14,6 +15,7 @@ from pipeline.errors import InputError, ModelError
 from pipeline.pixels import to_i420
 from pipeline.pose.decode import RawPoses, iou_matrix
 from pipeline.pose.detector import PoseDetector, PoseDetectorConfig, merge
+from pipeline.pose.prepare import crop_model_path
 from pipeline.pose.roi import RoiConfig, crop_region, with_margin
 from pipeline.pose.types import Job, ViewDetections
 from pipeline.skeleton import J
@@ -225,3 +227,41 @@ def test_a_whole_view_look_adds_newcomers_but_crops_keep_their_people() -> None:
     np.testing.assert_array_equal(out.boxes_xyxy[0], crop.boxes_xyxy[0], err_msg="the crop's detection wins")
     np.testing.assert_array_equal(out.boxes_xyxy[1], whole.boxes_xyxy[1])
     assert len(merge([crop], 0.6, 1, [whole])) == 1, "max_people still holds"
+
+
+def test_crops_on_the_crop_model_find_what_the_full_model_finds(
+    pose_model_path: Path, demo_frames: dict[int, tuple[list[str], list[np.ndarray]]]
+) -> None:
+    """The head without its stride-8 level gives the people of person-sized crops to the pixel."""
+    crop_model = crop_model_path(pose_model_path)
+    full = PoseDetector.load(PoseDetectorConfig(pose_model_path, threads=1, parallel=1))
+    cropped = PoseDetector.load(PoseDetectorConfig(pose_model_path, threads=1, parallel=1,
+                                                   crop_model_path=crop_model))
+    cfg = RoiConfig()
+    for frame in FRAMES:
+        cams, images = demo_frames[frame]
+        found = full.detect(images, cams, 1, 0.0)
+        jobs = []
+        for i, view in enumerate(found.views):
+            for box in view.boxes_xyxy:  # the subject and the bystander, each in a crop of its size
+                region = with_margin(box, cfg.margin)
+                net = cfg.net_size(region, view.image_size)
+                jobs.append(Job(i, crop_region(region, view.image_size, net), net))
+        a, b = full.detect(images, cams, 1, 0.0, jobs), cropped.detect(images, cams, 1, 0.0, jobs)
+        for va, vb in zip(a.views, b.views, strict=True):
+            assert len(va) == len(vb) > 0, f"{va.camera}: {len(va)} people vs {len(vb)} on the crop model"
+            np.testing.assert_allclose(va.boxes_xyxy, vb.boxes_xyxy, atol=0.5)
+            np.testing.assert_allclose(va.keypoints_xy, vb.keypoints_xy, atol=0.5)
+
+
+def test_the_crop_model_is_used_when_it_is_there_and_wanted(pose_model_path: Path, tmp_path: Path) -> None:
+    from app.core.config import Settings
+
+    on = Settings.model_validate({"pose": {"model": str(pose_model_path)}})
+    assert PoseDetectorConfig.from_settings(on.pose, pose_model_path).crop_model_path == \
+        crop_model_path(pose_model_path)
+    off = Settings.model_validate({"pose": {"model": str(pose_model_path), "crop_model": False}})
+    assert PoseDetectorConfig.from_settings(off.pose, pose_model_path).crop_model_path is None
+    lone = tmp_path / "custom.onnx"
+    shutil.copy2(pose_model_path, lone)
+    assert PoseDetectorConfig.from_settings(on.pose, lone).crop_model_path is None, "no crop model beside it"

@@ -12,7 +12,7 @@ from app.core.config import Settings
 from pipeline.demo_data import DemoData
 from pipeline.pose.decode import iou_matrix
 from pipeline.pose.detector import PoseDetector, PoseDetectorConfig
-from pipeline.pose.prepare import int8_path
+from pipeline.pose.prepare import crop_model_path, int8_path
 from pipeline.pose.quantize import excluded_head_nodes
 from pipeline.pose.roi import RoiConfig, RoiScheduler
 from pipeline.tracking.benchmark import run_detect_benchmark
@@ -76,8 +76,11 @@ def test_int8_finds_the_same_people_with_keypoints_a_few_px_from_fp32(
 
 @pytest.mark.slow
 def test_int8_keeps_the_demo_ids_in_roi_mode(demo_data: DemoData, pose_model_path: Path) -> None:
-    """The figures of issue 5 with the int8 model (the default precision), 4 views x 100 frames."""
-    detector = PoseDetector.load(PoseDetectorConfig(int8_path(pose_model_path), threads=2))
+    """The figures of issue 5 with the int8 models as the live pipeline runs them (crops on the
+    int8 crop model, two model calls side by side), 4 views x 100 frames."""
+    model = int8_path(pose_model_path)
+    config = PoseDetectorConfig(model, crop_model_path=crop_model_path(model), parallel=2)
+    detector = PoseDetector.load(config)
 
     def make(cams: list[str]) -> DetectAndTrack:
         return DetectAndTrack(detector, MultiViewTracker(cams, OCSortConfig()), RoiScheduler(RoiConfig()))
