@@ -1,8 +1,12 @@
 #!/usr/bin/env python
-"""Soak test of the live pipeline: run the simulator source for a long time and watch memory.
+"""Soak test of the live pipeline: run it for a long time and watch memory.
 
     .venv/bin/python scripts/soak.py --duration 3600 --json soak.json
     .venv/bin/python scripts/soak.py --duration 300          # shortened
+    .venv/bin/python scripts/soak.py --source demo --duration 900   # the real videos, live detection
+
+``--source sim`` (default) runs the simulator at ``--fps``; ``--source demo`` the four
+real demo videos, looping, paced at 30 fps, through capture, pose detection (ROI) and fusion.
 
 Samples the resident memory (main process + workers, MB) every ``--every`` seconds,
 fits a line to the samples after the warm-up and reports the growth over the run and
@@ -32,7 +36,9 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--duration", type=float, default=3600.0, help="seconds to run (default 3600)")
-    parser.add_argument("--fps", type=float, default=60.0, help="simulator rate (default 60)")
+    parser.add_argument("--source", choices=("sim", "demo"), default="sim")
+    parser.add_argument("--fps", type=float, default=None,
+                        help="simulator rate (default 60) or the videos' pace (default 30)")
     parser.add_argument("--every", type=float, default=5.0, help="seconds between memory samples")
     parser.add_argument("--warmup", type=float, default=20.0, help="seconds ignored at the start")
     parser.add_argument("--max-growth-mb", type=float, default=50.0)
@@ -49,9 +55,21 @@ def main(argv: list[str] | None = None) -> int:
     configure_logging(logging.WARNING)
     signal.signal(signal.SIGTERM, signal.default_int_handler)
     settings = load_settings()
-    sim = SimWorldFactory.from_settings(settings.sim, settings.cave.geometry(), fps=args.fps)
-    config = replace(RuntimeConfig.from_settings(settings.runtime), target_fps=args.fps)
-    pipeline = Pipeline.from_settings(settings, None, sim, config=config)
+    base = RuntimeConfig.from_settings(settings.runtime)
+    videos = None
+    if args.source == "demo":
+        from pipeline.calibration.io import load_calibration
+        from pipeline.demo_data import fetch_demo
+
+        fps = args.fps or 30.0
+        demo = fetch_demo(settings.paths.cache_dir, progress=lambda m: print(m, file=sys.stderr))
+        config = replace(base, video_pace_fps=fps, video_loop=True, target_fps=fps)
+        pipeline = Pipeline.from_settings(settings, load_calibration(demo.calibration), config=config)
+        videos = dict(demo.videos)
+    else:
+        fps = args.fps or 60.0
+        sim = SimWorldFactory.from_settings(settings.sim, settings.cave.geometry(), fps=fps)
+        pipeline = Pipeline.from_settings(settings, None, sim, config=replace(base, target_fps=fps))
     pipeline.set_workstations([("127.0.0.1", 9)])  # the discard port: the stream is built and sent
     sampler = ProcessSampler()
     times: list[float] = []
@@ -59,7 +77,7 @@ def main(argv: list[str] | None = None) -> int:
     start = time.monotonic()
     state_ok = True
     try:
-        pipeline.start("simulator")
+        pipeline.start("videos" if videos else "simulator", videos)
         next_sample = start
         while (now := time.monotonic()) - start < args.duration:
             time.sleep(max(0.0, min(1.0, next_sample - now)))
@@ -87,6 +105,8 @@ def main(argv: list[str] | None = None) -> int:
     slope_mb_s, _ = np.polyfit(t[keep], m[keep], 1)
     growth = float(m[keep][-1] - m[keep][0])
     report = {
+        "source": args.source,
+        "fps": fps,
         "duration_s": round(float(t[-1]), 1),
         "samples": len(t),
         "rss_mb_first": round(float(m[keep][0]), 1),

@@ -7,12 +7,13 @@ be sampled as finely as the full-frame pass samples the image (at most ``long_si
 as wide as the person needs. A person far from the camera costs a small crop, not a
 big one. The detector batches crops of equal size together.
 
-Full-frame passes are per view: a view is looked at whole on its first frame and right
-after a tracked person was not found in its crop. To find people who walk in, every
-``full_every`` frames a view is also looked at whole at the crop size (a coarse look
-beside its crops, which keep the tracked people's keypoints). These looks are staggered
-over the views (at most one per frame), so no frame pays for all views at once. A view
-with no track while others have some is looked at whole at the crop size every frame.
+Full-frame passes (the whole view at the full network size) happen on a view's first
+frame and whenever nobody is tracked anywhere. Otherwise a view is *looked at* whole at
+the crop size, beside its crops (which keep the tracked people's finer keypoints): right
+after a tracked person was not found in their crop, and every ``full_every`` frames to
+find people who walk in. The periodic looks are staggered over the views (at most one
+per frame), so no frame pays for all views at once. A view with no track while others
+have some is looked at whole at the crop size every frame.
 """
 
 from __future__ import annotations
@@ -239,14 +240,16 @@ class RoiScheduler:
         if not any(expected):
             return whole("nobody tracked")
         full: dict[int, str] = {}
+        looks: dict[int, str] = {}
         for i, key in enumerate(keys):
             if key not in self._since_full:
                 full[i] = "new view"
-            elif key in self._lost:
-                full[i] = "track lost"
+            elif key in self._lost:  # a look at the whole view beside the crops finds them again
+                looks[i] = "track lost"
         due = [(self._since_full[k], i) for i, k in enumerate(keys)
-               if i not in full and self._since_full[k] + 1 >= cfg.full_every]
-        look = max(due)[1] if due else None  # the most overdue view; the others wait a frame
+               if i not in full and i not in looks and self._since_full[k] + 1 >= cfg.full_every]
+        if due:
+            looks[max(due)[1]] = "look for newcomers"  # the most overdue view; the others wait a frame
         jobs: list[Job] = []
         crops: dict[Hashable, list[tuple[Region, tuple[int, int]]]] = {}
         for i, (key, boxes) in enumerate(zip(keys, expected, strict=True)):
@@ -258,7 +261,7 @@ class RoiScheduler:
             if not boxes:  # nobody here while others have people: whole, at the crop size
                 jobs.append(coarse)
                 continue
-            if i == look:
+            if i in looks:
                 jobs.append(coarse)
             regions = merge_regions([with_margin(boxes[t], cfg.margin) for t in sorted(boxes)],
                                     cfg.merge_growth)
@@ -267,7 +270,6 @@ class RoiScheduler:
         if len(jobs) > cfg.max_crops:
             return whole("too many crops")
         self._crops.update(crops)
-        looked = frozenset(full) | ({look} if look is not None else set())
-        self._planned = (keys, frozenset(full), looked)
-        reasons = sorted(set(full.values()) | ({"look for newcomers"} if look is not None else set()))
+        self._planned = (keys, frozenset(full), frozenset(full) | frozenset(looks))
+        reasons = sorted(set(full.values()) | set(looks.values()))
         return RoiPlan(tuple(jobs), frozenset(full), ", ".join(reasons) if reasons else "roi")

@@ -122,24 +122,37 @@ class FrameRing:
         """Sequence number of the newest complete frame (-1 before the first)."""
         return int(self._words[0])
 
+    def claim(self, shape: tuple[int, ...]) -> NDArray[np.uint8]:
+        """The next slot as a writable (H, W, C) or (H, W) uint8 view, marked as being written:
+        fill it, then :meth:`publish` (a claim never published leaves the slot empty, and the
+        next claim takes it again). A decoder writes its frame straight into shared memory."""
+        if len(shape) not in (2, 3):
+            raise ValueError(f"frames must be (H, W, C) or (H, W) uint8, got shape {shape}")
+        nbytes = int(np.prod(shape))
+        if nbytes > self.spec.capacity_bytes:
+            raise SourceError(f"frame of {shape} ({nbytes} bytes) exceeds the ring's slot "
+                              f"capacity of {self.spec.capacity_bytes} bytes")
+        slot = (self.latest_seq + 1) % self.spec.slots
+        self._words[self._slot_base(slot)] = -1
+        return self._data(slot, nbytes).reshape(shape)
+
+    def publish(self, shape: tuple[int, ...], timestamp_s: float, index: int) -> int:
+        """Make the claimed slot (filled with a frame of ``shape``) the newest frame; returns its seq."""
+        seq = self.latest_seq + 1
+        base = self._slot_base(seq % self.spec.slots)
+        h, w, c = shape if len(shape) == 3 else (*shape, 0)
+        self._ts[base + 1] = timestamp_s
+        self._words[base + 2: base + 7] = (h, w, c, index, int(np.prod(shape)))
+        self._words[base] = seq
+        self._words[0] = seq
+        return seq
+
     def write(self, image: NDArray[np.uint8], timestamp_s: float, index: int) -> int:
         """Store a frame (H, W, C) or 2-D (an I420 image) in the next slot; returns its sequence number."""
         if image.dtype != np.uint8 or image.ndim not in (2, 3):
             raise ValueError(f"frames must be (H, W, C) or (H, W) uint8, got {image.shape} {image.dtype}")
-        if image.nbytes > self.spec.capacity_bytes:
-            raise SourceError(f"frame of {image.shape} ({image.nbytes} bytes) exceeds the ring's slot "
-                              f"capacity of {self.spec.capacity_bytes} bytes")
-        seq = self.latest_seq + 1
-        slot = seq % self.spec.slots
-        base = self._slot_base(slot)
-        self._words[base] = -1
-        self._data(slot, image.nbytes)[:] = np.ascontiguousarray(image).reshape(-1)
-        h, w, c = image.shape if image.ndim == 3 else (*image.shape, 0)
-        self._ts[base + 1] = timestamp_s
-        self._words[base + 2: base + 7] = (h, w, c, index, image.nbytes)
-        self._words[base] = seq
-        self._words[0] = seq
-        return seq
+        self.claim(image.shape)[...] = image
+        return self.publish(image.shape, timestamp_s, index)
 
     def timestamp_of(self, seq: int) -> float | None:
         """Capture time of frame ``seq`` from the header (None if not in the ring)."""

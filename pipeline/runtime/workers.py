@@ -145,6 +145,12 @@ def capture_loop(ctx: _Ctx, spec: CaptureSpec, ring_spec: RingSpec) -> None:
         except OSError as exc:  # not allowed here: run at the normal priority
             log.warning("camera %s: cannot lower the capture priority (%s)", spec.camera, exc)
     ring = FrameRing.attach(ring_spec)
+    claimed: list[NDArray[np.uint8]] = []
+
+    def into_ring(shape: tuple[int, ...]) -> NDArray[np.uint8]:
+        claimed.append(ring.claim(shape))
+        return claimed[-1]
+
     lost = False
     try:
         while ctx.running():
@@ -168,9 +174,13 @@ def capture_loop(ctx: _Ctx, spec: CaptureSpec, ring_spec: RingSpec) -> None:
                         lost = False
                     if time.monotonic() < ring.demand_s - slack_s:
                         continue  # the detector will not look before then: skip the conversion
-                    frame = source.retrieve()
+                    claimed.clear()
+                    frame = source.retrieve(into_ring)  # decoded straight into the ring's next slot
                     if frame is not None:
-                        ring.write(frame.image, frame.timestamp_s, frame.index)
+                        if claimed and frame.image is claimed[-1]:
+                            ring.publish(frame.image.shape, frame.timestamp_s, frame.index)
+                        else:
+                            ring.write(frame.image, frame.timestamp_s, frame.index)
             except SourceError as exc:
                 ctx.report("camera_lost", str(exc))
                 lost = True

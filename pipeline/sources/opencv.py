@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -23,6 +24,7 @@ from pipeline.sources.types import CapturedFrame
 
 log = logging.getLogger(__name__)
 
+Alloc = Callable[[tuple[int, ...]], np.ndarray]  # shape -> an array to deliver a frame in
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
 
 
@@ -65,9 +67,9 @@ class _OpenCVReader:
     def rewind(self) -> None:
         self._cap.set(cv2.CAP_PROP_POS_FRAMES, 0)
 
-    def retrieve(self) -> np.ndarray | None:
+    def retrieve(self, alloc: Alloc | None = None) -> np.ndarray | None:
         ok, image = self._cap.retrieve()
-        return _bgr(image) if ok and image is not None else None
+        return _into(_bgr(image), alloc) if ok and image is not None else None
 
     def release(self) -> None:
         self._cap.release()
@@ -113,13 +115,22 @@ class _PyAVReader:
         self._container.seek(0, stream=self._stream)
         self._frames = self._container.decode(self._stream)
 
-    def retrieve(self) -> np.ndarray | None:
-        if self._frame is None:
+    def retrieve(self, alloc: Alloc | None = None) -> np.ndarray | None:
+        frame = self._frame
+        if frame is None:
             return None
-        even = self._frame.width % 2 == 0 and self._frame.height % 2 == 0
-        if even:
-            return np.ascontiguousarray(self._frame.to_ndarray(format="yuv420p"))
-        return np.ascontiguousarray(self._frame.to_ndarray(format="bgr24"))
+        w, h = frame.width, frame.height
+        if w % 2 or h % 2:
+            return _into(np.ascontiguousarray(frame.to_ndarray(format="bgr24")), alloc)
+        if frame.format.name != "yuv420p":  # another layout or depth: FFmpeg converts it
+            return _into(np.ascontiguousarray(frame.to_ndarray(format="yuv420p")), alloc)
+        out = alloc((h * 3 // 2, w)) if alloc is not None else np.empty((h * 3 // 2, w), np.uint8)
+        flat, pos = out.reshape(-1), 0
+        for plane, (ph, pw) in zip(frame.planes, ((h, w), (h // 2, w // 2), (h // 2, w // 2)), strict=True):
+            rows = np.frombuffer(plane, np.uint8)[: ph * plane.line_size].reshape(ph, plane.line_size)
+            flat[pos: pos + ph * pw].reshape(ph, pw)[...] = rows[:, :pw]  # planes are padded per row
+            pos += ph * pw
+        return out
 
     def release(self) -> None:
         self._container.close()
@@ -182,11 +193,12 @@ class VideoFileSource:
         self._next += 1
         return True
 
-    def retrieve(self) -> CapturedFrame | None:
-        """The frame last grabbed (BGR, or I420 when native; None if it cannot be decoded)."""
+    def retrieve(self, alloc: Alloc | None = None) -> CapturedFrame | None:
+        """The frame last grabbed (BGR, or I420 when native; None if it cannot be decoded), in an
+        array from ``alloc(shape)`` when given (a shared-memory slot, say)."""
         if self._reader is None:
             return None
-        image = self._reader.retrieve()
+        image = self._reader.retrieve(alloc)
         if image is None:
             return None
         return CapturedFrame(self.name, self._next - 1, time.monotonic(), image)
@@ -231,15 +243,15 @@ class ImageFolderSource:
         self._next += 1
         return True
 
-    def retrieve(self) -> CapturedFrame | None:
-        """Read the image of the last slot grabbed."""
+    def retrieve(self, alloc: Alloc | None = None) -> CapturedFrame | None:
+        """Read the image of the last slot grabbed (into ``alloc(shape)`` when given)."""
         if self._closed or self._next == 0:
             return None
         path = self.files[(self._next - 1) % len(self.files)]
         image = cv2.imread(str(path), cv2.IMREAD_COLOR)
         if image is None:
             raise SourceError(f"camera {self.name}: cannot read image {path}")
-        return CapturedFrame(self.name, self._next - 1, time.monotonic(), _bgr(image))
+        return CapturedFrame(self.name, self._next - 1, time.monotonic(), _into(_bgr(image), alloc))
 
     def read(self) -> CapturedFrame | None:
         return self.retrieve() if self.grab() else None
@@ -278,13 +290,13 @@ class CameraSource:
         self._grabbed_s = time.monotonic()
         return True
 
-    def retrieve(self) -> CapturedFrame | None:
+    def retrieve(self, alloc: Alloc | None = None) -> CapturedFrame | None:
         if self._cap is None:
             return None
         ok, image = self._cap.retrieve()
         if not ok or image is None:
             raise SourceError(f"camera {self.name}: {self.device!r} delivered an unreadable frame")
-        return CapturedFrame(self.name, self._index - 1, self._grabbed_s, _bgr(image))
+        return CapturedFrame(self.name, self._index - 1, self._grabbed_s, _into(_bgr(image), alloc))
 
     def read(self) -> CapturedFrame | None:
         return self.retrieve() if self.grab() else None
@@ -293,6 +305,15 @@ class CameraSource:
         if self._cap is not None:
             self._cap.release()
             self._cap = None
+
+
+def _into(image: np.ndarray, alloc: Alloc | None) -> np.ndarray:
+    """``image``, or a copy of it in the array ``alloc`` gives for its shape."""
+    if alloc is None:
+        return image
+    out = alloc(image.shape)
+    out[...] = image
+    return out
 
 
 def _bgr(image: np.ndarray) -> np.ndarray:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
@@ -63,8 +63,10 @@ class FrameSource(Protocol):
         """Take the next frame without converting it (``read`` = ``grab`` + ``retrieve``)."""
         ...
 
-    def retrieve(self) -> CapturedFrame | None:
-        """The frame last grabbed, converted to a BGR image."""
+    def retrieve(self, alloc: Callable[[tuple[int, ...]], U8] | None = None) -> CapturedFrame | None:
+        """The frame last grabbed, converted to a BGR image (I420 for a native video source), in
+        the array ``alloc(shape)`` returns when given (so a capture worker decodes straight
+        into shared memory)."""
         ...
 
     def close(self) -> None: ...

@@ -65,13 +65,16 @@ def test_a_view_without_tracks_is_looked_at_whole_at_the_crop_size() -> None:
     assert not plan.full and plan.jobs[1] == Job(1, None, (192, 320))
 
 
-def test_a_lost_track_gets_that_view_a_full_pass_and_only_that_view() -> None:
+def test_a_lost_track_gets_that_view_looked_at_whole_and_only_that_view() -> None:
     sched = started()
     sched.plan(SIZES, [{1: person()}, {1: person()}])
     sched.report(lost=[1])
     plan = sched.plan(SIZES, [{1: person()}, {1: person()}])
-    assert plan.reason == "track lost" and plan.full_views == {1}
-    assert plan.jobs[-1] == Job(1) and plan.jobs[0].region is not None, "view 0 keeps its crop"
+    assert plan.reason == "track lost" and not plan.full_views
+    assert [j.image for j in plan.jobs] == [0, 1, 1], "view 0 keeps its crop; view 1 a look and its crop"
+    assert Job(1, None, (192, 320)) in plan.jobs, "the look is the whole view at the crop size"
+    sched.report()
+    assert sched.plan(SIZES, [{1: person()}, {1: person()}]).reason == "roi", "found again: crops only"
 
 
 def test_looks_for_newcomers_are_staggered_over_the_views() -> None:
@@ -117,7 +120,7 @@ def test_camera_keys_keep_their_state_when_a_camera_is_missing() -> None:
     sched.plan(SIZES, [{1: person()}, {1: person()}], ["a", "b"])
     sched.report(lost=["b"])
     plan = sched.plan(SIZES[:1], [{1: person()}], ["b"])  # camera a is late this frame
-    assert plan.reason == "track lost" and plan.full_views == {0}
+    assert plan.reason == "track lost" and Job(0, None, (192, 320)) in plan.jobs
     sched.report()
     plan = sched.plan(SIZES[:1], [{1: person()}], ["c"])
     assert plan.reason == "first frame", "a camera never seen starts with a full pass"
@@ -187,9 +190,7 @@ def test_crops_stay_still_while_the_person_stays_inside() -> None:
         assert crop is not None
         region = with_margin(person(400 + 10 * k, 900), 0.1)
         assert crop[0] <= region[0] and crop[2] >= region[2], f"frame {k}: the person is inside the crop"
-    sched.plan(SIZES[:1], [{1: person(400, 900)}])
-    sched.report(lost=[0])
-    assert sched.plan(SIZES[:1], [{1: person(400, 900)}]).full_views == {0}
-    sched.report()
+    sched.plan(SIZES[:1], [{}])
+    sched.report()  # nobody tracked: a full pass
     fresh = sched.plan(SIZES[:1], [{1: person(400, 900)}]).jobs[0].region
     assert fresh == crops[0], "after a full pass crops are planned afresh"
