@@ -132,7 +132,7 @@ def test_demo_dashboard_live_navigator_and_ssq(demo_server: str, artifacts_dir: 
             panel.locator("#q-phase").select_option("post")
             answers = {k: 0 for k in SSQ_KEYS} | {"nausea": 2, "headache": 1, "vertigo": 3, "fatigue": 1}
             for key, value in answers.items():
-                panel.locator(f'input[name="{key}"][value="{value}"]').check(force=True)
+                panel.locator(f'input[name="{key}"][value="{value}"]').check()  # waits for a still layout
             panel.locator("#q-submit").click()
             # Kennedy et al. 1993: N = {nausea 2} -> 2; O = {fatigue 1, headache 1} -> 2; D = {nausea 2,
             # vertigo 3} -> 5; total = (2 + 2 + 5) x 3.74 = 33.66
