@@ -61,6 +61,35 @@ def test_native_video_frames_are_the_decoders_i420(demo_data: DemoData) -> None:
     assert native.read() is None
 
 
+def test_a_native_frame_is_decoded_straight_into_a_ring_slot(demo_data: DemoData) -> None:
+    """The capture worker's path: the decoder writes into the claimed slot, the reader gets it back."""
+    from pipeline.runtime.shm import FrameRing
+
+    a = VideoFileSource("cam02", demo_data.videos["cam02"], native=True)
+    b = VideoFileSource("cam02", demo_data.videos["cam02"], native=True)
+    ring = FrameRing.create(2, 1088 * 1920 * 3, "t")
+    try:
+        assert a.grab() and b.grab()
+        claimed: list[np.ndarray] = []
+
+        def into_ring(shape: tuple[int, ...]) -> np.ndarray:
+            claimed.append(ring.claim(shape))
+            return claimed[-1]
+
+        frame = a.retrieve(into_ring)
+        assert frame is not None and frame.image is claimed[0], "no copy of its own"
+        assert ring.latest_seq == -1, "nothing is published before publish()"
+        ring.publish(frame.image.shape, frame.timestamp_s, frame.index)
+        slot = ring.read_latest()
+        plain = b.retrieve()
+        assert slot is not None and plain is not None
+        np.testing.assert_array_equal(slot.image, plain.image)
+    finally:
+        a.close()
+        b.close()
+        ring.unlink()
+
+
 def test_native_open_of_a_broken_video_is_a_source_error(tmp_path: Path) -> None:
     bad = tmp_path / "broken.mp4"
     bad.write_bytes(b"\x00" * 1000)
