@@ -64,12 +64,17 @@ def _hungarian(score: F64) -> Idx:
     return np.stack([rows, cols], axis=1).astype(np.int64)
 
 
+def _unused(n: int, used: Idx) -> Idx:
+    """0..n-1 without ``used``, sorted (np.setdiff1d costs ten times more on these few items)."""
+    keep = np.ones(n, dtype=bool)
+    keep[used] = False
+    return np.flatnonzero(keep).astype(np.int64)
+
+
 def _split(pairs: Idx, iou: F64, threshold: float, n_det: int, n_trk: int) -> Assignment:
     ok = iou[pairs[:, 0], pairs[:, 1]] >= threshold if len(pairs) else np.zeros(0, bool)
-    matches = pairs[ok] if len(pairs) else np.zeros((0, 2), np.int64)
-    um_d = np.setdiff1d(np.arange(n_det), matches[:, 0]).astype(np.int64)
-    um_t = np.setdiff1d(np.arange(n_trk), matches[:, 1]).astype(np.int64)
-    return Assignment(matches.astype(np.int64).reshape(-1, 2), um_d, um_t)
+    matches = (pairs[ok] if len(pairs) else np.zeros((0, 2), np.int64)).astype(np.int64).reshape(-1, 2)
+    return Assignment(matches, _unused(n_det, matches[:, 0]), _unused(n_trk, matches[:, 1]))
 
 
 def associate_ocm(
