@@ -185,7 +185,7 @@ class RoiScheduler:
 
     def __init__(self, config: RoiConfig) -> None:
         self.config = config
-        self._since_full: dict[Hashable, int] = {}  # view -> frames since its last full pass
+        self._since_full: dict[Hashable, int] = {}  # view -> frames since it was last seen whole
         self._lost: set[Hashable] = set()
         self._crops: dict[Hashable, list[tuple[Region, tuple[int, int]]]] = {}  # view -> (crop, net)
         self._planned: tuple[list[Hashable], frozenset[int], frozenset[int]] | None = None
@@ -206,7 +206,7 @@ class RoiScheduler:
                 self._since_full[key] = 0
             else:
                 self._since_full[key] = self._since_full.get(key, 0) + 1
-        self._lost = {k for k in keys if k in set(lost)}
+        self._lost = set(keys) & set(lost)
 
     def _stable_crop(self, key: Hashable, region: Region, image_size: tuple[int, int]
                      ) -> tuple[Region, tuple[int, int]]:
