@@ -290,7 +290,19 @@ def activate_calibration_run(db: Session, run_id: int) -> CalibrationRun:
     row = get_calibration_run(db, run_id)
     if row.status != "done" or row.result is None:
         raise StateConflict(f"calibration run {run_id} is {row.status}; only a finished run can be active")
-    db.execute(update(CalibrationRun).where(CalibrationRun.id != run_id).values(active=False))
+    return _make_active(db, row)
+
+
+def finish_calibration_run(db: Session, run_id: int, message: str, result: dict[str, Any]) -> CalibrationRun:
+    """Mark a run done with its result and make it the active one in one transaction, so that
+    no reader sees it done but not yet active."""
+    row = get_calibration_run(db, run_id)
+    row.status, row.progress, row.message, row.result = "done", 1.0, message, result
+    return _make_active(db, row)
+
+
+def _make_active(db: Session, row: CalibrationRun) -> CalibrationRun:
+    db.execute(update(CalibrationRun).where(CalibrationRun.id != row.id).values(active=False))
     row.active = True
     db.commit()
     return row

@@ -136,8 +136,12 @@ class CalibrationService:
     def activate(self, run_id: int) -> CalibrationRun:
         with self._factory() as db:
             run = repo.activate_calibration_run(db, run_id)
+        return self._activated(run)
+
+    def _activated(self, run: CalibrationRun) -> CalibrationRun:
+        """What follows a run becoming the active one: the pipeline and the viewer take it."""
         self.active_id = run.id
-        self._events.record("calibration", {"state": "activated", "run_id": run_id})
+        self._events.record("calibration", {"state": "activated", "run_id": run.id})
         self._pipeline.calibration_changed()
         self._show_cameras(run)
         return run
@@ -177,11 +181,12 @@ class CalibrationService:
             self._progress(run_id, 0.35, f"grabbed {len(images)} camera images; solving")
             result = self._solve(run_id, images)
             rms = {c["name"]: c.get("rms_px") for c in result["cameras"]}
-            self._progress(
-                run_id, 1.0, f"done in {time.monotonic() - t0:.1f} s", status="done", result=result
-            )
+            message = f"done in {time.monotonic() - t0:.1f} s"
+            with self._factory() as db:  # done and active in one commit
+                run = repo.finish_calibration_run(db, run_id, message, result)
+            log.info("calibration %d: 100%% %s", run_id, message)
             self._events.record("calibration", {"state": "done", "run_id": run_id, "rms_px": rms})
-            self.activate(run_id)
+            self._activated(run)
         except Exception as exc:  # the worker's boundary: the run fails with the reason
             message = str(exc) if isinstance(exc, CavewalkError) else f"{type(exc).__name__}: {exc}"
             if not isinstance(exc, CavewalkError):
