@@ -38,12 +38,20 @@ def bench(frames: int = 100, repeat: int = 1, threads: int | None = None,
                       frames, repeat, threads, modes, spinning, parallel)
 
 
+def _count(text: str) -> int:
+    """An integer >= 0 for argparse (0 = the automatic choice)."""
+    value = int(text)
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be >= 0, got {value}")
+    return value
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--frames", type=int, default=100)
     ap.add_argument("--repeat", type=int, default=1)
-    ap.add_argument("--threads", type=int, help="onnxruntime threads per call (default: pose.threads)")
-    ap.add_argument("--parallel", type=int, help="model calls side by side (default: pose.parallel)")
+    ap.add_argument("--threads", type=_count, help="onnxruntime threads per call (default: pose.threads)")
+    ap.add_argument("--parallel", type=_count, help="model calls side by side (default: pose.parallel)")
     ap.add_argument("--modes", default="full,roi")
     ap.add_argument("--spinning", action="store_true", help="let onnxruntime threads spin-wait")
     ap.add_argument("--precision", choices=("fp32", "int8", "both"),

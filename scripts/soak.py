@@ -46,6 +46,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.duration <= args.warmup or args.every <= 0:
         parser.error("--duration must exceed --warmup, and --every must be > 0")
+    if args.fps is not None and args.fps <= 0:
+        parser.error(f"--fps must be > 0, got {args.fps}")
 
     from app.core.config import load_settings
     from app.core.logging import configure_logging

@@ -104,7 +104,7 @@ class PoseSettings(_Section):
     roi: bool = True  # ROI mode: run tracked views on crops around their tracks
     roi_long_side: int = Field(320, ge=32, multiple_of=32)  # network long side of the crops
     roi_margin: float = Field(0.15, ge=0, le=2)  # crop margin, fraction of the tracks' box size
-    roi_full_every: int = Field(30, ge=1)  # a full-frame pass at least every this many frames
+    roi_full_every: int = Field(30, ge=1)  # each view looked at whole (for newcomers) this often, frames
     score_threshold: float = Field(0.35, ge=0, le=1)
     nms_iou: float = Field(0.6, ge=0, le=1)
     keypoint_threshold: float = Field(0.3, ge=0, le=1)

@@ -28,6 +28,8 @@ from numpy.typing import NDArray
 from pipeline.pose.preprocess import STRIDE, expand_to_aspect, net_size_for, round_up
 from pipeline.pose.types import Job, Region
 
+MIN_CROP_SIDE = 128  # the shortest crop network height, px
+
 
 class RoiSettingsLike(Protocol):
     """The fields of ``app.core.config.PoseSettings`` read here."""
@@ -51,7 +53,8 @@ class RoiConfig:
     full_long_side: long side of the full-frame network input; a crop is not sampled
     more finely than that pass samples the image (small people get small crops).
     margin: crop margin on each side, as a fraction of the expected box's larger side.
-    full_every: a full-frame pass of each view at least every this many frames.
+    full_every: each view is looked at whole (at the crop size) at least every this many
+    frames, to find people who walk in.
     max_crops: more crops than this in a frame -> full frame instead.
     min_aspect, max_aspect: bounds of a crop's aspect w / h (a person with arms out
     widens the crop, not shrinks the person).
@@ -60,7 +63,7 @@ class RoiConfig:
 
     enabled: bool = True
     long_side: int = 320
-    min_side: int = 128
+    min_side: int = MIN_CROP_SIDE
     full_long_side: int = 640
     margin: float = 0.15
     full_every: int = 30
@@ -89,7 +92,7 @@ class RoiConfig:
     def from_settings(cls, pose: RoiSettingsLike) -> RoiConfig:
         return cls(enabled=bool(pose.roi), long_side=int(pose.roi_long_side), margin=float(pose.roi_margin),
                    full_every=int(pose.roi_full_every), full_long_side=int(pose.input_long_side),
-                   min_side=min(128, int(pose.roi_long_side)))
+                   min_side=min(MIN_CROP_SIDE, int(pose.roi_long_side)))
 
     def net_size(self, region: Region, image_size: tuple[int, int]) -> tuple[int, int]:
         """Network (w, h) for a crop of ``region`` (margins included) of an image of ``image_size``:

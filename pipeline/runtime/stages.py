@@ -49,18 +49,11 @@ class PoseStage:
     def __init__(self, detector: Any, tracker: Any, roi: Any) -> None:
         from pipeline.tracking.stage import DetectAndTrack
 
-        self.step = DetectAndTrack(detector, tracker, roi)
-        self.full_passes = 0  # frames with every view whole at the full-frame size
-        self.roi_passes = 0
+        self.detect_track = DetectAndTrack(detector, tracker, roi)
 
     def detect(self, images: Sequence[NDArray[np.uint8]], cameras: Sequence[str], frame_index: int,
                timestamp_s: float) -> tuple[TrackedView, ...]:
-        views, timings = self.step.step(images, frame_index, timestamp_s, cameras)
-        if timings.full:
-            self.full_passes += 1
-        else:
-            self.roi_passes += 1
-        return views
+        return self.detect_track.step(images, frame_index, timestamp_s, cameras)[0]
 
 
 @dataclass(frozen=True, slots=True)

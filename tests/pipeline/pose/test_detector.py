@@ -49,6 +49,22 @@ def subject(view: ViewDetections) -> int:
     return int(np.argmax((b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1])))
 
 
+def crop_job(image: int, box: np.ndarray, view: ViewDetections, cfg: RoiConfig) -> Job:
+    """The crop ROI mode makes around ``box`` of ``view`` (margin, network size of its own)."""
+    region = with_margin(box, cfg.margin)
+    net = cfg.net_size(region, view.image_size)
+    return Job(image, crop_region(region, view.image_size, net), net)
+
+
+def keypoint_gap(a: ViewDetections, i: int, b: ViewDetections, j: int,
+                 min_score: float) -> tuple[float, float]:
+    """Median distance between the keypoints of person ``i`` of ``a`` and ``j`` of ``b`` that both
+    score above ``min_score``, and the height of person ``i``'s box (px)."""
+    good = (a.keypoint_scores[i] > min_score) & (b.keypoint_scores[j] > min_score)
+    err = np.linalg.norm(a.keypoints_xy[i][good] - b.keypoints_xy[j][good], axis=1)
+    return float(np.median(err)), float(a.boxes_xyxy[i, 3] - a.boxes_xyxy[i, 1])
+
+
 @pytest.mark.parametrize("frame", FRAMES)
 def test_subject_found_in_all_four_views_with_plausible_keypoints(
     detector: PoseDetector, demo_frames: dict[int, tuple[list[str], list[np.ndarray]]], frame: int
@@ -83,12 +99,9 @@ def test_roi_crops_find_the_same_person(
     cams, images = demo_frames[FRAMES[1]]
     full = detector.detect(images, cams, 1, 0.0)
     cfg = RoiConfig()
-    jobs = []
-    for i, view in enumerate(full.views):
-        region = with_margin(view.boxes_xyxy[subject(view)], cfg.margin)
-        net = cfg.net_size(region, view.image_size)
-        assert net[1] <= cfg.long_side and net[0] <= cfg.long_side
-        jobs.append(Job(i, crop_region(region, view.image_size, net), net))
+    jobs = [crop_job(i, view.boxes_xyxy[subject(view)], view, cfg) for i, view in enumerate(full.views)]
+    for job in jobs:
+        assert job.net_size is not None and max(job.net_size) <= cfg.long_side
     roi = detector.detect(images, cams, 1, 0.0, jobs=jobs)
     assert [b.net_size for b in roi.letterboxes] == [j.net_size for j in jobs], "each crop at its own size"
     for crop, whole in zip(roi.letterboxes, full.letterboxes, strict=True):
@@ -99,10 +112,8 @@ def test_roi_crops_find_the_same_person(
         iou = iou_matrix(f.boxes_xyxy[i:i + 1], r.boxes_xyxy)[0]
         k = int(np.argmax(iou))
         assert iou[k] > 0.8, f"{r.camera}: crop box {r.boxes_xyxy[k]} vs full {f.boxes_xyxy[i]}"
-        good = (f.keypoint_scores[i] > 0.7) & (r.keypoint_scores[k] > 0.7)
-        err = np.linalg.norm(f.keypoints_xy[i][good] - r.keypoints_xy[k][good], axis=1)
-        height = float(f.boxes_xyxy[i, 3] - f.boxes_xyxy[i, 1])
-        assert np.median(err) < 0.05 * height, f"{r.camera}: keypoints agree, median {np.median(err):.1f} px"
+        gap, height = keypoint_gap(f, i, r, k, 0.7)
+        assert gap < 0.05 * height, f"{r.camera}: keypoints agree, median {gap:.1f} px"
 
 
 def test_crop_cutting_a_person_drops_the_partial_detection(
@@ -182,10 +193,8 @@ def test_i420_frames_give_the_same_people_as_bgr(
         iou = iou_matrix(a.boxes_xyxy, b.boxes_xyxy)
         assert iou.max(axis=1).min() > 0.95, f"{a.camera}: boxes moved, IoU {iou.max(axis=1)}"
         i, j = subject(a), int(iou[subject(a)].argmax())
-        good = (a.keypoint_scores[i] > 0.5) & (b.keypoint_scores[j] > 0.5)
-        err = np.linalg.norm(a.keypoints_xy[i][good] - b.keypoints_xy[j][good], axis=1)
-        height = float(a.boxes_xyxy[i, 3] - a.boxes_xyxy[i, 1])
-        assert np.median(err) < 0.01 * height, f"{a.camera}: keypoints {np.median(err):.1f} px apart"
+        gap, height = keypoint_gap(a, i, b, j, 0.5)
+        assert gap < 0.01 * height, f"{a.camera}: keypoints {gap:.1f} px apart"
 
 
 def test_parallel_runs_give_what_one_run_gives(
@@ -199,10 +208,8 @@ def test_parallel_runs_give_what_one_run_gives(
     full = one.detect(images, cams, 1, 0.0)
     cfg = RoiConfig()
     jobs = [Job(i, None, (192, 320)) for i in range(len(images))]  # coarse whole views, one size
-    for i, view in enumerate(full.views):  # and crops, of sizes that differ by view
-        region = with_margin(view.boxes_xyxy[subject(view)], cfg.margin)
-        net = cfg.net_size(region, view.image_size)
-        jobs.append(Job(i, crop_region(region, view.image_size, net), net))
+    # and crops, of sizes that differ by view
+    jobs += [crop_job(i, view.boxes_xyxy[subject(view)], view, cfg) for i, view in enumerate(full.views)]
     assert len({j.net_size for j in jobs}) >= 2
     a, b = one.detect(images, cams, 1, 0.0, jobs), two.detect(images, cams, 1, 0.0, jobs)
     for va, vb in zip(a.views, b.views, strict=True):
@@ -241,12 +248,8 @@ def test_crops_on_the_crop_model_find_what_the_full_model_finds(
     for frame in FRAMES:
         cams, images = demo_frames[frame]
         found = full.detect(images, cams, 1, 0.0)
-        jobs = []
-        for i, view in enumerate(found.views):
-            for box in view.boxes_xyxy:  # the subject and the bystander, each in a crop of its size
-                region = with_margin(box, cfg.margin)
-                net = cfg.net_size(region, view.image_size)
-                jobs.append(Job(i, crop_region(region, view.image_size, net), net))
+        # the subject and the bystander, each in a crop of its size
+        jobs = [crop_job(i, box, view, cfg) for i, view in enumerate(found.views) for box in view.boxes_xyxy]
         a, b = full.detect(images, cams, 1, 0.0, jobs), cropped.detect(images, cams, 1, 0.0, jobs)
         for va, vb in zip(a.views, b.views, strict=True):
             assert len(va) == len(vb) > 0, f"{va.camera}: {len(va)} people vs {len(vb)} on the crop model"
