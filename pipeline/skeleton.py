@@ -57,6 +57,8 @@ FLIP_PAIRS: tuple[tuple[int, int], ...] = tuple(
     for n in ("eye", "ear", "shoulder", "elbow", "wrist", "hip", "knee", "ankle")
 )
 ACTIONS: tuple[str, ...] = ("still", "forward", "left", "right")
+# Every value a per-frame label may take (TEAM.md LABELS): the actions, or ``ignore`` where none fits.
+LABELS: tuple[str, ...] = (*ACTIONS, "ignore")
 
 
 @dataclass(frozen=True, slots=True)
@@ -65,12 +67,18 @@ class SkeletonSequence:
 
     joints_m: (T, 17, 3) float, metres, NaN where a joint is unknown.
     fps: frames per second.
-    labels: optional (T,) action labels (strings from ``ACTIONS``).
+    labels: optional (T,) per-frame labels (strings from ``LABELS``).
+    tags: optional (T,) free-text behaviour names (``march``, ``kneel``, ...; "" where none).
+    contacts: optional (T, 2) bool, ground-truth foot contact [left, right].
+    source: optional name of the generator or the clip the sequence came from.
     """
 
     joints_m: NDArray[np.float64]
     fps: float
     labels: tuple[str, ...] | None = None
+    tags: tuple[str, ...] | None = None
+    contacts: NDArray[np.bool_] | None = None
+    source: str | None = None
 
     def __post_init__(self) -> None:
         j = np.asarray(self.joints_m)
@@ -78,8 +86,20 @@ class SkeletonSequence:
             raise InputError(f"joints must have shape (T, 17, 3), got {j.shape}")
         if not np.isfinite(self.fps) or self.fps <= 0:
             raise InputError(f"fps must be a positive number, got {self.fps}")
-        if self.labels is not None and len(self.labels) != j.shape[0]:
-            raise InputError(f"labels has {len(self.labels)} entries for {j.shape[0]} frames")
+        if self.labels is not None:
+            if len(self.labels) != j.shape[0]:
+                raise InputError(f"labels has {len(self.labels)} entries for {j.shape[0]} frames")
+            unknown = sorted(set(self.labels) - set(LABELS))
+            if unknown:
+                raise InputError(f"unknown labels {unknown}; expected one of {list(LABELS)}")
+        if self.tags is not None and len(self.tags) != j.shape[0]:
+            raise InputError(f"tags has {len(self.tags)} entries for {j.shape[0]} frames")
+        if self.contacts is not None:
+            c = np.asarray(self.contacts)
+            if c.shape != (j.shape[0], 2) or c.dtype != np.bool_:
+                raise InputError(
+                    f"contacts must be a bool array of shape ({j.shape[0]}, 2), got {c.dtype} {c.shape}"
+                )
 
     def __len__(self) -> int:
         return int(self.joints_m.shape[0])
@@ -93,6 +113,12 @@ def save_npz(path: str | Path, seq: SkeletonSequence) -> None:
     }
     if seq.labels is not None:
         arrays["labels"] = np.asarray(seq.labels, dtype=str)
+    if seq.tags is not None:
+        arrays["tags"] = np.asarray(seq.tags, dtype=str)
+    if seq.contacts is not None:
+        arrays["contacts"] = np.asarray(seq.contacts, dtype=bool)
+    if seq.source is not None:
+        arrays["source"] = np.asarray(seq.source, dtype=str)
     np.savez_compressed(Path(path), **arrays)  # type: ignore[arg-type]
 
 
@@ -108,11 +134,14 @@ def load_npz(path: str | Path) -> SkeletonSequence:
             joints = np.asarray(data["joints"], dtype=np.float64)
             fps = float(np.asarray(data["fps"]).reshape(()))
             labels = tuple(str(x) for x in data["labels"]) if "labels" in data else None
+            tags = tuple(str(x) for x in data["tags"]) if "tags" in data else None
+            contacts = np.asarray(data["contacts"]) if "contacts" in data else None
+            source = str(np.asarray(data["source"]).reshape(())) if "source" in data else None
     except InputError:
         raise
     except Exception as exc:  # zipfile / pickle / shape errors from numpy
         raise InputError(f"{p}: not a readable NPZ skeleton file ({exc})") from exc
     try:
-        return SkeletonSequence(joints, fps, labels)
+        return SkeletonSequence(joints, fps, labels, tags, contacts, source)
     except InputError as exc:
         raise InputError(f"{p}: {exc}") from exc
