@@ -35,6 +35,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "app.commands.calibration",
     "app.commands.process",
     "app.commands.recognize",
+    "app.commands.evaluate",
     "app.commands.serve",
     "app.commands.study",
     "app.commands.runtime",

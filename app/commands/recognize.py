@@ -58,6 +58,8 @@ def register(cli: typer.Typer) -> None:
                         "yaw_deg": round(est.yaw_deg, 2),
                         "speed_mps": round(est.speed_mps, 3),
                     }
+                    if est.no_data:
+                        record["no_data"] = True
                     fh.write(json.dumps(record) + "\n")
             os.replace(tmp, out)
         except BaseException:
@@ -67,3 +69,10 @@ def register(cli: typer.Typer) -> None:
         counts = {a: labels.count(a) for a in dict.fromkeys(labels)}
         moving = float(np.mean([lab != "still" for lab in labels]))
         typer.echo(f"{out}: {len(estimates)} frames, {counts}, moving {moving:.0%}")
+        blind = sum(e.no_data for e in estimates)
+        if blind:
+            typer.echo(
+                f"warning: {blind} of {len(estimates)} frames had no usable skeleton (no known leg joint): "
+                "still, confidence 0",
+                err=True,
+            )

@@ -7,6 +7,7 @@ at the onset of a motion, and any causal recogniser needs a moment to see it.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
@@ -104,3 +105,364 @@ def text_histogram(
     if missed:
         lines.append(f"  never detected within the segment: {missed}")
     return "\n".join(lines)
+
+
+# ---------------------------------------------------------------- the evaluation report
+# One report for `cavewalk evaluate`, scripts/eval_action.py and the model card's tables.
+
+MOVING_LABELS = tuple(a for a in ACTIONS if a != "still")
+UNTAGGED = "(untagged)"
+
+
+@dataclass(frozen=True, slots=True)
+class ScoredSequence:
+    """Truth and prediction of one sequence.
+
+    truth: (T,) class indices, -1 = ignore (left out of every frame figure).
+    pred: (T,) predicted class indices (what a workstation receives).
+    tags: (T,) behaviour names ("" = none). contacts: (T, 2) ground-truth foot contact or None.
+    """
+
+    name: str
+    source: str
+    truth: NDArray[np.int64]
+    pred: NDArray[np.int64]
+    tags: NDArray[np.str_]
+    fps: float
+    contacts: NDArray[np.bool_] | None = None
+
+    def __post_init__(self) -> None:
+        n = len(self.truth)
+        if np.shape(self.pred) != (n,) or np.shape(self.tags) != (n,):
+            raise ValueError(
+                f"truth {np.shape(self.truth)}, pred {np.shape(self.pred)} and tags {np.shape(self.tags)} "
+                "must be (T,) alike"
+            )
+        if self.contacts is not None and np.shape(self.contacts) != (n, 2):
+            raise ValueError(f"contacts must be ({n}, 2), got {np.shape(self.contacts)}")
+        if not np.isfinite(self.fps) or self.fps <= 0:
+            raise ValueError(f"fps must be positive, got {self.fps}")
+
+
+@dataclass(frozen=True, slots=True)
+class LatencyStats:
+    """Latencies in seconds; a transition never detected within its segment is ``missed`` and counts
+    as infinitely late in the median and p95 (so these are None when too many are missed)."""
+
+    values_s: tuple[float, ...]
+    missed: int
+
+    @property
+    def n(self) -> int:
+        return len(self.values_s) + self.missed
+
+    def quantile(self, q: float) -> float | None:
+        if self.n == 0:
+            return None
+        v = np.array([*self.values_s, *([np.inf] * self.missed)])
+        out = float(np.percentile(v, q, method="inverted_cdf"))
+        return out if np.isfinite(out) else None
+
+    @property
+    def median_s(self) -> float | None:
+        return self.quantile(50)
+
+    @property
+    def p95_s(self) -> float | None:
+        return self.quantile(95)
+
+    def to_dict(self) -> dict[str, object]:
+        return {
+            "n": self.n,
+            "median_s": self.median_s,
+            "p95_s": self.p95_s,
+            "missed": self.missed,
+            "values_s": [round(v, 4) for v in self.values_s],
+        }
+
+
+@dataclass(frozen=True, slots=True)
+class GroupStats:
+    """Frame counts of one tag or one sequence (after the exclusions of the accuracy figures).
+
+    still_frames / false_moving: truly still frames and those predicted moving;
+    moving_frames / detected_moving: truly moving frames and those predicted as any movement;
+    correct: frames predicted with the exact true class.
+    """
+
+    name: str
+    frames: int
+    correct: int
+    still_frames: int
+    false_moving: int
+    moving_frames: int
+    detected_moving: int
+
+    @property
+    def accuracy(self) -> float | None:
+        return self.correct / self.frames if self.frames else None
+
+    @property
+    def false_movement(self) -> float | None:
+        return self.false_moving / self.still_frames if self.still_frames else None
+
+    @property
+    def movement_detected(self) -> float | None:
+        return self.detected_moving / self.moving_frames if self.moving_frames else None
+
+    def to_dict(self) -> dict[str, object]:
+        return {
+            "name": self.name,
+            "frames": self.frames,
+            "accuracy": self.accuracy,
+            "still_frames": self.still_frames,
+            "false_movement": self.false_movement,
+            "moving_frames": self.moving_frames,
+            "movement_detected": self.movement_detected,
+        }
+
+
+@dataclass(frozen=True, slots=True)
+class Evaluation:
+    """Everything `cavewalk evaluate` reports (see :func:`evaluate`)."""
+
+    confusion: NDArray[np.int64]  # (4, 4) rows = truth, columns = prediction
+    start: LatencyStats
+    stop: LatencyStats
+    stop_beyond_rhythm: LatencyStats
+    overall: GroupStats
+    per_tag: tuple[GroupStats, ...]
+    per_sequence: tuple[GroupStats, ...]
+    per_source: tuple[GroupStats, ...]
+    true_changes: int
+    predicted_changes: int
+    exclude_s: float
+
+    @property
+    def frames(self) -> int:
+        return int(self.confusion.sum())
+
+    @property
+    def accuracy(self) -> float | None:
+        return float(np.trace(self.confusion) / self.frames) if self.frames else None
+
+    @property
+    def macro_f1(self) -> float | None:
+        return macro_f1(self.confusion) if self.frames else None
+
+    def per_class(self) -> dict[str, dict[str, float | int | None]]:
+        out: dict[str, dict[str, float | int | None]] = {}
+        for i, name in enumerate(ACTIONS):
+            tp = int(self.confusion[i, i])
+            support, predicted = int(self.confusion[i].sum()), int(self.confusion[:, i].sum())
+            p = tp / predicted if predicted else None
+            r = tp / support if support else None
+            f1 = 2 * tp / (support + predicted) if support + predicted else None
+            out[name] = {"precision": p, "recall": r, "f1": f1, "support": support, "predicted": predicted}
+        return out
+
+    @property
+    def flicker(self) -> float | None:
+        """Command changes per true change (1.0 = no flicker)."""
+        return self.predicted_changes / self.true_changes if self.true_changes else None
+
+    def to_dict(self) -> dict[str, object]:
+        return {
+            "frames": self.frames,
+            "accuracy": self.accuracy,
+            "macro_f1": self.macro_f1,
+            "classes": list(ACTIONS),
+            "per_class": self.per_class(),
+            "confusion": self.confusion.tolist(),
+            "start_latency": self.start.to_dict(),
+            "stop_latency": self.stop.to_dict(),
+            "stop_latency_beyond_rhythm": self.stop_beyond_rhythm.to_dict(),
+            "false_movement": self.overall.false_movement,
+            "still_frames": self.overall.still_frames,
+            "movement_detected": self.overall.movement_detected,
+            "moving_frames": self.overall.moving_frames,
+            "command_changes_per_true_change": self.flicker,
+            "exclude_s": self.exclude_s,
+            "per_tag": [g.to_dict() for g in self.per_tag],
+            "per_source": [g.to_dict() for g in self.per_source],
+            "per_sequence": [g.to_dict() for g in self.per_sequence],
+        }
+
+
+def fill_ignore(truth: NDArray[np.int64]) -> NDArray[np.int64]:
+    """``ignore`` frames (-1) take the previous label (the next one at the start; still if all ignore)."""
+    t = np.asarray(truth, dtype=np.int64).copy()
+    known = np.flatnonzero(t >= 0)
+    if known.size == 0:
+        return np.full_like(t, _STILL)
+    idx = np.maximum.accumulate(np.where(t >= 0, np.arange(len(t)), -1))
+    idx[idx < 0] = known[0]
+    return t[idx]
+
+
+def rhythm_pauses_s(moving: NDArray[np.bool_], contacts: NDArray[np.bool_] | None, fps: float) -> list[float]:
+    """For each true bout (run of moving frames), the typical pause its own rhythm allows: the median
+    of the both-feet-down intervals inside it (from ground-truth ``contacts``); 0 without contacts."""
+    m = np.asarray(moving, dtype=bool)
+    change = np.flatnonzero(m[1:] != m[:-1]) + 1
+    bounds = [0, *change.tolist(), len(m)]
+    out: list[float] = []
+    for a, b in itertools.pairwise(bounds):
+        if not m[a]:
+            continue
+        if contacts is None:
+            out.append(0.0)
+            continue
+        both: NDArray[np.bool_] = np.asarray(np.asarray(contacts[a:b], dtype=bool).all(axis=1))
+        ch = np.flatnonzero(both[1:] != both[:-1]) + 1
+        edges = [0, *ch.tolist(), len(both)]
+        runs = [
+            (e1 - e0) / fps for e0, e1 in itertools.pairwise(edges) if both[e0] and e0 > 0 and e1 < len(both)
+        ]  # interior runs only
+        out.append(float(np.median(runs)) if runs else 0.0)
+    return out
+
+
+def _group(name: str, truth: NDArray[np.int64], pred: NDArray[np.int64]) -> GroupStats:
+    still = truth == _STILL
+    moving = truth > _STILL
+    return GroupStats(
+        name=name,
+        frames=int(truth.size),
+        correct=int(np.sum(truth == pred)),
+        still_frames=int(still.sum()),
+        false_moving=int(np.sum(still & (pred != _STILL))),
+        moving_frames=int(moving.sum()),
+        detected_moving=int(np.sum(moving & (pred != _STILL))),
+    )
+
+
+def evaluate(sequences: list[ScoredSequence], exclude_s: float = 0.3) -> Evaluation:
+    """Score predictions against labels over many sequences.
+
+    Frame figures (confusion, accuracy, per-class precision/recall, false movement and movement
+    detected per tag / sequence / source) leave out ``ignore`` frames and the ``exclude_s`` after
+    each true label change. Start latency: from each true still -> moving onset (the first lift-off)
+    to the first frame predicted moving within that bout; stop latency: from each true end (the
+    last touch-down) to the first frame predicted still within the following still stretch;
+    ``stop_beyond_rhythm``: the stop latency minus the bout's own typical pause between steps
+    (from ground-truth contacts when the file has them, else nothing is subtracted).
+    """
+    if exclude_s < 0:
+        raise ValueError(f"exclude_s must be >= 0, got {exclude_s}")
+    conf = np.zeros((len(ACTIONS), len(ACTIONS)), dtype=np.int64)
+    starts: list[float] = []
+    stops: list[float] = []
+    beyond: list[float] = []
+    n_start_missed = n_stop_missed = 0
+    tag_t: dict[str, list[NDArray[np.int64]]] = {}
+    tag_p: dict[str, list[NDArray[np.int64]]] = {}
+    per_seq: list[GroupStats] = []
+    src_t: dict[str, list[NDArray[np.int64]]] = {}
+    src_p: dict[str, list[NDArray[np.int64]]] = {}
+    true_changes = pred_changes = 0
+    for s in sequences:
+        truth = np.asarray(s.truth, dtype=np.int64)
+        pred = np.asarray(s.pred, dtype=np.int64)
+        filled = fill_ignore(truth)
+        keep = transition_mask(filled, s.fps, exclude_s) & (truth >= 0)
+        t_k, p_k = truth[keep], pred[keep]
+        conf += confusion(t_k, p_k)
+        lat = latencies(filled, pred, s.fps)
+        starts += [float(v) for v in lat.start_s if np.isfinite(v)]
+        n_start_missed += int(np.sum(~np.isfinite(lat.start_s)))
+        pauses = rhythm_pauses_s(filled != _STILL, s.contacts, s.fps)
+        for k, v in enumerate(lat.stop_s.tolist()):  # the k-th stop ends the k-th bout
+            if np.isfinite(v):
+                stops.append(float(v))
+                allow = pauses[k] if k < len(pauses) else 0.0
+                beyond.append(max(0.0, float(v) - allow))
+            else:
+                n_stop_missed += 1
+        true_changes += int(np.sum(filled[1:] != filled[:-1]))
+        pred_changes += int(np.sum(pred[1:] != pred[:-1]))
+        tags = np.asarray(s.tags).astype(str)[keep]
+        for tag in np.unique(tags).tolist():
+            sel = tags == tag
+            key = tag or UNTAGGED
+            tag_t.setdefault(key, []).append(t_k[sel])
+            tag_p.setdefault(key, []).append(p_k[sel])
+        per_seq.append(_group(s.name, t_k, p_k))
+        src_t.setdefault(s.source, []).append(t_k)
+        src_p.setdefault(s.source, []).append(p_k)
+
+    Parts = dict[str, list[NDArray[np.int64]]]
+
+    def groups(tt: Parts, pp: Parts) -> tuple[GroupStats, ...]:
+        return tuple(_group(k, np.concatenate(tt[k]), np.concatenate(pp[k])) for k in sorted(tt))
+
+    all_t = np.concatenate([g for v in src_t.values() for g in v]) if src_t else np.zeros(0, np.int64)
+    all_p = np.concatenate([g for v in src_p.values() for g in v]) if src_p else np.zeros(0, np.int64)
+    return Evaluation(
+        confusion=conf,
+        start=LatencyStats(tuple(starts), n_start_missed),
+        stop=LatencyStats(tuple(stops), n_stop_missed),
+        stop_beyond_rhythm=LatencyStats(tuple(beyond), n_stop_missed),
+        overall=_group("all", all_t, all_p),
+        per_tag=groups(tag_t, tag_p),
+        per_sequence=tuple(per_seq),
+        per_source=groups(src_t, src_p),
+        true_changes=true_changes,
+        predicted_changes=pred_changes,
+        exclude_s=exclude_s,
+    )
+
+
+def _pct(v: float | None) -> str:
+    return "—" if v is None else f"{100 * v:.2f} %"
+
+
+def _ms(v: float | None) -> str:
+    return "—" if v is None else f"{1000 * v:.0f}"
+
+
+def text_report(ev: Evaluation) -> str:
+    """The evaluation as text tables (what `cavewalk evaluate` prints)."""
+    lines = [
+        f"frames scored: {ev.frames} ({1000 * ev.exclude_s:.0f} ms after each true change and "
+        "'ignore' frames left out)",
+        f"frame accuracy {_pct(ev.accuracy)}, macro-F1 "
+        + ("—" if ev.macro_f1 is None else f"{ev.macro_f1:.3f}"),
+        "",
+        f"{'class':<10}{'precision':>11}{'recall':>9}{'F1':>8}{'support':>9}",
+    ]
+    for name, c in ev.per_class().items():
+        f = "—" if c["f1"] is None else f"{c['f1']:.3f}"
+        p = "—" if c["precision"] is None else f"{c['precision']:.3f}"
+        r = "—" if c["recall"] is None else f"{c['recall']:.3f}"
+        lines.append(f"{name:<10}{p:>11}{r:>9}{f:>8}{c['support']:>9}")
+    lines += ["", text_confusion(ev.confusion), ""]
+    for title, lat in (
+        ("start latency", ev.start),
+        ("stop latency", ev.stop),
+        ("stop latency beyond the rhythm's pause", ev.stop_beyond_rhythm),
+    ):
+        lines.append(
+            f"{title}: n={lat.n} median {_ms(lat.median_s)} ms, p95 {_ms(lat.p95_s)} ms, missed {lat.missed}"
+        )
+    lines += [
+        "",
+        f"false movement (truly still frames predicted moving): {_pct(ev.overall.false_movement)} "
+        f"of {ev.overall.still_frames}; movement detected: {_pct(ev.overall.movement_detected)} "
+        f"of {ev.overall.moving_frames} moving frames",
+        "command changes per true change: " + ("—" if ev.flicker is None else f"{ev.flicker:.2f}"),
+        "",
+    ]
+    for title, rows in (("tag", ev.per_tag), ("source", ev.per_source), ("sequence", ev.per_sequence)):
+        w = max([len(title), *(len(g.name) for g in rows)]) + 2
+        lines.append(
+            f"{title:<{w}}{'frames':>8}{'accuracy':>10}{'still':>8}{'false mov.':>12}"
+            f"{'moving':>8}{'detected':>10}"
+        )
+        for g in rows:
+            lines.append(
+                f"{g.name:<{w}}{g.frames:>8}{_pct(g.accuracy):>10}{g.still_frames:>8}"
+                f"{_pct(g.false_movement):>12}{g.moving_frames:>8}{_pct(g.movement_detected):>10}"
+            )
+        lines.append("")
+    return "\n".join(lines).rstrip() + "\n"

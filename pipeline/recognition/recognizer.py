@@ -12,7 +12,11 @@ direction and the intended walking speed. onnxruntime only; no torch.
 
 Timestamps must increase strictly; a frame with an equal or earlier timestamp, or
 a wrong shape, raises :class:`InputError` and changes nothing. A gap longer than
-``max_gap_s`` starts afresh (as :meth:`ActionRecognizer.reset`).
+``max_gap_s`` starts afresh (as :meth:`ActionRecognizer.reset`). Non-finite
+coordinates (NaN, inf) are unknown; a frame without any known leg joint (hips,
+knees, ankles) is no data and counts as a gap: shorter than ``max_gap_s`` the
+command holds, longer (or before any data) it is ``still`` with confidence 0 and
+``no_data`` set, and a warning is logged once per such stretch.
 """
 
 from __future__ import annotations
@@ -33,12 +37,13 @@ from pipeline.recognition.features import NUM_CHANNELS, to_model_input, window_f
 from pipeline.recognition.orientation import YawSmoother, raw_yaw_deg
 from pipeline.recognition.speed import SpeedConfig, speed_mps
 from pipeline.recognition.types import ActionEstimate
-from pipeline.skeleton import ACTIONS, NUM_JOINTS
+from pipeline.skeleton import ACTIONS, NUM_JOINTS, J
 
 log = logging.getLogger(__name__)
 
 DEFAULT_MODEL_PATH = Path(__file__).resolve().parent / "action.onnx"
 _STILL = ACTIONS.index("still")
+_LEG_JOINTS = [J[n] for n in ("l_hip", "r_hip", "l_knee", "r_knee", "l_ankle", "r_ankle")]
 
 
 class RecognitionSection(Protocol):
@@ -282,6 +287,11 @@ class ActionRecognizer:
 
     def reset(self) -> None:
         """Forget everything (a new navigator, or a long gap)."""
+        self._input_t: float | None = None
+        self._warned_no_data = False
+        self._forget()
+
+    def _forget(self) -> None:
         self._frames.clear()
         self._yaw.reset()
         self._last_t: float | None = None
@@ -291,7 +301,14 @@ class ActionRecognizer:
         self._speed = 0.0
         self._moving_frames = 0
 
+    def _no_data(self) -> ActionEstimate:
+        return ActionEstimate(
+            label="still", probs=dict.fromkeys(ACTIONS, 0.0), yaw_deg=self._yaw.yaw_deg, no_data=True
+        )
+
     def _estimate(self) -> ActionEstimate:
+        if self._last_t is None:
+            return self._no_data()
         label = self._filter.label
         return ActionEstimate(
             label=ACTIONS[label],
@@ -312,12 +329,19 @@ class ActionRecognizer:
         t = float(timestamp_s)
         if not math.isfinite(t):
             raise InputError(f"timestamp must be a finite number, got {timestamp_s}")
-        if self._last_t is not None and t <= self._last_t:
-            raise InputError(f"timestamps must increase: got {t} after {self._last_t}")
+        if self._input_t is not None and t <= self._input_t:
+            raise InputError(f"timestamps must increase: got {t} after {self._input_t}")
+        self._input_t = t
+        j = np.where(np.isfinite(j), j, np.nan)  # inf is unknown, like NaN
         if self._last_t is not None and t - self._last_t > self.config.max_gap_s:
             log.info("no skeleton for %.2f s: recogniser starts afresh", t - self._last_t)
-            self.reset()
-        j = np.where(np.isfinite(j), j, np.nan)
+            self._forget()
+        if not np.isfinite(j[_LEG_JOINTS]).all(axis=1).any():  # no leg joint known: no data
+            if self._last_t is None and not self._warned_no_data:
+                log.warning("no known leg joint in the navigator's skeleton: still, confidence 0")
+                self._warned_no_data = True
+            return self._estimate()  # holds within max_gap_s, no data after it
+        self._warned_no_data = False
 
         ticks = 0
         if self._last_t is None or self._last_j is None:

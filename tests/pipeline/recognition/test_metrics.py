@@ -62,3 +62,77 @@ def test_text_histogram_counts_and_misses() -> None:
     lines = text.splitlines()
     assert lines[0].endswith(" 1") and lines[1].endswith(" 2") and lines[2].endswith(" 0")
     assert "never detected within the segment: 1" in text
+
+
+# ------------------------------------------------------------------ the evaluation report
+
+from pipeline.recognition.metrics import ScoredSequence, evaluate, fill_ignore, rhythm_pauses_s  # noqa: E402
+
+
+def _seq(truth: list[int], pred: list[int], tags: list[str] | None = None, contacts=None, name: str = "s"):  # type: ignore[no-untyped-def]
+    n = len(truth)
+    return ScoredSequence(
+        name,
+        "src",
+        np.array(truth),
+        np.array(pred),
+        np.array(tags or [""] * n),
+        10.0,
+        None if contacts is None else np.asarray(contacts, bool),
+    )
+
+
+def test_evaluate_counts_frames_latencies_and_false_movement_per_tag() -> None:
+    truth = [S] * 10 + [F] * 10 + [S] * 10
+    pred = [S] * 5 + [L] * 2 + [S] * 5 + [F] * 10 + [S] * 8  # 2 false frames, start +2, stop +2
+    tags = ["wave"] * 10 + [""] * 10 + ["kneel"] * 10
+    ev = evaluate([_seq(truth, pred, tags)], exclude_s=0.0)
+    assert ev.frames == 30 and ev.confusion[S, L] == 2 and ev.confusion[F, S] == 2 and ev.confusion[S, F] == 2
+    assert ev.accuracy == pytest.approx(24 / 30)
+    assert ev.start.values_s == pytest.approx((0.2,)) and ev.stop.values_s == pytest.approx((0.2,))
+    tag = {g.name: g for g in ev.per_tag}
+    assert tag["wave"].false_movement == pytest.approx(0.2) and tag["kneel"].false_movement == pytest.approx(
+        0.2
+    )
+    assert tag["(untagged)"].movement_detected == pytest.approx(0.8)
+    pc = ev.per_class()
+    assert pc["forward"]["precision"] == pytest.approx(8 / 10) and pc["forward"]["recall"] == pytest.approx(
+        0.8
+    )
+    assert pc["left"]["precision"] == 0.0 and pc["left"]["recall"] is None
+    assert ev.flicker == pytest.approx(4 / 2)
+
+
+def test_ignore_frames_are_left_out_and_do_not_split_a_bout() -> None:
+    truth = [S] * 5 + [F] * 4 + [-1] * 2 + [F] * 4 + [S] * 5
+    pred = [S] * 5 + [F] * 10 + [S] * 5
+    assert fill_ignore(np.array(truth)).tolist() == [S] * 5 + [F] * 10 + [S] * 5
+    ev = evaluate([_seq(truth, pred)], exclude_s=0.0)
+    assert ev.frames == 18 and ev.accuracy == 1.0
+    assert ev.start.n == 1 and ev.stop.n == 1, "one bout, not two"
+
+
+def test_missed_transitions_count_as_infinitely_late() -> None:
+    truth = [S] * 5 + [F] * 5 + [S] * 5 + [R] * 5 + [S] * 5 + [L] * 5
+    pred = [S] * 6 + [F] * 4 + [S] * 15 + [L] * 5  # the right bout is never seen
+    ev = evaluate([_seq(truth, pred)], exclude_s=0.0)
+    assert ev.start.n == 3 and ev.start.missed == 1
+    assert ev.start.median_s == pytest.approx(0.1) and ev.start.p95_s is None
+    assert ev.to_dict()["start_latency"]["p95_s"] is None  # type: ignore[index]
+
+
+def test_stop_beyond_rhythm_subtracts_the_bouts_own_pause() -> None:
+    # contacts: both down except single swings; inside the bout two both-down pauses of 3 frames (0.3 s)
+    both, l_up, r_up = (1, 1), (0, 1), (1, 0)
+    contacts = [both] * 5 + [l_up] * 3 + [both] * 3 + [r_up] * 3 + [both] * 3 + [l_up] * 3 + [both] * 10
+    truth = [S] * 5 + [F] * 15 + [S] * 10
+    pred = [S] * 6 + [F] * 18 + [S] * 6  # stop seen 4 frames (0.4 s) after the last landing
+    assert rhythm_pauses_s(np.array(truth) != S, np.array(contacts, bool), 10.0) == pytest.approx([0.3])
+    ev = evaluate([_seq(truth, pred, contacts=contacts)], exclude_s=0.0)
+    assert ev.stop.values_s == pytest.approx((0.4,))
+    assert ev.stop_beyond_rhythm.values_s == pytest.approx((0.1,))
+
+
+def test_scored_sequence_checks_its_shapes() -> None:
+    with pytest.raises(ValueError, match="must be"):
+        ScoredSequence("x", "s", np.zeros(5, np.int64), np.zeros(4, np.int64), np.array([""] * 5), 10.0)

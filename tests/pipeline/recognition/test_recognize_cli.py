@@ -126,3 +126,18 @@ def test_bad_model_and_bad_output(
     assert not (tmp_path / "a.jsonl").exists()
     code = _run(monkeypatch, "recognize", "--skeletons", str(routine_npz), "--out", str(tmp_path))
     assert code == 2 and "is a directory" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("value", [np.nan, np.inf])
+def test_recognize_without_data_says_still_with_confidence_zero_and_warns(
+    value: float, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    src = tmp_path / "blank.npz"
+    np.savez(src, joints=np.full((100, 17, 3), value), fps=30.0)
+    out = tmp_path / "a.jsonl"
+    assert _run(monkeypatch, "recognize", "--skeletons", str(src), "--out", str(out)) == 0
+    lines = [json.loads(x) for x in out.read_text().splitlines()]
+    assert len(lines) == 100
+    assert all(r["action"] == "still" and max(r["probs"].values()) == 0.0 and r["no_data"] for r in lines)
+    assert all(r["speed_mps"] == 0.0 for r in lines)
+    assert "warning: 100 of 100 frames had no usable skeleton" in capsys.readouterr().err

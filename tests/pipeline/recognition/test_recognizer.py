@@ -246,3 +246,40 @@ def test_config_from_settings() -> None:
     assert isinstance(cfg, RecognizerConfig)
     assert (cfg.ema_alpha, cfg.min_dwell_s, cfg.speed.forward_step_m) == (0.4, 0.2, 0.5)
     assert cfg.model_path == DEFAULT_MODEL_PATH
+
+
+# ------------------------------------------------------------------ no data (issue 15, D4)
+
+
+@pytest.mark.parametrize("value", [np.nan, np.inf, -np.inf])
+def test_no_data_is_still_with_confidence_zero(value: float, caplog: pytest.LogCaptureFixture) -> None:
+    rec = ActionRecognizer.from_config(RecognizerConfig())
+    with caplog.at_level("WARNING", logger="pipeline.recognition.recognizer"):
+        est = recognize_sequence(rec, np.full((100, 17, 3), value), FPS)
+    assert all(e.label == "still" and e.confidence == 0.0 and e.no_data for e in est)
+    assert all(e.speed_mps == 0.0 and sum(e.probs.values()) == 0.0 for e in est)
+    warnings = [r for r in caplog.records if "no known leg joint" in r.getMessage()]
+    assert len(warnings) == 1, "one warning for the stretch, not one per frame"
+
+
+def test_a_navigator_whose_joints_go_unknown_stops_after_max_gap() -> None:
+    """The live path: fusion keeps calling update() with the navigator's joints, now all unknown."""
+    _, joints = _routine((Segment("forward", 7.0),), 1.75, 0.0, seed=4, noisy=False)
+    rec = ActionRecognizer.from_config(RecognizerConfig(max_gap_s=0.5))
+    for i in range(90):
+        est = rec.update(joints[i], i / FPS)
+    assert est.label == "forward"
+    out = [rec.update(np.full((17, 3), np.nan), (90 + k) / FPS) for k in range(60)]
+    held = [e for k, e in enumerate(out) if (k + 1) / FPS <= 0.5]
+    assert all(e.label == "forward" for e in held), "a short dropout holds the command"
+    assert all(e.label == "still" and e.confidence == 0.0 and e.no_data for e in out[20:])
+    back = [rec.update(joints[150 + k], (150 + k) / FPS) for k in range(40)]
+    assert not back[-1].no_data and back[-1].label == "forward", "data back: recognition resumes"
+
+
+def test_arms_without_legs_is_no_data() -> None:
+    _, joints = _routine((Segment("still", 2.0),), 1.75, 0.0, seed=4, noisy=False)
+    j = joints.copy()
+    j[:, 11:] = np.nan
+    est = recognize_sequence(ActionRecognizer.from_config(RecognizerConfig()), j, FPS)
+    assert all(e.no_data for e in est)
