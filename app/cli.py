@@ -40,6 +40,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "app.commands.study",
     "app.commands.runtime",
     "app.commands.simulate",
+    "app.commands.plan",
 )
 
 log = logging.getLogger(__name__)

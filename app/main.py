@@ -78,6 +78,7 @@ def create_app(
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         from app.services.calibration import CalibrationService
+        from app.services.planner import PlannerService
 
         engine = make_engine(settings.paths.db)
         upgrade(engine)
@@ -120,6 +121,7 @@ def create_app(
         app.state.viewer = viewer
         app.state.pipeline = pipeline
         app.state.calibration = calibration
+        app.state.planner = planner = PlannerService(settings)
         events.record(
             "server", {"state": "started", "host": settings.server.host, "port": settings.server.port}
         )
@@ -132,6 +134,7 @@ def create_app(
         try:
             yield
         finally:
+            planner.close()
             calibration.close()
             pipeline.close()
             events.record("server", {"state": "stopped"})

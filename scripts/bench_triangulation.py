@@ -56,7 +56,8 @@ def _say(msg: str) -> None:
 # ------------------------------------------------------------------------------------------ sim
 
 
-def bench_sim(seconds: float, seed: int) -> dict[str, Any]:
+def bench_sim(seconds: float, seed: int, action_weights: dict[str, float] | None = None) -> dict[str, Any]:
+    """MPJPE by floor cell; ``action_weights`` = what the people do (default: the four actions evenly)."""
     from pipeline.cave import box_cave
     from pipeline.sim.body import sample_body
     from pipeline.sim.motion import simulate_user
@@ -81,7 +82,7 @@ def bench_sim(seconds: float, seed: int) -> dict[str, Any]:
                 rng,
                 seconds,
                 start_xy_m=start,
-                action_weights={"still": 1, "forward": 1, "left": 1, "right": 1},
+                action_weights=action_weights or {"still": 1, "forward": 1, "left": 1, "right": 1},
             )
             motion = simulate_user(script, sample_body(rng), fps=fps, seed=int(rng.integers(1 << 30)))
             recs = {"raw": Reconstructor(cams, RAW), "one_euro": Reconstructor(cams, SMOOTH)}

@@ -16,6 +16,7 @@ if TYPE_CHECKING:
     from app.services.calibration import CalibrationService
     from app.services.event_log import EventWriter
     from app.services.live import PipelineService
+    from app.services.planner import PlannerService
     from app.viewer import Viewer
 
 
@@ -42,6 +43,11 @@ def get_events(conn: HTTPConnection) -> EventWriter:
 
 def get_calibration(conn: HTTPConnection) -> CalibrationService:
     service: CalibrationService = conn.app.state.calibration
+    return service
+
+
+def get_planner(conn: HTTPConnection) -> PlannerService:
+    service: PlannerService = conn.app.state.planner
     return service
 
 
@@ -83,6 +89,7 @@ PipelineDep = Annotated["PipelineService", Depends(get_pipeline)]
 EventsDep = Annotated["EventWriter", Depends(get_events)]
 CalibrationDep = Annotated["CalibrationService", Depends(get_calibration)]
 ViewerDep = Annotated["Viewer | None", Depends(get_viewer)]
+PlannerDep = Annotated["PlannerService", Depends(get_planner)]
 TokenDep = Depends(require_token)
 #: A row id in a URL path (SQLite INTEGER range).
 IdPath = Annotated[int, Path(ge=1, le=2**63 - 1)]

@@ -19,6 +19,7 @@ ROUTE_MODULES: tuple[str, ...] = (
     "app.api.routes.pipeline",
     "app.api.routes.people",
     "app.api.routes.calibration",
+    "app.api.routes.planner",
     "app.api.routes.participants",
     "app.api.routes.sessions",
     "app.api.routes.live",

@@ -287,6 +287,50 @@ class NavigatorSettings(_Section):
         return NavigatorConfig(**self.model_dump())
 
 
+class PlannerSettings(_Section):
+    """The camera-coverage planner (``cavewalk plan``, ``POST /api/v1/plan``; see pipeline.planner.config).
+
+    The 2D noise it draws from is the simulator's (``sim``) and the triangulation the pipeline's
+    (``triangulation``)."""
+
+    grid_step_m: float = Field(0.15, ge=0.02, le=2)  # floor cell side of the maps
+    samples: int = Field(4, ge=1, le=256)  # Monte Carlo draws per cell, height and facing
+    heights_m: list[float] = Field(default_factory=lambda: [1.6, 1.85])  # standing people tried
+    facings_deg: list[float] = Field(default_factory=lambda: [0.0, 90.0, 180.0, 270.0])
+    seed: int = 0
+    region_band_m: float = Field(0.5, ge=0.05, le=2)  # edge / corner regions: this close to the walls
+    wall_clearance_m: float = Field(0.2, ge=0, le=1)  # nobody stands closer to a wall
+    above_walls_m: float = Field(0.5, ge=0, le=3)  # a camera may hang this far above the walls' top
+    mount_heights_m: list[float] = Field(default_factory=lambda: [2.0, 2.3, 2.45])  # mount search
+    pans_deg: list[float] = Field(default_factory=lambda: [-25.0, 0.0, 25.0])
+    aim_heights_m: list[float] = Field(default_factory=lambda: [0.4, 1.0])
+    top_k: int = Field(3, ge=1, le=10)  # best layouts mapped and shown
+
+    def to_config(self, sim: SimSettings, triangulation: TriangulationSettings, **overrides: Any) -> Any:
+        """The planner's frozen PlannerConfig, with the simulator's faults and the triangulation's params."""
+        from pipeline.planner.config import PlannerConfig
+
+        fields: dict[str, Any] = {
+            "grid_step_m": self.grid_step_m, "samples": self.samples, "heights_m": tuple(self.heights_m),
+            "facings_deg": tuple(self.facings_deg), "seed": self.seed, "region_band_m": self.region_band_m,
+            "wall_clearance_m": self.wall_clearance_m, "above_walls_m": self.above_walls_m,
+            "faults": sim.to_config().faults, "triangulation": triangulation.to_config().triangulation,
+        }
+        fields.update({k: v for k, v in overrides.items() if v is not None})
+        return PlannerConfig(**fields)
+
+    def search_config(self, count: int, preset: str, **overrides: Any) -> Any:
+        """The mount search's frozen SearchConfig for ``count`` cameras of the ``preset`` model."""
+        from pipeline.planner.config import SearchConfig
+
+        fields: dict[str, Any] = {
+            "count": count, "preset": preset, "heights_m": tuple(self.mount_heights_m),
+            "pans_deg": tuple(self.pans_deg), "aim_heights_m": tuple(self.aim_heights_m), "top_k": self.top_k,
+        }
+        fields.update({k: v for k, v in overrides.items() if v is not None})
+        return SearchConfig(**fields)
+
+
 class Settings(BaseSettings):
     """Everything configurable in cavewalk."""
 
@@ -311,6 +355,7 @@ class Settings(BaseSettings):
     calibration: CalibrationSettings = CalibrationSettings()
     triangulation: TriangulationSettings = TriangulationSettings()
     navigator: NavigatorSettings = NavigatorSettings()
+    planner: PlannerSettings = PlannerSettings()
 
     @field_validator("cameras")
     @classmethod

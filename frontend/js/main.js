@@ -35,6 +35,9 @@ async function main() {
   mountViewer(info);
   mountCalibration(info);
 
+  const planner = await optionalModule(() => import("./panels/planner.js"), "planner.js");
+  if (planner) planner.mountPlanner(document.getElementById("planner-mount"));
+
   const questionnaire = await optionalModule(() => import("./questionnaire.js"), "questionnaire.js");
   const qMount = document.getElementById("questionnaire-mount");
   mountStudy({

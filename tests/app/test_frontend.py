@@ -17,7 +17,8 @@ IMPORT = re.compile(
 def test_index_has_every_panel_and_docs_are_served(client: TestClient) -> None:
     html = client.get("/").text
     for panel in ("action-panel", "people-panel", "latency-panel", "cameras-panel", "viewer-panel",
-                  "calibration-panel", "study-panel", "questionnaire-panel", "analysis-panel"):  # fmt: skip
+                  "calibration-panel", "planner-panel", "study-panel", "questionnaire-panel",
+                  "analysis-panel"):  # fmt: skip
         assert f'id="{panel}"' in html, panel
     assert client.get("/docs").status_code == 200
     assert client.get("/openapi.json").json()["info"]["title"] == "cavewalk"

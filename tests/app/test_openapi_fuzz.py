@@ -21,8 +21,9 @@ pytestmark = pytest.mark.slow
 
 EXAMPLES_PER_OPERATION = 4
 #: Operations left out: starting a calibration renders and solves four camera images (seconds of CPU per
-#: example; tests/app/test_calibration_api.py covers it); the WebSocket is not an OpenAPI operation.
-SKIP = {("POST", "/api/v1/calibration/runs")}
+#: example; tests/app/test_calibration_api.py covers it); starting a plan runs a Monte Carlo for seconds to
+#: a minute (tests/app/test_plan_api.py covers it); the WebSocket is not an OpenAPI operation.
+SKIP = {("POST", "/api/v1/calibration/runs"), ("POST", "/api/v1/plan")}
 
 
 @pytest.fixture(scope="module")
