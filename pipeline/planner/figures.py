@@ -26,6 +26,14 @@ FORMATS: Final[dict[str, str]] = {"png": "image/png", "svg": "image/svg+xml"}
 _FOV_REACH_M = 0.6
 
 
+def freeze_layout(fig: Figure) -> Figure:
+    """Lay ``fig`` out once (constrained layout) and keep that layout, so that drawing it as PNG and
+    then SVG does not solve the layout again each time (it costs as much as the drawing)."""
+    fig.draw_without_rendering()
+    fig.set_layout_engine("none")
+    return fig
+
+
 def render(fig: Figure, fmt: str) -> bytes:
     """``fig`` as PNG or SVG bytes."""
     if fmt not in FORMATS:
@@ -227,8 +235,7 @@ def figure_files(m: CoverageMap | None, result: SearchResult | None) -> dict[str
         out["coverage"] = map_figure(m)
     if result is not None:
         if result.layouts:
-            out["coverage"] = map_figure(
-                result.layouts[0].map, f"best layout of {len(result.layouts[0].cameras)}"
-            )
+            best = result.layouts[0]
+            out["coverage"] = map_figure(best.map, f"best layout of {len(best.cameras)}")
         out["search"] = search_figure(result)
-    return out
+    return {name: freeze_layout(fig) for name, fig in out.items()}

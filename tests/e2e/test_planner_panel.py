@@ -6,6 +6,9 @@ from pathlib import Path
 
 import pytest
 
+from pipeline.calibration.io import save_calibration
+from pipeline.cave import box_cave
+from pipeline.sim.scene import default_cameras
 from tests.app.conftest import Served, make_settings
 
 pytestmark = [pytest.mark.e2e, pytest.mark.slow]
@@ -50,6 +53,14 @@ def test_the_planner_panel_maps_the_default_layout_and_searches_mounts(
                 "no calibration is active yet", timeout=10_000
             )
 
+            # a proposed set (calibration JSON) with a camera outside the room: refused, no job
+            far = tmp_path / "far.json"
+            save_calibration(far, default_cameras(box_cave(6.0, 6.0, 2.5)))
+            panel.locator("#planner-source").select_option("proposed")
+            panel.locator("#planner-file").set_input_files(str(far))
+            panel.locator("#planner-start").click()
+            expect(panel.locator("#planner-message")).to_contain_text("outside the room", timeout=10_000)
+
             # the simulator's default layout
             panel.locator("#planner-source").select_option("default")
             panel.locator("#planner-start").click()
@@ -93,7 +104,8 @@ def test_the_planner_panel_maps_the_default_layout_and_searches_mounts(
                 "() => [...document.querySelectorAll('#planner-figures img')]"
                 ".every(i => i.complete && i.naturalWidth > 500)"
             )
-            panel.screenshot(path=str(artifacts_dir / "planner_panel.png"))
+            page.evaluate("() => { document.querySelector('.topbar').style.position = 'static'; }")
+            panel.screenshot(path=str(artifacts_dir / "planner_panel.png"))  # sticky top bar out of the way
         finally:
             browser.close()
     assert not errors, f"JavaScript errors on the page: {errors}"

@@ -1,7 +1,10 @@
-"""The planner's predicted error map against the simulator's measured error, by region (issue 20 item 4).
+"""The camera-coverage planner (issue 20 item 4): its predicted error against the simulator's measured
+error by region, and how long its maps take.
 
-  .venv/bin/python scripts/check_planner.py [--sim-seconds S] [--seed N] [--json OUT]
+  .venv/bin/python scripts/bench_planner.py [--section check|speed|all] [--sim-seconds S] [--seed N]
+                                            [--repeats R] [--json OUT]
 
+check: predicted vs measured.
 predicted  ``pipeline.planner.coverage.coverage_map`` for the default CAVE and its four default
            ``kinect_color`` cameras: (a) on the 6 x 6 cells of the benchmark (0.5 m, centres at
            +-0.25, +-0.75, +-1.25 m), with heights 1.50 / 1.725 / 1.95 m (the simulator's range) and
@@ -14,6 +17,10 @@ measured   ``scripts/bench_triangulation.py``'s simulator section: in every one 
            valid joints against the ground truth. Run twice: people standing still (quiet standing
            with the simulator's sway, weight shifts and gestures) and people stepping (still,
            forward, left, right evenly, as the benchmark does).
+speed: wall time of one map (visibility, Monte Carlo, total; median of R runs) for the default CAVE
+       and cameras at the planner's default settings (0.15 m cells, 2 heights x 4 facings x 4 draws)
+       and at the panel's quick setting (0.3 m cells), of drawing its PNG and SVG, and of a mount
+       search for 4 cameras (144 candidate mounts, 3 best layouts and the default one mapped).
 Regions as the benchmark groups its cells: centre 1 x 1 m, the ring around it up to 1 m from the
 walls (inner), the 0.5 m strips along one wall (edges), the 0.5 m corner squares (corners); each
 region's figure is the mean of its cells' figures.
@@ -24,6 +31,8 @@ from __future__ import annotations
 import argparse
 import importlib.util
 import json
+import os
+import platform
 import sys
 import time
 from pathlib import Path
@@ -57,26 +66,79 @@ def _bench() -> Any:
     return mod
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--sim-seconds", type=float, default=6.0, help="simulated seconds per floor cell")
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--json", type=Path, help="also write the figures as JSON here")
-    args = ap.parse_args()
+def _cpu() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def speed(repeats: int, seed: int) -> dict[str, Any]:
+    from pipeline.planner.config import SearchConfig
+    from pipeline.planner.figures import freeze_layout, map_figure, render
+    from pipeline.planner.search import search_mounts
+
     cave = box_cave()
     cams = default_cameras(cave, "kinect_color", 4)
+    out: dict[str, Any] = {"cpu": _cpu(), "cores": os.cpu_count(), "repeats": repeats}
+    print(f"\n== speed on {out['cpu']} ({out['cores']} cores), median of {repeats} ==")
+    for name, cfg in (
+        ("default 0.15 m", PlannerConfig(seed=seed)),
+        ("quick 0.3 m", PlannerConfig(grid_step_m=0.3, seed=seed)),
+    ):
+        runs = [coverage_map(cave, cams, cfg) for _ in range(repeats)]
+        t = {
+            k: float(np.median([r.timings_s[k] for r in runs]))
+            for k in ("visibility", "monte_carlo", "total")
+        }
+        t0 = time.perf_counter()
+        fig = freeze_layout(map_figure(runs[0]))
+        t_layout = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        png = render(fig, "png")
+        t_png = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        render(fig, "svg")
+        t_svg = time.perf_counter() - t0
+        cells = int(runs[0].grid.used.sum())
+        points = cells * len(cfg.heights_m) * len(cfg.facings_deg) * cfg.samples * 17
+        print(
+            f"  map {name}: {cells} cells, {points} joint draws: visibility {t['visibility']:.2f} s, "
+            f"Monte Carlo {t['monte_carlo']:.2f} s, total {t['total']:.2f} s; "
+            f"figure layout {t_layout:.2f} s, PNG {t_png:.2f} s "
+            f"({len(png) // 1024} KiB), SVG {t_svg:.2f} s"
+        )
+        out[name] = {**t, "cells": cells, "joint_draws": points}
+        out[name] |= {"layout_s": t_layout, "png_s": t_png, "svg_s": t_svg}
+    t0 = time.perf_counter()
+    result = search_mounts(cave, SearchConfig(count=4), PlannerConfig(grid_step_m=0.3, seed=seed), cams)
+    total = time.perf_counter() - t0
+    print(
+        f"  search for 4 cameras: {result.candidates} candidates, {result.evaluated} layouts screened: "
+        + ", ".join(f"{k} {v:.1f} s" for k, v in result.timings_s.items())
+        + f" (wall {total:.1f} s)"
+    )
+    out["search_4"] = {**result.timings_s, "candidates": result.candidates, "evaluated": result.evaluated}
+    return out
 
+
+def check(sim_seconds: float, seed: int) -> dict[str, Any]:
+    cave = box_cave()
+    cams = default_cameras(cave, "kinect_color", 4)
     t0 = time.perf_counter()
     cells_cfg = PlannerConfig(
         grid_step_m=0.5,
         heights_m=(1.5, 1.725, 1.95),
         facings_deg=tuple(range(0, 360, 45)),
         samples=8,
-        seed=args.seed,
+        seed=seed,
     )
     pred_cells = coverage_map(cave, cams, cells_cfg)
     t1 = time.perf_counter()
-    pred_map = coverage_map(cave, cams, PlannerConfig(seed=args.seed))
+    pred_map = coverage_map(cave, cams, PlannerConfig(seed=seed))
     t2 = time.perf_counter()
     print(
         f"predicted: 6 x 6 cells {t1 - t0:.1f} s, "
@@ -85,8 +147,8 @@ def main() -> None:
 
     bench = _bench()
     measured = {
-        "still": bench.bench_sim(args.sim_seconds, args.seed, {"still": 1}),
-        "stepping": bench.bench_sim(args.sim_seconds, args.seed, None),
+        "still": bench.bench_sim(sim_seconds, seed, {"still": 1}),
+        "stepping": bench.bench_sim(sim_seconds, seed, None),
     }
     t3 = time.perf_counter()
 
@@ -94,7 +156,7 @@ def main() -> None:
     pred_grid = pred_cells.error_mm[::-1]
     rows: list[dict[str, Any]] = []
     print(
-        f"\n== predicted vs measured MPJPE (mm) by region; measured {args.sim_seconds:g} s per cell, "
+        f"\n== predicted vs measured MPJPE (mm) by region; measured {sim_seconds:g} s per cell, "
         f"{t3 - t2:.0f} s =="
     )
     print(
@@ -135,6 +197,22 @@ def main() -> None:
     print("predicted 6 x 6 (rows y = +1.25 .. -1.25, cols x = -1.25 .. +1.25):")
     for row_vals in pred_grid:
         print("  " + " ".join(f"{v:6.1f}" for v in row_vals))
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--section", choices=("check", "speed", "all"), default="all")
+    ap.add_argument("--sim-seconds", type=float, default=6.0, help="simulated seconds per floor cell")
+    ap.add_argument("--repeats", type=int, default=3, help="timing runs per map (median)")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--json", type=Path, help="also write the figures as JSON here")
+    args = ap.parse_args()
+    out: dict[str, Any] = {}
+    if args.section in ("speed", "all"):
+        out["speed"] = speed(args.repeats, args.seed)
+    if args.section in ("check", "all"):
+        out["check"] = check(args.sim_seconds, args.seed)
     if args.json:
         args.json.write_text(json.dumps(out, indent=2))
 
