@@ -248,9 +248,10 @@ def main() -> int:
     ap.add_argument("--switch-prob", type=float, default=None)
     ap.add_argument("--stop-dwell", type=float, default=None)
     ap.add_argument("--json", type=Path, default=None)
+    ap.add_argument("--no-gate", action="store_true", help="the network's EMA + hysteresis alone")
     args = ap.parse_args()
 
-    config = RecognizerConfig(model_path=args.model)
+    config = RecognizerConfig(model_path=args.model, gate=not args.no_gate)
     session = open_session(args.model)
     noise = NoiseConfig()
     if args.tune:

@@ -133,6 +133,9 @@ class RecognitionSettings(_Section):
     forward_step_m: float = Field(0.4, gt=0)  # virtual distance per forward step (speed = cadence x this)
     side_step_m: float = Field(0.3, gt=0)  # ... per side step
     threads: int = Field(1, ge=0)  # onnxruntime intra-op threads (0 = its choice)
+    # the stepping-bout gate on the step evidence (no movement without a step; one command per
+    # bout); off = the network's EMA + hysteresis alone (pipeline/recognition/MODEL_CARD.md)
+    gate: bool = False
 
     def to_config(self) -> Any:
         """The recogniser's frozen :class:`pipeline.recognition.recognizer.RecognizerConfig`."""

@@ -4,13 +4,25 @@ and the model card's figures (``scripts/eval_action.py``, ``scripts/loso_action.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from pipeline.recognition.bout import BoutGate
 from pipeline.recognition.dataset import LabelledSequence
+from pipeline.recognition.features import EVIDENCE_CHANNELS, FEATURES_V2, evidence_vector
 from pipeline.recognition.metrics import Evaluation, ScoredSequence, evaluate
-from pipeline.recognition.recognizer import ActionRecognizer, recognize_sequence
+from pipeline.recognition.recognizer import (
+    ActionRecognizer,
+    CommandFilter,
+    RecognizerConfig,
+    classify_windows,
+    model_info,
+    recognize_sequence,
+)
+from pipeline.recognition.steps import StepConfig, StepFrame, StepTracker
 from pipeline.skeleton import ACTIONS
 
 
@@ -37,3 +49,64 @@ def evaluate_recognizer(
         if progress is not None:
             progress(seq)
     return evaluate(out, exclude_s)
+
+
+# ---------------------------------------------------------------- fast replay (tuning and the ablations)
+# The streaming recogniser at the model's own frame rate is: per frame, the step tracker, the model
+# on the newest window, the EMA (+ hysteresis), the gate. With the model's outputs computed once in
+# batches, the rest replays in microseconds per frame, so settings and ablations are cheap to try.
+# test_evaluation.py checks that the replay gives the streaming recogniser's commands.
+
+
+@dataclass(frozen=True, slots=True)
+class NetworkTrace:
+    """What the network and the step tracker make of one sequence at the model's frame rate.
+
+    raw: (T, 4) model outputs for the window ending at each frame; steps: per-frame step evidence.
+    """
+
+    raw: NDArray[np.float32]
+    steps: tuple[StepFrame, ...]
+
+
+def network_trace(
+    session: Any,
+    joints_m: NDArray[np.floating],
+    fps: float,
+    steps: StepConfig | None = None,
+    batch: int = 512,
+) -> NetworkTrace:
+    """Model outputs and step evidence for every frame of a sequence recorded at the model's rate."""
+    info = model_info(session)
+    if abs(fps - info.fps) > 1e-6:
+        raise ValueError(f"the sequence is at {fps:g} fps; resample it to the model's {info.fps:g} fps first")
+    j = np.where(np.isfinite(joints_m), joints_m, np.nan).astype(np.float64)
+    cfg = replace(steps or StepConfig(), rate_hz=info.fps)
+    tracker = StepTracker(cfg)
+    frames = tuple(tracker.update(f, i / fps) for i, f in enumerate(j))
+    ev = (
+        np.stack([evidence_vector(f) for f in frames])
+        if frames
+        else np.zeros((0, EVIDENCE_CHANNELS), np.float32)
+    )
+    n, w = len(j), info.window
+    idx = np.maximum(np.arange(n)[:, None] - np.arange(w - 1, -1, -1)[None, :], 0)
+    out = []
+    for a in range(0, n, batch):
+        sel = idx[a : a + batch]
+        out.append(classify_windows(session, j[sel], fps, ev[sel] if info.features == FEATURES_V2 else None))
+    raw = np.concatenate(out) if out else np.zeros((0, 4), np.float32)
+    return NetworkTrace(raw.astype(np.float32), frames)
+
+
+def replay(trace: NetworkTrace, config: RecognizerConfig) -> NDArray[np.int64]:
+    """The recogniser's command per frame from a trace (same EMA, hysteresis and gate settings)."""
+    filt = CommandFilter(config.ema_alpha, config.min_dwell_s, config.switch_prob, config.stop_dwell_s)
+    gate = BoutGate(config.gate_config)
+    out = np.empty(len(trace.raw), dtype=np.int64)
+    for i, (p, sf) in enumerate(zip(trace.raw, trace.steps, strict=True)):
+        label = filt.update(p, sf.t)
+        if config.gate:
+            label = gate.update(sf, filt.probs, sf.t).label
+        out[i] = label
+    return out

@@ -24,6 +24,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from pipeline.recognition.steps import StepFrame
 from pipeline.skeleton import NUM_JOINTS, J
 
 # Per-joint channels given to the model: x, y, z, vx, vy, vz, known.
@@ -188,3 +189,46 @@ def to_model_input(features: NDArray[np.float32]) -> NDArray[np.float32]:
     lead, t = f.shape[:-3], f.shape[-3]
     moved = np.moveaxis(f.reshape(*lead, t, NUM_CHANNELS), -1, -2)
     return np.ascontiguousarray(moved)
+
+
+# ---------------------------------------------------------------- step evidence channels (features v2)
+# Per frame, after the 17 x 7 joint channels: for each foot (left, right) planted, height above its
+# standing level, lateral / sagittal / vertical displacement since lift-off (body frame at lift-off),
+# swing time, body turn since lift-off; then jump and crouch. Lengths in leg lengths, times in
+# seconds (clipped at 1), turns in half turns.
+
+EVIDENCE_CHANNELS = 16
+FEATURES_V1 = "v1"
+FEATURES_V2 = "v2"
+
+
+def evidence_vector(frame: StepFrame) -> NDArray[np.float32]:
+    """The (16,) evidence channels of one :class:`~pipeline.recognition.steps.StepFrame`."""
+    leg = frame.leg_m
+    out = np.zeros(EVIDENCE_CHANNELS, dtype=np.float32)
+    for k, f in enumerate(frame.feet):
+        h = f.height_m / leg if np.isfinite(f.height_m) else 0.0
+        base = 7 * k
+        out[base : base + 7] = (
+            float(f.planted),
+            float(np.clip(h, -0.5, 1.0)),
+            float(np.clip(f.lateral_m / leg, -1.0, 1.0)),
+            float(np.clip(f.sagittal_m / leg, -1.0, 1.0)),
+            float(np.clip(f.vertical_m / leg, 0.0, 1.0)),
+            min(f.swing_s, 1.0),
+            f.turn_deg / 180.0,
+        )
+    out[14] = float(frame.feet[0].jump and frame.feet[1].jump)
+    out[15] = float(np.clip(frame.pelvis_ratio - 1.0, -1.0, 0.5))
+    return out
+
+
+def to_model_input_v2(features: NDArray[np.float32], evidence: NDArray[np.float32]) -> NDArray[np.float32]:
+    """Joint features (..., T, 17, 7) and evidence (..., T, 16) -> (..., 17 * 7 + 16, T)."""
+    x = to_model_input(features)
+    e = np.asarray(evidence, dtype=np.float32)
+    if e.shape[-1] != EVIDENCE_CHANNELS or e.shape[:-1] != (*x.shape[:-2], x.shape[-1]):
+        raise ValueError(
+            f"evidence must have shape (..., T, {EVIDENCE_CHANNELS}) like the features, got {e.shape}"
+        )
+    return np.ascontiguousarray(np.concatenate([x, np.moveaxis(e, -1, -2)], axis=-2))

@@ -33,9 +33,20 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.errors import InputError, ModelError
-from pipeline.recognition.features import NUM_CHANNELS, to_model_input, window_features
+from pipeline.recognition.bout import BoutGate, GateConfig, GateVerdict
+from pipeline.recognition.features import (
+    EVIDENCE_CHANNELS,
+    FEATURES_V1,
+    FEATURES_V2,
+    NUM_CHANNELS,
+    evidence_vector,
+    to_model_input,
+    to_model_input_v2,
+    window_features,
+)
 from pipeline.recognition.orientation import YawSmoother, raw_yaw_deg
 from pipeline.recognition.speed import SpeedConfig, speed_mps
+from pipeline.recognition.steps import StepConfig, StepFrame, StepTracker
 from pipeline.recognition.types import ActionEstimate
 from pipeline.skeleton import ACTIONS, NUM_JOINTS, J
 
@@ -71,6 +82,8 @@ class RecognitionSection(Protocol):
     def side_step_m(self) -> float: ...
     @property
     def threads(self) -> int: ...
+    @property
+    def gate(self) -> bool: ...
 
 
 @dataclass(frozen=True, slots=True)
@@ -95,6 +108,9 @@ class RecognizerConfig:
     speed_alpha: float = 0.15
     speed: SpeedConfig = field(default_factory=SpeedConfig)
     threads: int = 1
+    gate: bool = False
+    gate_config: GateConfig = field(default_factory=GateConfig)
+    steps: StepConfig = field(default_factory=StepConfig)
 
     def __post_init__(self) -> None:
         for name in ("ema_alpha", "yaw_alpha", "speed_alpha"):
@@ -125,17 +141,27 @@ class RecognizerConfig:
             speed_alpha=section.speed_alpha,
             speed=SpeedConfig(forward_step_m=section.forward_step_m, side_step_m=section.side_step_m),
             threads=section.threads,
+            gate=section.gate,
         )
+
+
+# What each features version gives the network, and how many input channels that is.
+FEATURE_CHANNELS = {FEATURES_V1: NUM_CHANNELS, FEATURES_V2: NUM_CHANNELS + EVIDENCE_CHANNELS}
 
 
 @dataclass(frozen=True, slots=True)
 class ModelInfo:
-    """What the ONNX file says about itself (its metadata)."""
+    """What the ONNX file says about itself (its metadata).
+
+    features: the input it expects: ``v1`` joints only (17 x 7 channels), ``v2`` joints and the
+    step evidence (17 x 7 + 14 channels, :func:`features.evidence_vector`).
+    """
 
     window: int
     fps: float
     classes: tuple[str, ...]
     input_name: str
+    features: str = FEATURES_V1
 
 
 def open_session(path: Path, threads: int = 1) -> Any:
@@ -167,16 +193,34 @@ def model_info(session: Any) -> ModelInfo:
         raise ModelError(f"the action model lacks its metadata (window, fps, classes): {exc}") from exc
     if classes != ACTIONS:
         raise ModelError(f"the action model's classes must be {ACTIONS}, got {classes}")
+    features = meta.get("features", FEATURES_V1)
+    if features not in FEATURE_CHANNELS:
+        raise ModelError(
+            f"the action model expects features {features!r}; "
+            f"this recogniser makes {', '.join(FEATURE_CHANNELS)}"
+        )
+    channels = FEATURE_CHANNELS[features]
     shape = inputs[0].shape if len(inputs) == 1 else None
-    if shape is None or len(shape) != 3 or shape[1] != NUM_CHANNELS or shape[2] != window:
-        raise ModelError(f"the action model's input must be (B, {NUM_CHANNELS}, {window}), got {shape}")
-    return ModelInfo(window=window, fps=fps, classes=classes, input_name=inputs[0].name)
+    if shape is None or len(shape) != 3 or shape[1] != channels or shape[2] != window:
+        raise ModelError(
+            f"the action model's input must be (B, {channels}, {window}) for features {features}, got {shape}"
+        )
+    return ModelInfo(window=window, fps=fps, classes=classes, input_name=inputs[0].name, features=features)
 
 
-def classify_windows(session: Any, windows: NDArray[np.floating], fps: float) -> NDArray[np.float32]:
-    """Class probabilities (N, 4) of windows (N, T, 17, 3) in one batched model call."""
+def classify_windows(
+    session: Any, windows: NDArray[np.floating], fps: float, evidence: NDArray[np.floating] | None = None
+) -> NDArray[np.float32]:
+    """Class probabilities (N, 4) of windows (N, T, 17, 3) in one batched model call; a ``v2`` model
+    also needs the windows' step evidence (N, T, 14)."""
     info = model_info(session)
-    x = to_model_input(window_features(windows, fps))
+    feats = window_features(windows, fps)
+    if info.features == FEATURES_V2:
+        if evidence is None:
+            raise ModelError("this action model (features v2) needs the step evidence of each window")
+        x = to_model_input_v2(feats, np.asarray(evidence, dtype=np.float32))
+    else:
+        x = to_model_input(feats)
     out = session.run(None, {info.input_name: x})[0]
     return np.asarray(out, dtype=np.float32)
 
@@ -255,7 +299,14 @@ class CommandFilter:
 
 
 class ActionRecognizer:
-    """Streaming recogniser of the navigator's locomotion command (see the module docstring)."""
+    """Streaming recogniser of the navigator's locomotion command (see the module docstring).
+
+    With ``config.gate`` (the default) the command comes from the stepping-bout gate
+    (:mod:`pipeline.recognition.bout`) on the step evidence (:mod:`pipeline.recognition.steps`)
+    and the network's smoothed probabilities; without it, from the EMA + hysteresis filter alone
+    (the paper's method, kept for the ablation). Each estimate carries the frame's step evidence
+    and the gate's verdict (the dashboard's step strip).
+    """
 
     def __init__(self, session: Any, config: RecognizerConfig) -> None:
         self._session = session
@@ -264,10 +315,18 @@ class ActionRecognizer:
         self._dt = 1.0 / self.info.fps
         history = max(self.info.window, round(2.5 * self.info.fps))
         self._frames: deque[NDArray[np.float64]] = deque(maxlen=history)
+        self._evidence: deque[NDArray[np.float32]] = deque(maxlen=self.info.window)
         self._yaw = YawSmoother(alpha=config.yaw_alpha, rate_hz=self.info.fps)
         self._filter = CommandFilter(
             config.ema_alpha, config.min_dwell_s, config.switch_prob, config.stop_dwell_s
         )
+        steps = config.steps
+        if abs(steps.rate_hz - self.info.fps) > 1e-9:
+            from dataclasses import replace
+
+            steps = replace(steps, rate_hz=self.info.fps)
+        self._tracker = StepTracker(steps)
+        self._gate = BoutGate(config.gate_config)
         self.reset()
 
     @classmethod
@@ -293,11 +352,18 @@ class ActionRecognizer:
 
     def _forget(self) -> None:
         self._frames.clear()
+        self._evidence.clear()
         self._yaw.reset()
         self._last_t: float | None = None
         self._last_j: NDArray[np.float64] | None = None
         self._next_tick = 0.0
         self._filter.reset()
+        self._tracker.reset()
+        self._gate.reset()
+        self._pending: list[StepFrame] = []
+        self._step_frame: StepFrame | None = None
+        self._verdict: GateVerdict | None = None
+        self._label = _STILL
         self._speed = 0.0
         self._moving_frames = 0
 
@@ -306,15 +372,28 @@ class ActionRecognizer:
             label="still", probs=dict.fromkeys(ACTIONS, 0.0), yaw_deg=self._yaw.yaw_deg, no_data=True
         )
 
+    def _probs(self) -> NDArray[np.float64]:
+        """The smoothed network probabilities; with the gate, the classes it rules out scaled by 0.1."""
+        p = self._filter.probs.copy()
+        if not self.config.gate:
+            return p
+        if self._label == _STILL:
+            p[1:] *= 0.1
+        else:
+            p[_STILL] *= 0.1
+        return p / p.sum()
+
     def _estimate(self) -> ActionEstimate:
         if self._last_t is None:
             return self._no_data()
-        label = self._filter.label
+        label = self._label
         return ActionEstimate(
             label=ACTIONS[label],
-            probs={name: float(p) for name, p in zip(ACTIONS, self._filter.probs, strict=True)},
+            probs={name: float(p) for name, p in zip(ACTIONS, self._probs(), strict=True)},
             yaw_deg=self._yaw.yaw_deg,
             speed_mps=self._speed if label != _STILL else 0.0,
+            steps=self._step_frame,
+            gate=self._verdict,
         )
 
     def update(self, joints_m: NDArray[np.floating], timestamp_s: float) -> ActionEstimate:
@@ -345,14 +424,14 @@ class ActionRecognizer:
 
         ticks = 0
         if self._last_t is None or self._last_j is None:
-            self._frames.append(j)
+            self._add_frame(j, t)
             self._next_tick = t + self._dt
             ticks = 1
         else:
             span = t - self._last_t
             while self._next_tick <= t + 1e-9:
                 w = (self._next_tick - self._last_t) / span
-                self._frames.append(_interpolate(self._last_j, j, min(max(w, 0.0), 1.0)))
+                self._add_frame(_interpolate(self._last_j, j, min(max(w, 0.0), 1.0)), self._next_tick)
                 self._next_tick += self._dt
                 ticks += 1
         self._last_t, self._last_j = t, j
@@ -361,16 +440,43 @@ class ActionRecognizer:
             self._step(ticks, t)
         return self._estimate()
 
+    def _add_frame(self, frame: NDArray[np.float64], tick_t: float) -> None:
+        """One model frame: kept for the window, and through the step tracker."""
+        self._frames.append(frame)
+        sf = self._tracker.update(frame, tick_t)
+        self._pending.append(sf)
+        self._evidence.append(evidence_vector(sf))
+
     def _window(self) -> NDArray[np.float64]:
         frames = list(self._frames)[-self.info.window :]
         if len(frames) < self.info.window:
             frames = [frames[0]] * (self.info.window - len(frames)) + frames
         return np.stack(frames)
 
+    def _evidence_window(self) -> NDArray[np.float32]:
+        ev = list(self._evidence)
+        if len(ev) < self.info.window:
+            ev = [ev[0]] * (self.info.window - len(ev)) + ev
+        return np.stack(ev)
+
+    def _model_input(self) -> NDArray[np.float32]:
+        feats = window_features(self._window(), self.info.fps)
+        if self.info.features == FEATURES_V2:
+            return to_model_input_v2(feats, self._evidence_window())[None]
+        return to_model_input(feats)[None]
+
     def _step(self, ticks: int, t: float) -> None:
-        x = to_model_input(window_features(self._window(), self.info.fps))[None]
+        x = self._model_input()
         out = np.asarray(self._session.run(None, {self.info.input_name: x})[0][0], dtype=np.float64)
         label = self._filter.update(out, t, ticks)
+        if self.config.gate:
+            for sf in self._pending:
+                self._verdict = self._gate.update(sf, self._filter.probs, sf.t)
+            assert self._verdict is not None
+            label = self._verdict.label
+        self._step_frame = self._pending[-1]
+        self._pending = []
+        self._label = label
         if label == _STILL:
             self._speed, self._moving_frames = 0.0, 0
             return

@@ -27,14 +27,25 @@ import logging
 import time
 import warnings
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.camera import look_at
-from pipeline.recognition.features import NUM_CHANNELS, to_model_input, window_features
+from pipeline.recognition.dataset import LabelledSequence
+from pipeline.recognition.features import (
+    EVIDENCE_CHANNELS,
+    FEATURES_V1,
+    FEATURES_V2,
+    NUM_CHANNELS,
+    evidence_vector,
+    to_model_input,
+    to_model_input_v2,
+    window_features,
+)
+from pipeline.recognition.steps import StepConfig, StepTracker
 from pipeline.skeleton import ACTIONS
 from pipeline.triangulation.dlt import triangulate_linear
 
@@ -97,16 +108,22 @@ class TrainConfig:
     validation_fraction: float = 0.1
     transition_weight: float = 2.0  # loss weight of frames shortly after a true label change
     transition_window_s: float = 0.5
+    features: str = FEATURES_V2  # v1: joints only; v2: joints + step evidence
+    source_power: float = 0.5  # sampling: each source weighs (its frames) ** power
 
 
 @dataclass(frozen=True, slots=True)
 class Dataset:
-    """Concatenated sequences: joints (N, 17, 3) NaN = unknown, labels (N,) int, starts (S + 1,) offsets."""
+    """Concatenated sequences: joints (N, 17, 3) NaN = unknown, labels (N,) int (-1 = ignore, never a
+    training target), starts (S + 1,) offsets; optional evidence (N, 14) step-evidence channels (made
+    by the same step tracker as at run time) and sources (S,) the source of each sequence."""
 
     joints: NDArray[np.float32]
     labels: NDArray[np.int64]
     starts: NDArray[np.int64]
     fps: float
+    evidence: NDArray[np.float32] | None = None
+    sources: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         if self.joints.shape[0] != self.labels.shape[0] or self.starts[-1] != self.labels.shape[0]:
@@ -114,6 +131,12 @@ class Dataset:
                 f"joints {self.joints.shape}, labels {self.labels.shape} and starts end "
                 f"{self.starts[-1]} disagree"
             )
+        if self.evidence is not None and self.evidence.shape != (self.labels.shape[0], EVIDENCE_CHANNELS):
+            raise ValueError(
+                f"evidence must be ({self.labels.shape[0]}, {EVIDENCE_CHANNELS}), got {self.evidence.shape}"
+            )
+        if self.sources and len(self.sources) != self.num_sequences:
+            raise ValueError(f"sources names {len(self.sources)} sequences of {self.num_sequences}")
 
     @property
     def num_sequences(self) -> int:
@@ -127,7 +150,15 @@ class Dataset:
             np.concatenate([self.labels[p] for p in parts]),
             np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64),
             self.fps,
+            None if self.evidence is None else np.concatenate([self.evidence[p] for p in parts]),
+            tuple(self.sources[int(s)] for s in seqs) if self.sources else (),
         )
+
+    def frame_sources(self) -> NDArray[np.str_]:
+        """(N,) the source of every frame."""
+        lengths = np.diff(self.starts)
+        names = self.sources or ("",) * self.num_sequences
+        return np.repeat(np.asarray(names, dtype=str), lengths)
 
 
 # ---------------------------------------------------------------- capture noise
@@ -244,13 +275,16 @@ def window_ends(data: Dataset, stride: int = 1) -> NDArray[np.int64]:
     ).astype(np.int64)
 
 
-def gather_windows(data: Dataset, ends: NDArray[np.int64], window: int) -> NDArray[np.float32]:
-    """(B, window, 17, 3) windows ending at ``ends``; frames before a sequence's start repeat its first."""
+def _window_index(data: Dataset, ends: NDArray[np.int64], window: int) -> NDArray[np.int64]:
     seq = np.searchsorted(data.starts, ends, side="right") - 1
     first = data.starts[seq]
     idx = ends[:, None] - np.arange(window - 1, -1, -1)[None, :]
-    idx = np.maximum(idx, first[:, None])
-    return data.joints[idx]
+    return np.maximum(idx, first[:, None])
+
+
+def gather_windows(data: Dataset, ends: NDArray[np.int64], window: int) -> NDArray[np.float32]:
+    """(B, window, 17, 3) windows ending at ``ends``; frames before a sequence's start repeat its first."""
+    return data.joints[_window_index(data, ends, window)]
 
 
 def transition_weights(data: Dataset, window_s: float, weight: float) -> NDArray[np.float32]:
@@ -264,8 +298,72 @@ def transition_weights(data: Dataset, window_s: float, weight: float) -> NDArray
     return w
 
 
-def batch_inputs(data: Dataset, ends: NDArray[np.int64], window: int) -> NDArray[np.float32]:
-    return to_model_input(window_features(gather_windows(data, ends, window), data.fps))
+def batch_inputs(
+    data: Dataset, ends: NDArray[np.int64], window: int, features: str = FEATURES_V1
+) -> NDArray[np.float32]:
+    idx = _window_index(data, ends, window)
+    feats = window_features(data.joints[idx], data.fps)
+    if features == FEATURES_V2:
+        if data.evidence is None:
+            raise ValueError("features v2 need the dataset's step evidence (dataset_from_sequences)")
+        return to_model_input_v2(feats, data.evidence[idx])
+    return to_model_input(feats)
+
+
+def dataset_from_sequences(
+    seqs: list[LabelledSequence],
+    steps: StepConfig | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> Dataset:
+    """Labelled sequences (one frame rate, already captured) -> a Dataset with step evidence."""
+    if not seqs:
+        raise ValueError("no sequences")
+    fps = seqs[0].fps
+    if any(abs(s.fps - fps) > 1e-9 for s in seqs):
+        raise ValueError("every sequence must have the same frame rate (corpus.resample them)")
+    cfg = replace(steps or StepConfig(), rate_hz=fps)
+    evidence = []
+    t0 = time.monotonic()
+    for i, s in enumerate(seqs):
+        tracker = StepTracker(cfg)
+        evidence.append(
+            np.stack([evidence_vector(tracker.update(f, k / fps)) for k, f in enumerate(s.joints_m)])
+        )
+        if progress is not None and ((i + 1) % 100 == 0 or i + 1 == len(seqs)):
+            progress(f"step evidence {i + 1}/{len(seqs)} sequences ({time.monotonic() - t0:.0f} s)")
+    lengths = [len(s) for s in seqs]
+    return Dataset(
+        np.concatenate([s.joints_m for s in seqs]).astype(np.float32),
+        np.concatenate([s.labels for s in seqs]).astype(np.int64),
+        np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64),
+        float(fps),
+        np.concatenate(evidence).astype(np.float32),
+        tuple(s.source for s in seqs),
+    )
+
+
+def captured(seqs: list[LabelledSequence], noise: NoiseConfig, seed: int) -> list[LabelledSequence]:
+    """Each clean sequence as the CAVE measures it (:func:`capture`), deterministic for the seed."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for s in seqs:
+        j = capture(np.nan_to_num(s.joints_m, nan=0.0), rng, noise, s.fps)
+        j[np.isnan(s.joints_m).any(axis=-1)] = np.nan  # unknown in the source stays unknown
+        out.append(LabelledSequence(j, s.fps, s.labels, s.tags, s.contacts, s.source, s.name))
+    return out
+
+
+def sampling_weights(data: Dataset, power: float = 0.5) -> NDArray[np.float64]:
+    """(N,) probability of each frame ending a training window: every source weighs its frame count
+    to the ``power`` (0.5: a small source of real clips is not drowned by a large simulated one);
+    ``ignore`` frames never."""
+    src = data.frame_sources()
+    w = np.zeros(len(src))
+    for name in np.unique(src):
+        sel = (src == name) & (data.labels >= 0)
+        if sel.any():
+            w[sel] = sel.sum() ** power / sel.sum()
+    return w / w.sum()
 
 
 # ---------------------------------------------------------------- training
@@ -284,9 +382,10 @@ def train_model(
     torch.set_num_threads(config.threads)
     torch.use_deterministic_algorithms(True)
     rng = np.random.default_rng(config.seed)
+    in_channels = NUM_CHANNELS + (EVIDENCE_CHANNELS if config.features == FEATURES_V2 else 0)
     model = SkeletonSlowFast(
         SlowFastConfig(
-            in_channels=NUM_CHANNELS,
+            in_channels=in_channels,
             num_classes=len(ACTIONS),
             window=config.window,
             alpha=config.alpha,
@@ -295,7 +394,9 @@ def train_model(
         )
     )
     ends_all = window_ends(train)
-    freq = np.bincount(train.labels, minlength=len(ACTIONS)) / len(train.labels)
+    p_ends = sampling_weights(train, config.source_power)
+    known = train.labels[train.labels >= 0]
+    freq = np.bincount(known, minlength=len(ACTIONS)) / len(known)
     inv = 1.0 / np.sqrt(np.maximum(freq, 1e-3))
     class_w = torch.tensor(inv / inv.mean(), dtype=torch.float32)
     loss_fn = nn.CrossEntropyLoss(weight=class_w, label_smoothing=config.label_smoothing, reduction="none")
@@ -307,17 +408,18 @@ def train_model(
         opt, max_lr=config.lr, total_steps=config.epochs * steps_per_epoch, pct_start=0.15
     )
     val_ends = window_ends(val, stride=3)
-    x_val = torch.from_numpy(batch_inputs(val, val_ends, config.window))
+    val_ends = val_ends[val.labels[val_ends] >= 0]
+    x_val = torch.from_numpy(batch_inputs(val, val_ends, config.window, config.features))
     y_val = val.labels[val_ends]
     history: list[dict[str, float]] = []
     t0 = time.monotonic()
     for epoch in range(config.epochs):
         model.train()
-        ends = rng.choice(ends_all, size=steps_per_epoch * config.batch_size, replace=False)
+        ends = rng.choice(ends_all, size=steps_per_epoch * config.batch_size, replace=False, p=p_ends)
         total = 0.0
         for b in range(steps_per_epoch):
             e = ends[b * config.batch_size : (b + 1) * config.batch_size]
-            x = torch.from_numpy(batch_inputs(train, e, config.window))
+            x = torch.from_numpy(batch_inputs(train, e, config.window, config.features))
             y = torch.from_numpy(train.labels[e])
             opt.zero_grad()
             w = frame_w[torch.from_numpy(e)]
@@ -341,7 +443,12 @@ def train_model(
 
 
 def export_onnx(
-    model: object, path: Path, window: int, fps: float, extra: dict[str, str] | None = None
+    model: object,
+    path: Path,
+    window: int,
+    fps: float,
+    extra: dict[str, str] | None = None,
+    features: str = FEATURES_V1,
 ) -> None:
     """Write the model with a softmax output ``probs`` (B, 4), input ``x`` (B, 119, window), metadata."""
     import onnx
@@ -359,7 +466,8 @@ def export_onnx(
     if not isinstance(model, nn.Module):
         raise TypeError(f"export_onnx takes the trained torch module, got {type(model).__name__}")
     wrapped = WithSoftmax(model).eval()
-    dummy = torch.zeros(1, NUM_CHANNELS, window)
+    channels = NUM_CHANNELS + (EVIDENCE_CHANNELS if features == FEATURES_V2 else 0)
+    dummy = torch.zeros(1, channels, window)
     path.parent.mkdir(parents=True, exist_ok=True)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the TorchScript exporter's constant-folding notes
@@ -374,7 +482,7 @@ def export_onnx(
             dynamo=False,
         )
     proto = onnx.load(str(path))
-    meta = {"window": str(window), "fps": f"{fps:g}", "classes": ",".join(ACTIONS), "features": "v1"}
+    meta = {"window": str(window), "fps": f"{fps:g}", "classes": ",".join(ACTIONS), "features": features}
     meta.update(extra or {})
     for key, value in meta.items():
         entry = proto.metadata_props.add()

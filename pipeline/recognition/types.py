@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from pipeline.recognition.bout import GateVerdict
+from pipeline.recognition.steps import StepFrame
 from pipeline.skeleton import ACTIONS
 
 
@@ -15,6 +17,8 @@ class ActionEstimate:
     probs: smoothed class probabilities, keys = ACTIONS, summing to 1 (all 0 when there is no data).
     yaw_deg: facing direction in the CAVE frame, 0 = +Y, counter-clockwise positive, (-180, 180].
     speed_mps: intended walking speed, metres per second (0 when still).
+    steps: the frame's step evidence (contacts, lift-offs, the stepping foot's displacement), if any.
+    gate: the stepping-bout gate's verdict (why the command is what it is), if the gate is on.
     no_data: True when the recogniser has no usable skeleton (no leg joint known for longer than
         its ``max_gap_s``, or never): the label is then ``still`` with confidence 0.
     """
@@ -24,6 +28,8 @@ class ActionEstimate:
     yaw_deg: float = 0.0
     speed_mps: float = 0.0
     no_data: bool = False
+    steps: StepFrame | None = None
+    gate: GateVerdict | None = None
 
     def __post_init__(self) -> None:
         if self.label not in ACTIONS:

@@ -1,0 +1,255 @@
+"""The stepping-bout gate: one command per bout, held through the natural pause between steps.
+
+What a user expects (MODEL_CARD.md, "Behaviour"):
+
+- **No movement without a step.** A bout starts only on a step seen in the evidence
+  (:mod:`pipeline.recognition.steps`): one foot lifting or sliding for ``confirm_s`` while the
+  other carries the body (planted and not rising with it: not a jump; or swinging since well
+  before: running),
+  while the body is not crouched, and the network agreeing that it is movement (its smoothed
+  probability of moving at least ``start_prob`` at some moment of that swing). Both feet planted,
+  whatever the knees, hips and upper body do, is ``still``.
+- **One command per bout.** Once started, the bout holds through the pauses between its steps:
+  after each touch-down the next step is due within the pause the person's own rhythm allows
+  (``pause_gain`` x the longest of their last three pauses + ``pause_margin_s``; before two steps
+  are known, ``first_allowance_s``; a pause that broke a bout, up to ``max_allowance_s``, counts
+  as one of the person's pauses when the stepping resumes). If the next lift-off does not come
+  by then, the rhythm has broken and the bout ends (``still``) at that moment.
+- **The network can stop a bout**: a whole swing during which the network's probability of
+  moving never reached ``stop_prob`` (a pivot step while turning on the spot, a kick) ends it;
+  a crouch or a jump ends it at once, and so does a pivot (the body turning more than
+  ``max_turn_deg`` during one swing: a turn on the spot).
+- **Direction** (forward / left / right): the network's smoothed probabilities among the moving
+  classes, weighted by the evidence of the newest step (``evidence_weight``): a foot opening
+  sideways away from the other foot is a side step to that foot's side; a vertical (march) or
+  forward step is forward; a closing step (the trailing foot following, or the foot coming back)
+  keeps the bout's direction.
+
+:class:`BoutGate` is streaming; it holds only what it needs (times of the bout's steps).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pipeline.recognition.steps import StepFrame
+from pipeline.skeleton import ACTIONS
+
+_STILL, _FORWARD, _LEFT, _RIGHT = (ACTIONS.index(a) for a in ("still", "forward", "left", "right"))
+REASONS = ("planted", "lifting", "stepping", "pause", "rhythm-broke", "jump", "crouched", "pivot",
+           "network-still", "feet-unknown")  # fmt: skip
+
+
+@dataclass(frozen=True, slots=True)
+class GateConfig:
+    """Settings of the bout gate (see the module docstring)."""
+
+    start_prob: float = 0.4
+    stop_prob: float = 0.15
+    confirm_s: float = 0.1
+    first_allowance_s: float = 0.5
+    pause_gain: float = 1.2
+    pause_margin_s: float = 0.15
+    min_allowance_s: float = 0.25
+    max_allowance_s: float = 1.2
+    evidence_direction: bool = True
+    evidence_weight: float = 3.0
+    max_turn_deg: float = 30.0
+
+    def __post_init__(self) -> None:
+        for name in ("start_prob", "stop_prob"):
+            v = getattr(self, name)
+            if not 0 <= v <= 1:
+                raise ValueError(f"{name} must be in [0, 1], got {v}")
+        for name in (
+            "confirm_s",
+            "first_allowance_s",
+            "pause_margin_s",
+            "min_allowance_s",
+            "max_allowance_s",
+        ):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v >= 0):
+                raise ValueError(f"{name} must be >= 0, got {v}")
+        if self.min_allowance_s > self.max_allowance_s:
+            raise ValueError(
+                f"min_allowance_s ({self.min_allowance_s}) must not exceed "
+                f"max_allowance_s ({self.max_allowance_s})"
+            )
+        if self.pause_gain < 1 or self.evidence_weight < 1:
+            raise ValueError(
+                f"pause_gain and evidence_weight must be >= 1, got {self.pause_gain}, {self.evidence_weight}"
+            )
+
+
+@dataclass(frozen=True, slots=True)
+class GateVerdict:
+    """The gate's decision in one frame (shown on the step strip).
+
+    active: a bout is on. label: the command's class index. reason: one of REASONS.
+    evidence: the direction the newest step's evidence points to ("forward", "left", "right") or None.
+    allowance_s: the pause the person's rhythm allows now; deadline_s: when the bout ends unless a
+    foot lifts (NaN while a foot swings or no bout).
+    """
+
+    active: bool
+    label: int
+    reason: str
+    evidence: str | None
+    allowance_s: float
+    deadline_s: float
+
+    def to_dict(self) -> dict[str, object]:
+        return {
+            "active": self.active,
+            "command": ACTIONS[self.label],
+            "reason": self.reason,
+            "evidence": self.evidence,
+            "allowance_s": round(self.allowance_s, 3),
+            "deadline_s": round(self.deadline_s, 3) if math.isfinite(self.deadline_s) else None,
+        }
+
+
+def evidence_direction(frame: StepFrame) -> int | None:
+    """The class the newest step's displacement points to, or None (closing, small, unclear)."""
+    k = frame.stepping
+    if k < 0:
+        return None
+    kind = frame.feet[k].kind
+    if kind == "open":
+        return _LEFT if k == 0 else _RIGHT
+    if kind in ("vertical", "forward"):
+        return _FORWARD
+    return None
+
+
+def choose_direction(
+    probs: NDArray[np.floating], evidence: int | None, config: GateConfig, current: int | None = None
+) -> int:
+    """The moving class: the network's moving probabilities weighted by the evidence."""
+    p = np.asarray(probs, dtype=np.float64)
+    score = p[1:].copy() + 1e-6
+    if config.evidence_direction and evidence is not None:
+        score[evidence - 1] *= config.evidence_weight
+    elif current is not None:
+        score[current - 1] *= 1.5  # no new evidence: the bout keeps its direction unless clearly wrong
+    return int(np.argmax(score)) + 1
+
+
+class BoutGate:
+    """Streaming bout gate: ``update(step_frame, smoothed_probs, t)`` -> :class:`GateVerdict`."""
+
+    def __init__(self, config: GateConfig | None = None) -> None:
+        self.config = config or GateConfig()
+        self.reset()
+
+    def reset(self) -> None:
+        self._active = False
+        self._label = _STILL
+        self._swing_lift = [math.nan, math.nan]  # lift-off time of each foot's current swing
+        self._swing_maxp = [0.0, 0.0]  # highest network p(moving) during it
+        self._pauses: deque[float] = deque(maxlen=3)
+        self._bout_land_t = math.nan  # newest touch-down of the bout
+        self._bout_steps = 0
+
+    def _stance_ok(self, frame: StepFrame, k: int) -> bool:
+        """The other foot carries the body (planted and not taking off too: no jump), or it has been
+        swinging since well before this one lifted (running)."""
+        other = frame.feet[1 - k]
+        if not other.known:
+            return False
+        if other.planted:
+            return not other.rising
+        return self._swing_lift[1 - k] < self._swing_lift[k] - 0.1
+
+    def _allowance(self) -> float:
+        c = self.config
+        if not self._pauses:
+            return c.first_allowance_s
+        a = c.pause_gain * max(self._pauses) + c.pause_margin_s
+        return float(min(max(a, c.min_allowance_s), c.max_allowance_s))
+
+    def _end(self, reason: str, evidence: str | None) -> GateVerdict:
+        self._active = False
+        self._label = _STILL
+        if reason != "rhythm-broke":  # a broken rhythm is remembered: the person's own pauses
+            self._pauses.clear()
+            self._bout_land_t = math.nan
+        self._bout_steps = 0
+        return GateVerdict(False, _STILL, reason, evidence, self._allowance(), math.nan)
+
+    def update(self, frame: StepFrame, probs: NDArray[np.floating], t: float) -> GateVerdict:
+        c = self.config
+        p = np.asarray(probs, dtype=np.float64)
+        p_move = float(1.0 - p[_STILL])
+        ev = evidence_direction(frame)
+        ev_name = ACTIONS[ev] if ev is not None else None
+        landed_steps: list[float] = []  # max p(moving) of bout swings that ended now
+        both_down_before = all(math.isnan(x) for x in self._swing_lift)
+        for k, f in enumerate(frame.feet):
+            if f.lifted:
+                if both_down_before and math.isfinite(self._bout_land_t):
+                    gap = f.event_t - self._bout_land_t
+                    if self._active or gap <= c.max_allowance_s:  # also the pause that broke a bout
+                        self._pauses.append(max(0.0, gap))
+                    elif not self._active:
+                        self._pauses.clear()
+                self._swing_lift[k], self._swing_maxp[k] = f.event_t, p_move
+            elif not f.planted and math.isfinite(self._swing_lift[k]):
+                self._swing_maxp[k] = max(self._swing_maxp[k], p_move)
+            if f.landed and math.isfinite(self._swing_lift[k]):
+                if not f.jump:
+                    if self._active:
+                        landed_steps.append(self._swing_maxp[k])
+                    if self._active or self._swing_maxp[k] >= c.start_prob:  # a step of this person's
+                        self._bout_land_t = f.event_t
+                self._swing_lift[k] = math.nan
+        swings = [
+            k for k, f in enumerate(frame.feet)
+            if not f.planted and f.known and not f.jump and math.isfinite(self._swing_lift[k])
+        ]  # fmt: skip
+        stepping = [
+            k for k in swings
+            if t - self._swing_lift[k] >= c.confirm_s and self._stance_ok(frame, k)
+            and abs(frame.feet[k].turn_deg) <= c.max_turn_deg
+        ]  # fmt: skip
+        pivot = any(abs(frame.feet[k].turn_deg) > c.max_turn_deg for k in swings)
+        jumping = any(not f.planted and f.jump for f in frame.feet)
+
+        if frame.crouched:
+            return self._end("crouched", ev_name)
+        if jumping:
+            return self._end("jump", ev_name)
+        if pivot:
+            return self._end("pivot", ev_name)
+        if not self._active:
+            if stepping and max(self._swing_maxp[k] for k in stepping) >= c.start_prob:
+                self._active = True
+                self._label = choose_direction(p, ev, c)
+                self._bout_steps = 1
+                return GateVerdict(True, self._label, "stepping", ev_name, self._allowance(), math.nan)
+            if not all(f.known for f in frame.feet):
+                reason = "feet-unknown"
+            elif stepping:
+                reason = "network-still"
+            else:
+                reason = "lifting" if swings else "planted"
+            return GateVerdict(False, _STILL, reason, ev_name, self._allowance(), math.nan)
+        # a bout is on
+        if landed_steps and max(landed_steps) < c.stop_prob:
+            return self._end("network-still", ev_name)
+        if swings:
+            if stepping and ev is not None:
+                self._label = choose_direction(p, ev, c, self._label)
+            return GateVerdict(True, self._label, "stepping", ev_name, self._allowance(), math.nan)
+        if math.isnan(self._bout_land_t):
+            self._bout_land_t = t
+        deadline = self._bout_land_t + self._allowance()
+        if t > deadline + 1e-9:
+            return self._end("rhythm-broke", ev_name)
+        return GateVerdict(True, self._label, "pause", ev_name, self._allowance(), deadline)

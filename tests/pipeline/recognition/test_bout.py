@@ -1,0 +1,120 @@
+"""The stepping-bout gate on hand-made skeletons with known contacts and a network whose output
+is given: one command per bout through the pauses, the rhythm's end, no movement while both feet
+stay planted, jumps, crouches, the network's veto, and the direction from the evidence."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pipeline.recognition.bout import BoutGate, GateConfig, choose_direction
+from pipeline.recognition.steps import StepTracker
+from pipeline.skeleton import ACTIONS
+
+from .kinematic import Scene, Swing, march, noisy, render
+
+FPS = 30.0
+S, F, L, R = 0, 1, 2, 3
+FWD = np.array([0.1, 0.7, 0.1, 0.1])  # a network sure it is forward movement
+
+
+def _gate(
+    scene: Scene, probs: np.ndarray | list[np.ndarray], sigma: float = 0.012, config: GateConfig | None = None
+):  # type: ignore[no-untyped-def]
+    joints, contacts = render(scene)
+    tr, gate = StepTracker(), BoutGate(config)
+    out = []
+    for i, frame in enumerate(noisy(joints, sigma, 0.02)):
+        sf = tr.update(frame, i / FPS)
+        p = probs[i] if isinstance(probs, list) else probs
+        out.append(gate.update(sf, p, i / FPS))
+    return np.array([v.label for v in out]), out, contacts
+
+
+def test_a_slow_bout_is_one_command_through_its_pauses() -> None:
+    swings = march(1.0, 10, 1.0, 0.4)  # 0.6 s both feet down between steps
+    labels, verdicts, _ = _gate(Scene(13.0, swings), FWD)
+    t = np.arange(len(labels)) / FPS
+    first_lift, last_land = swings[0].t0, swings[-1].t1
+    inside = (t > first_lift + 0.3) & (t < last_land)
+    after_second = t > swings[1].t0 + 0.3  # the rhythm is known from the second step on
+    assert (labels[inside & after_second] == F).all(), "held through every pause once the rhythm is known"
+    assert (labels[inside] == F).mean() > 0.95
+    assert (labels[t < first_lift] == S).all()
+    stop = t[(t > last_land) & (labels == S)][0] - last_land
+    assert stop < 0.6 * 1.2 + 0.15 + 0.1, f"stopped {stop:.2f} s after the last touch-down"
+    changes = int(np.sum(labels[1:] != labels[:-1]))
+    assert changes <= 4, f"{changes} command changes for one bout"
+    assert {v.reason for v in verdicts} >= {"planted", "stepping", "pause", "rhythm-broke"}
+
+
+def test_the_bout_ends_when_the_rhythm_breaks() -> None:
+    swings = march(1.0, 12, 0.5, 0.32)  # a brisk march, then standing
+    labels, _, _ = _gate(Scene(10.0, swings), FWD)
+    t = np.arange(len(labels)) / FPS
+    start = t[labels == F][0] - swings[0].t0
+    stop = t[(t > swings[-1].t1) & (labels == S)][0] - swings[-1].t1
+    assert start <= 0.3, f"start {start:.2f} s after the first lift-off"
+    assert stop <= 0.5, f"stop {stop:.2f} s after the last touch-down (pauses of 0.18 s)"
+    assert (labels[(t > swings[1].t0) & (t < swings[-1].t1)] == F).all()
+
+
+@pytest.mark.parametrize(
+    "scene",
+    [
+        Scene(8.0, crouch=((1.0, 6.0, 0.4),)),  # crouch and stand up
+        Scene(6.0, jumps=((1.0, 1.4, 0.15), (3.0, 3.35, 0.1))),  # jump landings
+        Scene(8.0, wave=True),  # gestures with planted feet
+        Scene(8.0, heel_rise=((1.0, 6.0, 0.06),)),  # tiptoes
+    ],
+    ids=["crouch", "jump", "wave", "tiptoe"],
+)
+def test_no_movement_while_the_feet_stay_planted_or_move_together(scene: Scene) -> None:
+    labels, _, _ = _gate(scene, FWD)  # even with a network sure it is moving
+    assert (labels == S).all(), f"moving in {np.mean(labels != S):.1%} of frames"
+
+
+def test_the_network_vetoes_steps_it_does_not_call_movement() -> None:
+    swings = march(1.0, 8, 0.6, 0.35)
+    labels, verdicts, _ = _gate(Scene(7.0, swings), np.array([0.95, 0.03, 0.01, 0.01]))
+    assert (labels == S).all()
+    assert "network-still" in {v.reason for v in verdicts}
+
+
+def test_a_confident_start_then_a_still_network_for_a_whole_swing_ends_the_bout() -> None:
+    swings = march(1.0, 8, 0.6, 0.35)
+    n = round(7.0 * FPS)
+    probs = [FWD if i / FPS < 2.0 else np.array([0.97, 0.01, 0.01, 0.01]) for i in range(n)]
+    labels, _, _ = _gate(Scene(7.0, swings), probs)
+    t = np.arange(n) / FPS
+    assert (labels[(t > 1.4) & (t < 2.0)] == F).all() and (labels[t > 3.5] == S).all()
+
+
+@pytest.mark.parametrize(("foot", "side", "want"), [(0, -1.0, L), (1, 1.0, R)])
+def test_the_opening_foot_gives_the_side_and_the_closing_step_keeps_it(
+    foot: int, side: float, want: int
+) -> None:
+    swings = []
+    for i in range(4):  # step-together: the leading foot opens, the trailing foot follows
+        t0 = 1.0 + 1.0 * i
+        swings.append(Swing(foot, t0, t0 + 0.4, lateral=0.3 * side, peak=0.05))
+        swings.append(Swing(1 - foot, t0 + 0.5, t0 + 0.9, lateral=0.3 * side, peak=0.03))
+    unsure = np.array([0.1, 0.4, 0.25, 0.25])  # a network leaning to forward
+    labels, _, _ = _gate(Scene(6.5, tuple(swings), yaw_deg=70.0), unsure)
+    moving = labels[labels != S]
+    assert (moving == want).mean() > 0.9, f"{ACTIONS[want]}: {np.bincount(moving, minlength=4)}"
+    off = _gate(Scene(6.5, tuple(swings), yaw_deg=70.0), unsure, config=GateConfig(evidence_direction=False))[
+        0
+    ]
+    assert (off[off != S] == F).mean() > 0.9, "without the evidence the network's lean wins"
+
+
+def test_choose_direction_and_config_checks() -> None:
+    p = np.array([0.2, 0.5, 0.2, 0.1])
+    assert choose_direction(p, None, GateConfig()) == F
+    assert choose_direction(p, L, GateConfig()) == L
+    assert choose_direction(p, R, GateConfig(evidence_direction=False)) == F
+    with pytest.raises(ValueError, match="start_prob"):
+        GateConfig(start_prob=1.5)
+    with pytest.raises(ValueError, match="min_allowance_s"):
+        GateConfig(min_allowance_s=2.0, max_allowance_s=1.0)

@@ -1,0 +1,158 @@
+"""Step evidence on hand-made skeletons whose foot contacts are known by construction: contact and
+lift/touch-down timing, the stepping foot's displacement in the body frame, jumps, crouches,
+noise, dropped joints, unknown floor height and body size."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pipeline.recognition.steps import KINDS, StepConfig, StepTracker, step_evidence
+
+from .kinematic import Scene, Swing, march, noisy, render
+
+FPS = 30.0
+
+
+def _run(scene: Scene, sigma: float = 0.012, drop: float = 0.02, seed: int = 0):  # type: ignore[no-untyped-def]
+    joints, contacts = render(scene)
+    return step_evidence(noisy(joints, sigma, drop, seed), FPS), contacts
+
+
+def _kinds(ev, foot: int) -> list[str]:  # type: ignore[no-untyped-def]
+    swinging = ~ev.planted[:, foot]
+    return [KINDS[k] for k in ev.kind[swinging, foot]]
+
+
+@pytest.mark.parametrize("sigma", [0.0, 0.012, 0.03])
+def test_standing_still_never_lifts(sigma: float) -> None:
+    ev, _ = _run(Scene(20.0, wave=True), sigma=sigma)
+    assert len(ev.lifts) == 0, f"noise {sigma} m: lifts at {ev.lifts[:, 0]}"
+    assert ev.planted.all() and not ev.crouched.any()
+
+
+def test_single_frame_outliers_are_not_steps() -> None:
+    joints, _ = render(Scene(10.0))
+    j = noisy(joints, 0.012, 0.0, 3)
+    rng = np.random.default_rng(3)
+    for i in rng.choice(len(j), 20, replace=False):
+        j[i, 15:17] += rng.normal(0.0, 0.15, (2, 3))  # 15 cm triangulation outliers on the ankles
+    ev = step_evidence(j, FPS)
+    assert len(ev.lifts) == 0
+
+
+@pytest.mark.parametrize(
+    ("height", "floor", "peak"),
+    [(1.75, 0.0, 0.10), (1.48, 0.0, 0.06), (1.98, 0.45, 0.06), (1.75, -0.3, 0.04)],
+)
+def test_marching_lifts_and_lands_when_the_feet_do(height: float, floor: float, peak: float) -> None:
+    swings = march(1.0, 16, 0.6, 0.35, peak=peak)
+    ev, contacts = _run(Scene(12.0, swings, height_m=height, floor_z=floor, yaw_deg=35.0))
+    found = 0
+    for s in swings:  # each true step: one lift-off of that foot within 0.15 s, its touch-down too
+        lift = ev.lifts[(ev.lifts[:, 1] == s.foot) & (np.abs(ev.lifts[:, 0] - s.t0) < 0.15)]
+        tol = 0.15 if peak >= 0.05 else 0.2  # a low foot hovers near the floor before it lands
+        land = ev.lands[(ev.lands[:, 1] == s.foot) & (np.abs(ev.lands[:, 0] - s.t1) < tol)]
+        found += len(lift) == 1 and len(land) == 1
+    assert len(ev.lifts) <= len(swings), f"no extra steps: {ev.lifts[:, 0]}"
+    # a 4 cm lift is 3.3 sigma of the 1.2 cm noise: most, not all, are seen
+    need = len(swings) if peak >= 0.05 else round(0.8 * len(swings))
+    assert found >= need, f"{found} of {len(swings)} steps found with their timing"
+    assert (ev.planted == contacts).mean() > (0.85 if peak >= 0.05 else 0.8)
+    for foot in (0, 1):
+        kinds = _kinds(ev, foot)
+        assert kinds.count("vertical") > 0.6 * len(kinds), kinds
+    assert np.allclose(np.median(ev.leg_m), 0.86 * height / 1.75, rtol=0.06), "leg length from the skeleton"
+
+
+@pytest.mark.parametrize("yaw", [0.0, 120.0, -75.0])
+def test_side_step_out_and_back_opens_then_closes(yaw: float) -> None:
+    swings = (
+        Swing(0, 1.0, 1.45, lateral=-0.25, peak=0.05),
+        Swing(0, 1.9, 2.35, lateral=0.25, peak=0.05),
+        Swing(1, 3.0, 3.45, lateral=0.3, peak=0.04),
+        Swing(1, 3.9, 4.35, lateral=-0.3, peak=0.04),
+    )
+    ev, _ = _run(Scene(5.5, swings, yaw_deg=yaw))
+    assert len(ev.lifts) == 4
+    left, right = _kinds(ev, 0), _kinds(ev, 1)
+    # out to the person's own left: open (lateral < 0), then back: close
+    t = np.arange(len(ev.planted)) / FPS
+    out_l = (~ev.planted[:, 0]) & (t < 1.6)
+    assert np.median(ev.lateral_m[out_l, 0]) < -0.1 and "open" in left and "close" in left
+    back_l = (~ev.planted[:, 0]) & (t > 1.8) & (t < 2.5)
+    assert [KINDS[k] for k in ev.kind[back_l, 0]][-1] == "close"
+    out_r = (~ev.planted[:, 1]) & (t < 3.6)
+    assert np.median(ev.lateral_m[out_r, 1]) > 0.1 and "open" in right
+
+
+def test_step_together_and_shuffle_without_a_lift() -> None:
+    swings = (Swing(1, 1.0, 1.5, lateral=0.3, peak=0.0), Swing(0, 1.8, 2.3, lateral=0.3, peak=0.0))
+    ev, _ = _run(Scene(3.5, swings))
+    assert len(ev.lifts) == 2, "a slide with no lift is a step"
+    t = np.arange(len(ev.planted)) / FPS
+    lead = [KINDS[k] for k in ev.kind[(~ev.planted[:, 1]) & (t < 1.6), 1]]
+    trail = [KINDS[k] for k in ev.kind[(~ev.planted[:, 0]) & (t > 1.7), 0]]
+    assert lead[-1] == "open" and trail[-1] == "close", (lead, trail)
+
+
+def test_forward_walking_steps_are_forward() -> None:
+    swings = tuple(Swing(i % 2, 1.0 + 0.5 * i, 1.4 + 0.5 * i, sagittal=0.6, peak=0.05) for i in range(6))
+    ev, _ = _run(Scene(5.0, swings, yaw_deg=200.0))
+    assert len(ev.lifts) == 6
+    kinds = _kinds(ev, 0) + _kinds(ev, 1)
+    assert kinds.count("forward") > 0.5 * len(kinds)
+
+
+def test_a_jump_is_both_feet_together() -> None:
+    joints, _ = render(Scene(5.0, jumps=((1.0, 1.4, 0.15), (3.0, 3.3, 0.08))))
+    tr = StepTracker()
+    frames = [tr.update(f, i / FPS) for i, f in enumerate(noisy(joints, 0.012, 0.02))]
+    lifts = [(fr.t, k) for fr in frames for k in (0, 1) if fr.feet[k].lifted]
+    assert len(lifts) == 4
+    for fr in frames:  # the first foot up sees the other one rising: never a lone step
+        for k in (0, 1):
+            f, other = fr.feet[k], fr.feet[1 - k]
+            if not f.planted:
+                assert f.jump or (other.planted and other.rising) or not other.planted, fr.t
+    assert all(fr.feet[0].jump and fr.feet[1].jump for fr in frames if not fr.both_planted and fr.t > 1.2)
+
+
+def test_crouching_and_kneeling_low_are_crouched_with_feet_planted() -> None:
+    ev, _ = _run(Scene(8.0, crouch=((1.0, 6.0, 0.4),)))
+    t = np.arange(len(ev.crouched)) / FPS
+    assert ev.crouched[(t > 2.0) & (t < 5.0)].all()
+    assert not ev.crouched[t < 0.9].any()
+    assert all(ev.jump[~ev.planted]), "only the feet moving together as the body rises"
+
+
+def test_a_slow_rise_moves_the_anchor_not_a_step() -> None:
+    joints, _ = render(Scene(6.0))
+    j = joints.copy()
+    j[:, :, 2] += np.clip((np.arange(len(j)) / FPS - 1.0) / 3.0, 0, 1)[:, None] * 0.05  # 5 cm over 3 s
+    ev = step_evidence(noisy(j, 0.01), FPS)
+    assert len(ev.lifts) == 0
+
+
+def test_a_foot_unknown_for_long_is_unknown() -> None:
+    joints, _ = render(Scene(4.0))
+    j = joints.copy()
+    j[60:90, 15] = np.nan
+    ev = step_evidence(j, FPS)
+    assert ev.known[50, 0] and not ev.known[85, 0] and ev.known[95, 0] and ev.known[:, 1].all()
+    assert len(ev.lifts) == 0, "a foot that reappears where it was has not stepped"
+
+
+def test_streaming_equals_the_whole_sequence_and_checks_input() -> None:
+    joints, _ = render(Scene(3.0, march(0.5, 4, 0.5, 0.3)))
+    tr = StepTracker()
+    frames = [tr.update(f, i / FPS) for i, f in enumerate(joints)]
+    ev = step_evidence(joints, FPS)
+    assert [f.feet[0].planted for f in frames] == ev.planted[:, 0].tolist()
+    assert frames[-1].to_dict()["feet"][0]["foot"] == "left"  # type: ignore[index]
+    with pytest.raises(ValueError, match="increase"):
+        tr.update(joints[0], 0.0)
+    with pytest.raises(ValueError, match=r"\(17, 3\)"):
+        tr.update(np.zeros((16, 3)), 10.0)
+    with pytest.raises(ValueError, match="lift_up"):
+        StepConfig(lift_up=0.0)
