@@ -24,6 +24,7 @@ The search runs in two passes:
 
 from __future__ import annotations
 
+import contextlib
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
@@ -296,25 +297,29 @@ def _nearest(mounts: Sequence[Mount], eye: F64, target: F64, taken: set[int]) ->
 def _starts(
     room: Room, mounts: Sequence[Mount], scr: _Screening, count: int, cave: CaveGeometry
 ) -> list[list[int]]:
-    """Start layouts: the default one (wall middles, then corners), corners first, and a greedy build."""
+    """Start layouts: the default one (wall middles, then corners, where ``pipeline.sim.scene`` hangs
+    its cameras), corners first, and a greedy build."""
     starts: list[list[int]] = []
-    spots = scr.spots
-    n_spots = len(set(spots.tolist()))
-    try:
-        eyes = camera_positions(cave, count)
-    except InputError:
-        eyes = []
+    n_spots = len(set(scr.spots.tolist()))
     centre = np.array([*room.centroid_xy, 1.0])
-    for order in (eyes, eyes[len(room.walls) :] + eyes[: len(room.walls)]):
+    orders: list[list[F64]] = []
+    with contextlib.suppress(InputError):  # more cameras than the default scene has places for
+        orders.append([np.asarray(e, dtype=np.float64) for e in camera_positions(cave, count)])
+    by_spot: dict[int, F64] = {}
+    for mount in mounts:  # mount_spots lists the corners first
+        by_spot.setdefault(mount.spot, mount.position_m)
+    orders.append([by_spot[k] for k in sorted(by_spot)][:count])
+    for order in orders:
         if len(order) != count:
             continue
         taken: set[int] = set()
         layout = []
         for eye in order:
-            m = _nearest(mounts, np.asarray(eye), centre, taken)
+            m = _nearest(mounts, eye, centre, taken)
             layout.append(m)
             taken.add(mounts[m].spot)
-        starts.append(layout)
+        if layout not in starts:
+            starts.append(layout)
     # greedy: the candidate seeing most joints first, then whatever lowers the objective most
     first = int(np.argmax(scr.scr.seen.reshape(len(mounts), -1).sum(axis=1)))
     layout = [first]
