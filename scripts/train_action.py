@@ -1,11 +1,17 @@
 #!/usr/bin/env python
-"""Train the skeleton SlowFast action model on simulated users and export it to ONNX.
+"""Train the skeleton SlowFast action model on labelled sequences from several sources; export ONNX.
 
-    .venv/bin/python scripts/train_action.py            # -> pipeline/recognition/action.onnx
+    .venv/bin/python scripts/train_action.py                                  # our simulator only
+    .venv/bin/python scripts/train_action.py --source sim --source gait=DIR --source mocap=DIR
     .venv/bin/python scripts/train_action.py --sequences 40 --epochs 2 --out /tmp/a.onnx   # a quick try
 
-Needs the ``train`` extra (torch, onnx). The simulated data are cached in --cache
-(one .npz per data configuration), so a second run only trains. Deterministic for a seed.
+Sources: ``sim`` (our simulator's random routines, ``--sequences`` of ``--duration`` s) or
+``NAME=DIR`` (every labelled SPEC NPZ under DIR: the still-behaviour library, the second motion
+model, converted real motion capture...), prepared by :mod:`pipeline.recognition.prepare`
+(30 fps, mirrored, folder sources also at 0.85x / 1.15x, captured through the simulated CAVE
+cameras and our triangulation, step evidence from the run-time tracker; cached in --cache).
+Windows are drawn with each source weighing (its frames) ** 0.5. Needs the ``train`` extra
+(torch, onnx). Deterministic for a seed.
 """
 
 from __future__ import annotations
@@ -21,23 +27,20 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from pipeline.recognition.train import (  # noqa: E402
-    DataConfig,
-    TrainConfig,
-    export_onnx,
-    load_or_generate,
-    train_model,
-)
+import numpy as np  # noqa: E402
+
+from pipeline.recognition.features import FEATURES_V1, FEATURES_V2  # noqa: E402
+from pipeline.recognition.prepare import SourceSpec, prepare_corpus, split_items, to_dataset  # noqa: E402
+from pipeline.recognition.train import DataConfig, TrainConfig, export_onnx, train_model  # noqa: E402
 
 _D, _T = DataConfig(), TrainConfig()
 
 
-def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--out", type=Path, default=ROOT / "pipeline" / "recognition" / "action.onnx")
+def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--cache", type=Path, default=Path("/tmp/cavewalk-action-cache"))
-    ap.add_argument("--sequences", type=int, default=_D.sequences)
-    ap.add_argument("--duration", type=float, default=_D.duration_s, help="seconds per routine")
+    ap.add_argument("--source", action="append", help="'sim' or NAME=DIR (repeat); default: sim")
+    ap.add_argument("--sequences", type=int, default=_D.sequences, help="simulated routines (source sim)")
+    ap.add_argument("--duration", type=float, default=_D.duration_s, help="seconds per simulated routine")
     ap.add_argument("--epochs", type=int, default=_T.epochs)
     ap.add_argument("--windows-per-epoch", type=int, default=_T.windows_per_epoch)
     ap.add_argument("--slow-channels", type=int, default=_T.slow_channels)
@@ -47,15 +50,10 @@ def main() -> int:
     ap.add_argument(
         "--threads", type=int, default=1, help="torch threads (1 is fastest on a busy 2-core machine)"
     )
-    ap.add_argument("--report", type=Path, default=None, help="write the training metrics as JSON here")
-    args = ap.parse_args()
-    logging.basicConfig(level=logging.INFO, format="%(message)s")
 
-    def say(msg: str) -> None:
-        print(msg, flush=True)
 
-    data_cfg = replace(DataConfig(), sequences=args.sequences, duration_s=args.duration, seed=args.seed)
-    train_cfg = replace(
+def train_config(args: argparse.Namespace, features: str) -> TrainConfig:
+    return replace(
         TrainConfig(),
         epochs=args.epochs,
         windows_per_epoch=args.windows_per_epoch,
@@ -64,41 +62,55 @@ def main() -> int:
         window=args.window,
         seed=args.seed,
         threads=args.threads,
+        features=features,
     )
-    t0 = time.monotonic()
-    say(
-        f"data: {data_cfg.sequences} routines of {data_cfg.duration_s:g} s at {data_cfg.fps:g} fps "
-        f"(seed {data_cfg.seed}, cache {args.cache})"
-    )
-    data = load_or_generate(data_cfg, args.cache, progress=say)
-    import numpy as np
 
-    n_val = max(1, round(data.num_sequences * train_cfg.validation_fraction))
-    order = np.random.default_rng(args.seed).permutation(data.num_sequences)
-    train, val = data.subset(np.sort(order[n_val:])), data.subset(np.sort(order[:n_val]))
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--out", type=Path, default=ROOT / "pipeline" / "recognition" / "action.onnx")
+    ap.add_argument("--features", choices=[FEATURES_V1, FEATURES_V2], default=FEATURES_V2)
+    ap.add_argument("--report", type=Path, default=None, help="write the training metrics as JSON here")
+    add_arguments(ap)
+    args = ap.parse_args()
+    logging.basicConfig(level=logging.INFO, format="%(message)s")
+
+    def say(msg: str) -> None:
+        print(msg, flush=True)
+
+    t0 = time.monotonic()
+    sources = [SourceSpec.parse(s) for s in (args.source or ["sim"])]
+    items = prepare_corpus(sources, args.cache, args.sequences, args.duration, args.seed, progress=say)
+    t_data = time.monotonic() - t0
+    tr_items, val_items = split_items(items, _T.validation_fraction, args.seed)
+    train, val = to_dataset(tr_items), to_dataset(val_items)
     say(
         f"{len(train.labels)} training frames, {len(val.labels)} validation frames "
-        f"({time.monotonic() - t0:.0f} s)"
+        f"({t_data:.0f} s to prepare)"
     )
-    model, metrics = train_model(train, val, train_cfg, progress=say)
-    export_onnx(
-        model,
-        args.out,
-        train_cfg.window,
-        data.fps,
-        extra={
-            "seed": str(args.seed),
-            "sequences": str(data_cfg.sequences),
-            "trained": time.strftime("%Y-%m-%d"),
-        },
-    )
+    cfg = train_config(args, args.features)
+    model, metrics = train_model(train, val, cfg, progress=say)
+    meta = {
+        "seed": str(args.seed),
+        "sources": ",".join(s.name for s in sources),
+        "trained": time.strftime("%Y-%m-%d"),
+    }
+    export_onnx(model, args.out, cfg.window, train.fps, extra=meta, features=args.features)
     size = args.out.stat().st_size
-    say(
-        f"wrote {args.out} ({size / 1024:.0f} KiB, {metrics['parameters']} parameters) "
-        f"in {time.monotonic() - t0:.0f} s"
-    )
+    total = time.monotonic() - t0
+    say(f"wrote {args.out} ({size / 1024:.0f} KiB, {metrics['parameters']} parameters) in {total:.0f} s")
     if args.report is not None:
-        report = {"data": asdict(data_cfg), "train": asdict(train_cfg), **metrics, "onnx_bytes": size}
+        all_ds = to_dataset(items)
+        per_source = {s: int(np.sum(all_ds.frame_sources() == s)) for s in sorted(set(all_ds.sources))}
+        report = {
+            "sources": [s.name for s in sources],
+            "frames_per_source": per_source,
+            "train": asdict(cfg),
+            **metrics,
+            "prepare_s": t_data,
+            "total_s": total,
+            "onnx_bytes": size,
+        }
         args.report.write_text(json.dumps(report, indent=2, default=str) + "\n")
     return 0
 

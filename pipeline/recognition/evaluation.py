@@ -69,21 +69,31 @@ class NetworkTrace:
     steps: tuple[StepFrame, ...]
 
 
+def step_frames(
+    joints_m: NDArray[np.floating], fps: float, steps: StepConfig | None = None
+) -> tuple[StepFrame, ...]:
+    """The run-time step tracker over a whole sequence."""
+    j = np.where(np.isfinite(joints_m), joints_m, np.nan).astype(np.float64)
+    tracker = StepTracker(replace(steps or StepConfig(), rate_hz=fps))
+    return tuple(tracker.update(f, i / fps) for i, f in enumerate(j))
+
+
 def network_trace(
     session: Any,
     joints_m: NDArray[np.floating],
     fps: float,
     steps: StepConfig | None = None,
     batch: int = 512,
+    frames: tuple[StepFrame, ...] | None = None,
 ) -> NetworkTrace:
-    """Model outputs and step evidence for every frame of a sequence recorded at the model's rate."""
+    """Model outputs and step evidence for every frame of a sequence recorded at the model's rate
+    (``frames``: the sequence's step frames when already computed)."""
     info = model_info(session)
     if abs(fps - info.fps) > 1e-6:
         raise ValueError(f"the sequence is at {fps:g} fps; resample it to the model's {info.fps:g} fps first")
     j = np.where(np.isfinite(joints_m), joints_m, np.nan).astype(np.float64)
-    cfg = replace(steps or StepConfig(), rate_hz=info.fps)
-    tracker = StepTracker(cfg)
-    frames = tuple(tracker.update(f, i / fps) for i, f in enumerate(j))
+    if frames is None:
+        frames = step_frames(j, fps, steps)
     ev = (
         np.stack([evidence_vector(f) for f in frames])
         if frames

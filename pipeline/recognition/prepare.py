@@ -1,0 +1,179 @@
+"""The training corpus prepared: every source's sequences augmented, captured and with step evidence.
+
+``sources`` are ``sim`` (our simulator's random routines) or ``NAME=DIR`` (labelled SPEC NPZ
+files). Each sequence is brought to 30 fps, mirrored, folder sources are also played at 0.85x and
+1.15x (cadences the recordings did not have), then seen by the simulated CAVE cameras and
+triangulated back (:func:`train.capture`), and run through the step tracker (the evidence
+channels, exactly as at run time). The result is cached (one pickle per configuration).
+
+An :class:`Item` keeps the clip it came from (``group``), so that a validation split or a
+leave-one-source-out fold never has an augmentation of a clip on both sides.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import pickle
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass, replace
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pipeline.errors import InputError
+from pipeline.recognition import corpus
+from pipeline.recognition.dataset import LabelledSequence
+from pipeline.recognition.features import evidence_vector
+from pipeline.recognition.steps import StepConfig, StepTracker
+from pipeline.recognition.train import Dataset, NoiseConfig, captured
+
+FPS = 30.0
+FOLDER_SPEEDS = (0.85, 1.0, 1.15)
+
+
+@dataclass(frozen=True, slots=True)
+class SourceSpec:
+    """``sim`` (folder None) or a named folder of labelled NPZ files."""
+
+    name: str
+    folder: Path | None = None
+
+    @classmethod
+    def parse(cls, text: str) -> SourceSpec:
+        if text == "sim":
+            return cls("sim")
+        name, sep, folder = text.partition("=")
+        if not sep or not name or not folder:
+            raise InputError(f"a source is 'sim' or NAME=DIR, got {text!r}")
+        return cls(name, Path(folder))
+
+    def fingerprint(self) -> str:
+        if self.folder is None:
+            return ""
+        h = hashlib.sha1()
+        for p in sorted(self.folder.rglob("*.npz")):
+            st = p.stat()
+            h.update(f"{p.relative_to(self.folder)}:{st.st_size}:{int(st.st_mtime)}".encode())
+        return h.hexdigest()[:10]
+
+
+@dataclass(frozen=True, slots=True)
+class Item:
+    """One prepared sequence: captured (float32 joints), its evidence (T, 16), where it came from.
+
+    original: not mirrored and at its own speed (what a held-out evaluation uses).
+    """
+
+    group: str
+    seq: LabelledSequence
+    evidence: NDArray[np.float32]
+    original: bool
+
+
+def clean_sequences(
+    sources: Sequence[SourceSpec], sim_count: int, sim_duration_s: float, seed: int,
+    progress: Callable[[str], None] | None = None,
+) -> list[tuple[str, LabelledSequence, bool]]:  # fmt: skip
+    """(group, sequence at 30 fps, original?) for every source and its augmentations."""
+    out: list[tuple[str, LabelledSequence, bool]] = []
+    for src in sources:
+        if src.folder is None:
+            base = corpus.simulated(sim_count, sim_duration_s, FPS, seed, progress=progress)
+            speeds: tuple[float, ...] = (1.0,)
+        else:
+            base = corpus.from_folder(src.folder, source=src.name)
+            speeds = FOLDER_SPEEDS
+        n0 = len(out)
+        for s in base:
+            group = f"{src.name}:{s.name}"
+            for sp in speeds:
+                r = corpus.resample(s, FPS, speed=sp)
+                out += [(group, r, sp == 1.0), (group, corpus.mirrored(r), False)]
+        if progress is not None:
+            progress(f"source {src.name}: {len(base)} sequences, {len(out) - n0} with augmentations")
+    return out
+
+
+def evidence_of(seq: LabelledSequence, steps: StepConfig | None = None) -> NDArray[np.float32]:
+    """(T, 16) evidence channels of a sequence, from the run-time step tracker."""
+    tracker = StepTracker(replace(steps or StepConfig(), rate_hz=seq.fps))
+    return np.stack([evidence_vector(tracker.update(f, k / seq.fps)) for k, f in enumerate(seq.joints_m)])
+
+
+def prepare_corpus(
+    sources: Sequence[SourceSpec],
+    cache_dir: Path,
+    sim_count: int = 360,
+    sim_duration_s: float = 40.0,
+    seed: int = 0,
+    noise: NoiseConfig | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> list[Item]:
+    """Every source prepared (see the module docstring), from ``cache_dir`` when done before."""
+    noise = noise or NoiseConfig()
+    key = {
+        "sources": [(s.name, str(s.folder), s.fingerprint()) for s in sources],
+        "sim": (sim_count, sim_duration_s),
+        "seed": seed,
+        "noise": asdict(noise),
+        "steps": asdict(StepConfig()),
+        "v": 3,
+    }
+    digest = hashlib.sha1(json.dumps(key, sort_keys=True, default=str).encode()).hexdigest()[:12]
+    path = Path(cache_dir) / f"action-corpus-{digest}.pkl"
+    if path.is_file():
+        with path.open("rb") as fh:
+            items: list[Item] = pickle.load(fh)
+        if progress is not None:
+            progress(f"prepared corpus from {path} ({len(items)} sequences)")
+        return items
+    pairs = clean_sequences(sources, sim_count, sim_duration_s, seed, progress)
+    seqs = captured([s for _, s, _ in pairs], noise, seed=seed + 1)
+    items = []
+    t0 = time.monotonic()
+    for i, ((group, _, original), seq) in enumerate(zip(pairs, seqs, strict=True)):
+        seq32 = replace(seq, joints_m=seq.joints_m.astype(np.float32))
+        items.append(Item(group, seq32, evidence_of(seq), original))
+        if progress is not None and ((i + 1) % 100 == 0 or i + 1 == len(seqs)):
+            progress(
+                f"captured + step evidence {i + 1}/{len(seqs)} sequences ({time.monotonic() - t0:.0f} s)"
+            )
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("wb") as fh:
+        pickle.dump(items, fh, protocol=4)
+    return items
+
+
+def to_dataset(items: Sequence[Item]) -> Dataset:
+    """Concatenate prepared items into a training :class:`Dataset`."""
+    if not items:
+        raise ValueError("no sequences")
+    lengths = [len(it.seq) for it in items]
+    return Dataset(
+        np.concatenate([it.seq.joints_m for it in items]).astype(np.float32),
+        np.concatenate([it.seq.labels for it in items]).astype(np.int64),
+        np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64),
+        float(items[0].seq.fps),
+        np.concatenate([it.evidence for it in items]).astype(np.float32),
+        tuple(it.seq.source for it in items),
+    )
+
+
+def split_items(items: Sequence[Item], fraction: float, seed: int) -> tuple[list[Item], list[Item]]:
+    """(train, validation): a share of the clips of every source, their augmentations with them."""
+    rng = np.random.default_rng(seed)
+    by_source: dict[str, list[str]] = {}
+    for g in sorted({it.group for it in items}):
+        by_source.setdefault(g.split(":", 1)[0], []).append(g)
+    val: set[str] = set()
+    for members in by_source.values():
+        k = round(len(members) * fraction) if len(members) > 2 else 0
+        if k:
+            val |= set(rng.choice(members, size=k, replace=False).tolist())
+    if not val:  # every source too small: one clip of the largest source
+        largest = max(by_source.values(), key=len)
+        val = {largest[0]}
+    return [it for it in items if it.group not in val], [it for it in items if it.group in val]
