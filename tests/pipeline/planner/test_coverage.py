@@ -122,3 +122,26 @@ def test_a_map_refuses_zero_cameras_and_cameras_outside() -> None:
 
 def _fields(obj: object) -> dict[str, object]:
     return {name: getattr(obj, name) for name in obj.__dataclass_fields__}  # type: ignore[attr-defined]
+
+
+def test_camera_order_does_not_change_who_sees_what(default_map) -> None:
+    cave = box_cave()
+    flipped = coverage_map(cave, default_cameras(cave)[::-1], QUICK)
+    assert np.array_equal(flipped.views, default_map.views, equal_nan=True)
+    assert np.array_equal(flipped.covered2, default_map.covered2, equal_nan=True)
+
+
+def test_an_l_shaped_room_is_mapped_and_its_walls_hide() -> None:
+    from tests.pipeline.planner.test_room import _camera, _l_room
+
+    cave = _l_room()
+    cams = [_camera("a", (-1.35, -1.35, 2.3)), _camera("b", (1.35, -1.35, 2.3), (0.5, -0.75, 1.0)),
+            _camera("c", (-1.35, 1.35, 2.3), (0.3, -0.3, 1.0))]  # fmt: skip
+    m = coverage_map(cave, cams, QUICK)
+    xx, yy = np.meshgrid(m.grid.x_m, m.grid.y_m)
+    assert not m.grid.used[(xx > 0.1) & (yy > 0.1)].any(), "no cell in the cut-out quarter"
+    assert np.isfinite(m.error_mm[m.grid.used]).mean() > 0.5
+    # the +x wing: camera c looks at it across the inner corner, whose walls hide it
+    box = coverage_map(box_cave(), cams, QUICK)
+    wing = m.grid.used & (xx > 0.6) & (yy < -0.3)
+    assert wing.any() and np.nanmean(m.views[wing]) < np.nanmean(box.views[wing]) - 0.3
