@@ -4,7 +4,8 @@ error by region, and how long its maps take.
   .venv/bin/python scripts/bench_planner.py [--section check|speed|all] [--sim-seconds S] [--seed N]
                                             [--repeats R] [--json OUT]
 
-check: predicted vs measured.
+check: predicted vs measured for the default cameras; layout: the same for the cameras of
+--calibration (e.g. a searched best_layout.json), people stepping.
 predicted  ``pipeline.planner.coverage.coverage_map`` for the default CAVE and its four default
            ``kinect_color`` cameras: (a) on the 6 x 6 cells of the benchmark (0.5 m, centres at
            +-0.25, +-0.75, +-1.25 m), with heights 1.50 / 1.725 / 1.95 m (the simulator's range) and
@@ -200,9 +201,52 @@ def check(sim_seconds: float, seed: int) -> dict[str, Any]:
     return out
 
 
+def layout(path: Path, sim_seconds: float, seed: int) -> dict[str, Any]:
+    """Predicted vs measured (stepping people) for the cameras of a calibration file, e.g. a
+    searched ``best_layout.json``: does the simulator confirm what the planner promised?"""
+    from pipeline.calibration.io import load_calibration
+
+    cave = box_cave()
+    cams = load_calibration(path)
+    cells_cfg = PlannerConfig(
+        grid_step_m=0.5,
+        heights_m=(1.5, 1.725, 1.95),
+        facings_deg=tuple(range(0, 360, 45)),
+        samples=8,
+        seed=seed,
+    )
+    pred_cells = coverage_map(cave, cams, cells_cfg)
+    pred_map = coverage_map(cave, cams, PlannerConfig(seed=seed))
+    measured = _bench().bench_sim(sim_seconds, seed, None, cams)
+    print(f"\n== {path}: predicted vs measured MPJPE (mm), people stepping, {sim_seconds:g} s per cell ==")
+    print(
+        f"{'region':8s} {'pred 6x6':>9s} {'pred map':>9s} {'measured':>9s} "
+        f"{'valid pred':>10s} {'valid meas':>10s}"
+    )
+    rows = []
+    for bench_name, region in BENCH_REGIONS.items():
+        m = measured["by_region"][bench_name]
+        row = {
+            "region": region,
+            "predicted_cells_mm": pred_cells.regions[region].error_mm,
+            "predicted_map_mm": pred_map.regions[region].error_mm,
+            "measured_stepping_mm": m["raw_mm"],
+            "valid_predicted": pred_cells.regions[region].valid,
+            "valid_stepping": m["valid_pct"] / 100,
+        }
+        rows.append(row)
+        print(
+            f"{region:8s} {row['predicted_cells_mm']:9.1f} {row['predicted_map_mm']:9.1f} "
+            f"{row['measured_stepping_mm']:9.1f} {100 * row['valid_predicted']:9.1f}% "
+            f"{100 * row['valid_stepping']:9.1f}%"
+        )
+    return {"calibration": str(path), "regions": rows}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--section", choices=("check", "speed", "all"), default="all")
+    ap.add_argument("--section", choices=("check", "speed", "layout", "all"), default="all")
+    ap.add_argument("--calibration", type=Path, help="layout: the cameras to check (e.g. a best_layout.json)")
     ap.add_argument("--sim-seconds", type=float, default=6.0, help="simulated seconds per floor cell")
     ap.add_argument("--repeats", type=int, default=3, help="timing runs per map (median)")
     ap.add_argument("--seed", type=int, default=0)
@@ -213,6 +257,10 @@ def main() -> None:
         out["speed"] = speed(args.repeats, args.seed)
     if args.section in ("check", "all"):
         out["check"] = check(args.sim_seconds, args.seed)
+    if args.section == "layout":
+        if args.calibration is None:
+            ap.error("--section layout needs --calibration")
+        out["layout"] = layout(args.calibration, args.sim_seconds, args.seed)
     if args.json:
         args.json.write_text(json.dumps(out, indent=2))
 

@@ -56,8 +56,14 @@ def _say(msg: str) -> None:
 # ------------------------------------------------------------------------------------------ sim
 
 
-def bench_sim(seconds: float, seed: int, action_weights: dict[str, float] | None = None) -> dict[str, Any]:
-    """MPJPE by floor cell; ``action_weights`` = what the people do (default: the four actions evenly)."""
+def bench_sim(
+    seconds: float,
+    seed: int,
+    action_weights: dict[str, float] | None = None,
+    cameras: list[Camera] | None = None,
+) -> dict[str, Any]:
+    """MPJPE by floor cell; ``action_weights`` = what the people do (default: the four actions evenly);
+    ``cameras`` = the simulator's cameras (default: four ``kinect_color`` above the walls)."""
     from pipeline.cave import box_cave
     from pipeline.sim.body import sample_body
     from pipeline.sim.motion import simulate_user
@@ -66,7 +72,7 @@ def bench_sim(seconds: float, seed: int, action_weights: dict[str, float] | None
     from pipeline.sim.views import FaultConfig, observe_with_ids
 
     cave = box_cave()
-    cams = default_cameras(cave, "kinect_color", 4)
+    cams = cameras or default_cameras(cave, "kinect_color", 4)
     faults = FaultConfig()
     centres = np.array([-1.25, -0.75, -0.25, 0.25, 0.75, 1.25])
     fps = 30.0

@@ -123,3 +123,18 @@ def test_unknown_plans_and_figures_are_404(client: TestClient) -> None:
     assert client.get("/api/v1/plan/99").status_code == 404
     assert client.get("/api/v1/plan/99/figures/coverage.png").status_code == 404
     assert client.get("/api/v1/plan/1/figures/coverage.gif").status_code == 422
+
+
+@pytest.mark.slow
+def test_the_active_calibration_is_planned_after_a_calibration_run(client: TestClient) -> None:
+    run = client.post("/api/v1/calibration/runs").json()  # the simulator's cameras, calibrated by PnP
+    deadline = time.monotonic() + 120
+    while client.get(f"/api/v1/calibration/runs/{run['id']}").json()["status"] not in ("done", "failed"):
+        assert time.monotonic() < deadline, "the calibration run did not finish"
+        time.sleep(0.2)
+    assert client.get("/api/v1/calibration/active").json()["id"] == run["id"]
+    job = _wait(client, client.post("/api/v1/plan", json={"source": "active", **QUICK}).json()["id"])
+    assert job["status"] == "done", job["message"]
+    assert job["source"] == f"active calibration (run {run['id']})"
+    names = [c["name"] for c in job["result"]["coverage"]["cameras"]]
+    assert names == ["cam01", "cam02", "cam03", "cam04"]
