@@ -136,9 +136,10 @@ def _region_text(m: CoverageMap) -> str:
 
 
 def error_vmax(maps: Sequence[CoverageMap]) -> float:
-    """A shared colour-scale top for error maps: the 98th percentile of their cells, rounded up to 5 mm."""
+    """A shared colour-scale top for error maps: the 98th percentile of their cells, but at least 2.5 x
+    their median (so that an even map does not look dark all over), rounded up to 5 mm."""
     vals = np.concatenate([m.error_mm[np.isfinite(m.error_mm)] for m in maps] or [np.array([10.0])])
-    top = float(np.percentile(vals, 98)) if vals.size else 10.0
+    top = max(float(np.percentile(vals, 98)), 2.5 * float(np.median(vals))) if vals.size else 10.0
     return max(5.0, float(np.ceil(top / 5.0) * 5.0))
 
 
