@@ -1,13 +1,13 @@
 """The ``cavewalk`` command line.
 
-Each command group lives in ``app/commands/<name>.py`` and exposes
-``register(cli)``. Errors a user can cause (:class:`pipeline.errors.CavewalkError`)
-end with one message on stderr and exit status 2, never a traceback.
+Each command (or command group) lives in ``app/commands/<name>.py`` as a module-level
+Typer app named ``app``; this module adds them in the order of ``--help``. Errors a user
+can cause (:class:`pipeline.errors.CavewalkError`) end with one message on stderr and
+exit status 2, never a traceback.
 """
 
 from __future__ import annotations
 
-import importlib
 import logging
 import sys
 from pathlib import Path
@@ -15,6 +15,20 @@ from typing import Annotated
 
 import typer
 
+from app.commands import (
+    calibration,
+    config,
+    data,
+    evaluate,
+    models,
+    plan,
+    process,
+    recognize,
+    runtime,
+    serve,
+    simulate,
+    study,
+)
 from app.core.config import load_settings, set_settings
 from app.core.logging import configure_logging
 from pipeline.errors import CavewalkError
@@ -27,48 +41,30 @@ cli = typer.Typer(
     add_completion=False,
 )
 
-# Command modules, each with register(cli). Order = order in --help.
-COMMAND_MODULES: tuple[str, ...] = (
-    "app.commands.config",
-    "app.commands.models",
-    "app.commands.data",
-    "app.commands.calibration",
-    "app.commands.process",
-    "app.commands.recognize",
-    "app.commands.evaluate",
-    "app.commands.serve",
-    "app.commands.study",
-    "app.commands.runtime",
-    "app.commands.simulate",
-    "app.commands.plan",
-)
-
-log = logging.getLogger(__name__)
-
 
 @cli.callback()
 def _root(
     verbose: Annotated[bool, typer.Option("--verbose", "-v", help="Debug logging.")] = False,
-    config: Annotated[
+    config_file: Annotated[
         Path | None, typer.Option("--config", help="Settings TOML file (default ./cavewalk.toml).")
     ] = None,
 ) -> None:
     configure_logging(logging.DEBUG if verbose else logging.INFO)
-    set_settings(load_settings(config))
+    set_settings(load_settings(config_file))
 
 
-def apply_config(config: Path | None) -> None:
-    """For commands that also take --config themselves (serve, demo)."""
-    if config is not None:
-        set_settings(load_settings(config))
-
-
-def _register_all() -> None:
-    for name in COMMAND_MODULES:
-        importlib.import_module(name).register(cli)
-
-
-_register_all()
+cli.add_typer(config.app)  # cavewalk config show
+cli.add_typer(models.app)  # cavewalk models prepare
+cli.add_typer(data.app)  # cavewalk data demo
+cli.add_typer(calibration.app)  # cavewalk calibration pattern|layout|checkerboard, cavewalk calibrate
+cli.add_typer(process.app)  # cavewalk process
+cli.add_typer(recognize.app)  # cavewalk recognize
+cli.add_typer(evaluate.app)  # cavewalk evaluate
+cli.add_typer(serve.app)  # cavewalk serve, cavewalk demo
+cli.add_typer(study.app)  # cavewalk study report
+cli.add_typer(runtime.app)  # cavewalk receive, cavewalk bench
+cli.add_typer(simulate.app)  # cavewalk simulate
+cli.add_typer(plan.app)  # cavewalk plan
 
 
 def main() -> None:

@@ -32,8 +32,12 @@ from app.db.repositories import (
     fail_unfinished_calibration_runs,
     running_session,
 )
+from app.services.calibration import CalibrationService
 from app.services.event_log import EventWriter, EventWriterConfig
 from app.services.live import PipelineFacade, PipelineService, SourceName
+from app.services.pipeline_factory import runtime_factory
+from app.services.planner import PlannerService
+from app.viewer import Viewer
 from pipeline.errors import CavewalkError, InputError
 
 log = logging.getLogger(__name__)
@@ -77,9 +81,6 @@ def create_app(
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
-        from app.services.calibration import CalibrationService
-        from app.services.planner import PlannerService
-
         engine = make_engine(settings.paths.db)
         upgrade(engine)
         factory = make_session_factory(engine)
@@ -96,12 +97,8 @@ def create_app(
             )
         viewer = None
         if settings.server.viser:
-            from app.viewer import Viewer
-
             viewer = Viewer.start(settings)
         if pipeline_factory is True:
-            from app.services.pipeline_factory import runtime_factory
-
             built, reason = runtime_factory(settings, factory)
         else:
             built, reason = (pipeline_factory or None), "no pipeline in this app"

@@ -1,40 +1,38 @@
-"""``api_router``: every resource's routes under ``/api/v1``.
+"""``api_router``: every resource's routes under ``/api/v1`` (the FastAPI template's ``api/main.py``).
 
-To add a resource, add its module (exposing ``router``) to ``ROUTE_MODULES``.
-Every router but health's requires the operator token when the server has one.
+To add a resource, write ``app/api/routes/<resource>.py`` exposing ``router``, import it
+here and include it below. Every router but health's requires the operator token when
+the server has one.
 """
 
 from __future__ import annotations
 
-import importlib
-
 from fastapi import APIRouter
 
 from app.api.deps import TokenDep
-
-PUBLIC_ROUTE_MODULES: tuple[str, ...] = ("app.api.routes.health",)
-
-ROUTE_MODULES: tuple[str, ...] = (
-    "app.api.routes.status",
-    "app.api.routes.pipeline",
-    "app.api.routes.people",
-    "app.api.routes.calibration",
-    "app.api.routes.planner",
-    "app.api.routes.participants",
-    "app.api.routes.sessions",
-    "app.api.routes.live",
-    "app.api.routes.study",
-    "app.api.routes.analysis",
+from app.api.routes import (
+    analysis,
+    calibration,
+    health,
+    live,
+    participants,
+    people,
+    pipeline,
+    planner,
+    sessions,
+    status,
+    study,
 )
 
-
-def build_api_router() -> APIRouter:
-    router = APIRouter(prefix="/api/v1")
-    for name in PUBLIC_ROUTE_MODULES:
-        router.include_router(importlib.import_module(name).router)
-    for name in ROUTE_MODULES:
-        router.include_router(importlib.import_module(name).router, dependencies=[TokenDep])
-    return router
-
-
-api_router = build_api_router()
+api_router = APIRouter(prefix="/api/v1")
+api_router.include_router(health.router)
+api_router.include_router(status.router, dependencies=[TokenDep])
+api_router.include_router(pipeline.router, dependencies=[TokenDep])
+api_router.include_router(people.router, dependencies=[TokenDep])
+api_router.include_router(calibration.router, dependencies=[TokenDep])
+api_router.include_router(planner.router, dependencies=[TokenDep])
+api_router.include_router(participants.router, dependencies=[TokenDep])
+api_router.include_router(sessions.router, dependencies=[TokenDep])
+api_router.include_router(live.router, dependencies=[TokenDep])
+api_router.include_router(study.router, dependencies=[TokenDep])
+api_router.include_router(analysis.router, dependencies=[TokenDep])

@@ -4,25 +4,21 @@ from __future__ import annotations
 
 import json
 
+import tomli_w
 import typer
 
 from app.core.config import get_settings
 
+app = typer.Typer(name="config", help="Inspect the settings.", no_args_is_help=True)
 
-def register(cli: typer.Typer) -> None:
-    group = typer.Typer(help="Inspect the settings.", no_args_is_help=True)
 
-    @group.command("show")
-    def show(
-        as_json: bool = typer.Option(False, "--json", help="JSON instead of TOML."),
-    ) -> None:
-        """Print the effective settings (defaults + cavewalk.toml + CAVEWALK_* variables)."""
-        data = get_settings().model_dump(mode="json", exclude_none=True)
-        if as_json:
-            typer.echo(json.dumps(data, indent=2))
-        else:
-            import tomli_w
-
-            typer.echo(tomli_w.dumps(data))
-
-    cli.add_typer(group, name="config")
+@app.command("show")
+def show(
+    as_json: bool = typer.Option(False, "--json", help="JSON instead of TOML."),
+) -> None:
+    """Print the effective settings (defaults + cavewalk.toml + CAVEWALK_* variables)."""
+    data = get_settings().model_dump(mode="json", exclude_none=True)
+    if as_json:
+        typer.echo(json.dumps(data, indent=2))
+    else:
+        typer.echo(tomli_w.dumps(data))

@@ -14,6 +14,10 @@ import typer
 
 from app.core.config import get_settings
 from pipeline.errors import InputError
+from pipeline.recognition.dataset import load_labelled
+from pipeline.recognition.evaluation import evaluate_recognizer
+from pipeline.recognition.metrics import text_report
+from pipeline.recognition.recognizer import ActionRecognizer
 
 
 def _finite(obj: Any) -> Any:
@@ -26,70 +30,66 @@ def _finite(obj: Any) -> Any:
         return [_finite(v) for v in obj]
     return obj
 
+app = typer.Typer()
 
-def register(cli: typer.Typer) -> None:
-    @cli.command("evaluate")
-    def evaluate(
-        skeletons: Annotated[
-            list[Path],
-            typer.Option(
-                "--skeletons",
-                help="Labelled skeleton NPZ files (joints, fps, labels; optional tags, contacts, source). "
-                "More files may follow the first: --skeletons A.npz B.npz ...",
-            ),
-        ],
-        more: Annotated[
-            list[Path] | None, typer.Argument(help="More labelled NPZ files.", show_default=False)
-        ] = None,
-        model: Annotated[
-            Path | None, typer.Option("--model", help="Action model ONNX (default: from the settings).")
-        ] = None,
-        json_out: Annotated[
-            Path | None, typer.Option("--json", help="Also write the whole report as JSON here.")
-        ] = None,
-        exclude: Annotated[
-            float,
-            typer.Option(
-                "--exclude", min=0.0, help="Seconds after each true change left out of frame figures."
-            ),
-        ] = 0.3,
-    ) -> None:
-        """Per-class precision/recall, frame accuracy, macro-F1, confusion, start/stop latency and false
-        movement per tag of the recogniser on labelled skeleton sequences."""
-        from pipeline.recognition.dataset import load_labelled
-        from pipeline.recognition.evaluation import evaluate_recognizer
-        from pipeline.recognition.metrics import text_report
-        from pipeline.recognition.recognizer import ActionRecognizer
 
-        paths = [*skeletons, *(more or [])]
-        if not paths:
-            raise InputError("give at least one labelled skeleton file with --skeletons")
-        if json_out is not None and json_out.is_dir():
-            raise InputError(f"--json {json_out} is a directory; give a file name")
-        sequences = [load_labelled(p) for p in paths]  # every file checked before any work
-        config = get_settings().recognition.to_config()
-        if model is not None:
-            config = replace(config, model_path=model)
-        recognizer = ActionRecognizer.from_config(config)
-        frames = sum(len(s) for s in sequences)
-        with typer.progressbar(length=frames, label="evaluating", file=None) as bar:
-            report = evaluate_recognizer(
-                recognizer, sequences, exclude, progress=lambda s: bar.update(len(s))
-            )
-        typer.echo(text_report(report), nl=False)
-        if json_out is not None:
-            data = _finite(report.to_dict()) | {
-                "files": [str(p) for p in paths],
-                "model": str(config.model_path),
-            }
-            json_out.parent.mkdir(parents=True, exist_ok=True)
-            fd, tmp = tempfile.mkstemp(prefix=".evaluate-", suffix=".json", dir=json_out.parent)
-            try:
-                with os.fdopen(fd, "w", encoding="utf-8") as fh:
-                    json.dump(data, fh, indent=2)
-                    fh.write("\n")
-                os.replace(tmp, json_out)
-            except BaseException:
-                Path(tmp).unlink(missing_ok=True)
-                raise
-            typer.echo(f"wrote {json_out}")
+@app.command("evaluate")
+def evaluate(
+    skeletons: Annotated[
+        list[Path],
+        typer.Option(
+            "--skeletons",
+            help="Labelled skeleton NPZ files (joints, fps, labels; optional tags, contacts, source). "
+            "More files may follow the first: --skeletons A.npz B.npz ...",
+        ),
+    ],
+    more: Annotated[
+        list[Path] | None, typer.Argument(help="More labelled NPZ files.", show_default=False)
+    ] = None,
+    model: Annotated[
+        Path | None, typer.Option("--model", help="Action model ONNX (default: from the settings).")
+    ] = None,
+    json_out: Annotated[
+        Path | None, typer.Option("--json", help="Also write the whole report as JSON here.")
+    ] = None,
+    exclude: Annotated[
+        float,
+        typer.Option(
+            "--exclude", min=0.0, help="Seconds after each true change left out of frame figures."
+        ),
+    ] = 0.3,
+) -> None:
+    """Per-class precision/recall, frame accuracy, macro-F1, confusion, start/stop latency and false
+    movement per tag of the recogniser on labelled skeleton sequences."""
+    paths = [*skeletons, *(more or [])]
+    if not paths:
+        raise InputError("give at least one labelled skeleton file with --skeletons")
+    if json_out is not None and json_out.is_dir():
+        raise InputError(f"--json {json_out} is a directory; give a file name")
+    sequences = [load_labelled(p) for p in paths]  # every file checked before any work
+    config = get_settings().recognition.to_config()
+    if model is not None:
+        config = replace(config, model_path=model)
+    recognizer = ActionRecognizer.from_config(config)
+    frames = sum(len(s) for s in sequences)
+    with typer.progressbar(length=frames, label="evaluating", file=None) as bar:
+        report = evaluate_recognizer(
+            recognizer, sequences, exclude, progress=lambda s: bar.update(len(s))
+        )
+    typer.echo(text_report(report), nl=False)
+    if json_out is not None:
+        data = _finite(report.to_dict()) | {
+            "files": [str(p) for p in paths],
+            "model": str(config.model_path),
+        }
+        json_out.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=".evaluate-", suffix=".json", dir=json_out.parent)
+        try:
+            with os.fdopen(fd, "w", encoding="utf-8") as fh:
+                json.dump(data, fh, indent=2)
+                fh.write("\n")
+            os.replace(tmp, json_out)
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
+        typer.echo(f"wrote {json_out}")

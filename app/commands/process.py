@@ -4,24 +4,29 @@ from __future__ import annotations
 
 import logging
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated
+from typing import Annotated
 
 import typer
 
 from app.core.config import Settings, get_settings
+from pipeline.calibration.io import load_calibration
 from pipeline.camera import Camera
 from pipeline.errors import InputError
-
-if TYPE_CHECKING:
-    from pipeline.runtime.offline import FusionStage
+from pipeline.recognition.recognizer import ActionRecognizer
+from pipeline.results import ResultsWriter
+from pipeline.runtime.offline import FusionStage, OfflinePipeline, RunSummary, SyncedVideos, parse_named_paths
+from pipeline.runtime.stages import Fusion
+from pipeline.tracking.stage import DetectAndTrack
+from pipeline.triangulation.navigator import NavigatorSelector
+from pipeline.triangulation.reconstructor import Reconstructor
 
 log = logging.getLogger(__name__)
+
+app = typer.Typer()
 
 
 def _calibrated_cameras(path: Path, cameras: list[str]) -> list[Camera]:
     """The calibration's cameras for the videos, in video order; every video must be calibrated."""
-    from pipeline.calibration.io import load_calibration
-
     by_name = {c.name: c for c in load_calibration(path)}
     missing = [c for c in cameras if c not in by_name]
     if missing:
@@ -34,12 +39,6 @@ def _calibrated_cameras(path: Path, cameras: list[str]) -> list[Camera]:
 
 def _fusion_stage(settings: Settings, cameras: list[Camera]) -> FusionStage:
     """Triangulation, navigator choice and action recognition over the tracked views."""
-    from pipeline.recognition.recognizer import ActionRecognizer
-    from pipeline.runtime.offline import FusionStage
-    from pipeline.runtime.stages import Fusion
-    from pipeline.triangulation.navigator import NavigatorSelector
-    from pipeline.triangulation.reconstructor import Reconstructor
-
     return FusionStage(Fusion(
         tracker=None,
         reconstructor=Reconstructor.from_settings(cameras, settings.triangulation),
@@ -56,64 +55,59 @@ def _check_out(out: Path) -> None:
         raise InputError(f"--out {out}: {parent} is not a directory")
 
 
-def register(cli: typer.Typer) -> None:
-    @cli.command("process")
-    def process(
-        video: Annotated[list[str], typer.Option(
-            "--video", help="NAME=PATH, one per camera (names as in the calibration).",
-        )],
-        calibration: Annotated[Path, typer.Option(
-            "--calibration", help="Calibration (JSON, Pose2Sim TOML or Qualisys .qca.txt).",
-        )],
-        out: Annotated[Path, typer.Option("--out", help="Per-frame results, JSON Lines.")],
-        frames: Annotated[int | None, typer.Option(
-            "--frames", min=1, help="Process only the first N frames.",
-        )] = None,
-        roi: Annotated[bool | None, typer.Option(
-            "--roi/--no-roi",
-            help="Crop around tracked people between full-frame passes (default: settings).",
-        )] = None,
-    ) -> None:
-        """The whole recognition pipeline over synchronised videos: detection, tracking, 3D skeletons,
-        navigator and action per frame, as the per-frame JSON Lines of SPEC.md."""
-        from pipeline.results import ResultsWriter
-        from pipeline.runtime.offline import OfflinePipeline, RunSummary, SyncedVideos, parse_named_paths
-        from pipeline.tracking.stage import DetectAndTrack
+@app.command("process")
+def process(
+    video: Annotated[list[str], typer.Option(
+        "--video", help="NAME=PATH, one per camera (names as in the calibration).",
+    )],
+    calibration: Annotated[Path, typer.Option(
+        "--calibration", help="Calibration (JSON, Pose2Sim TOML or Qualisys .qca.txt).",
+    )],
+    out: Annotated[Path, typer.Option("--out", help="Per-frame results, JSON Lines.")],
+    frames: Annotated[int | None, typer.Option(
+        "--frames", min=1, help="Process only the first N frames.",
+    )] = None,
+    roi: Annotated[bool | None, typer.Option(
+        "--roi/--no-roi",
+        help="Crop around tracked people between full-frame passes (default: settings).",
+    )] = None,
+) -> None:
+    """The whole recognition pipeline over synchronised videos: detection, tracking, 3D skeletons,
+    navigator and action per frame, as the per-frame JSON Lines of SPEC.md."""
+    settings = get_settings()
+    named = parse_named_paths(video, "video")
+    cameras = _calibrated_cameras(calibration, list(named))
+    _check_out(out)
+    pose = settings.pose if roi is None else settings.pose.model_copy(update={"roi": roi})
+    with SyncedVideos(named) as videos:
+        stage = DetectAndTrack.from_settings(pose, settings.tracking, settings.pose_model_path,
+                                             list(videos.cameras))
+        pipeline = OfflinePipeline(stage, stages=[_fusion_stage(settings, cameras)])
+        total = videos.frame_count if frames is None else min(frames, videos.frame_count or frames)
+        typer.echo(f"processing {len(named)} videos, {total or '?'} frames at {videos.fps:g} fps "
+                   f"(ROI mode {'on' if pose.roi else 'off'}) -> {out}", err=True)
+        step = max(1, (total or 100) // 20)
 
-        settings = get_settings()
-        named = parse_named_paths(video, "video")
-        cameras = _calibrated_cameras(calibration, list(named))
-        _check_out(out)
-        pose = settings.pose if roi is None else settings.pose.model_copy(update={"roi": roi})
-        with SyncedVideos(named) as videos:
-            stage = DetectAndTrack.from_settings(pose, settings.tracking, settings.pose_model_path,
-                                                 list(videos.cameras))
-            pipeline = OfflinePipeline(stage, stages=[_fusion_stage(settings, cameras)])
-            total = videos.frame_count if frames is None else min(frames, videos.frame_count or frames)
-            typer.echo(f"processing {len(named)} videos, {total or '?'} frames at {videos.fps:g} fps "
-                       f"(ROI mode {'on' if pose.roi else 'off'}) -> {out}", err=True)
-            step = max(1, (total or 100) // 20)
+        def progress(done: int, total: int, summary: RunSummary) -> None:
+            if done % step == 0 or done == total:
+                typer.echo(f"  frame {done}/{total or '?'}  detect+track median "
+                           f"{summary.median_ms():.1f} ms/frame", err=True)
 
-            def progress(done: int, total: int, summary: RunSummary) -> None:
-                if done % step == 0 or done == total:
-                    typer.echo(f"  frame {done}/{total or '?'}  detect+track median "
-                               f"{summary.median_ms():.1f} ms/frame", err=True)
-
-            out.parent.mkdir(parents=True, exist_ok=True)
-            partial = out.with_name(out.name + ".partial")
-            try:
-                with ResultsWriter(partial) as writer:
-                    summary = pipeline.run(videos, writer, max_frames=frames, progress=progress)
-                partial.replace(out)
-            finally:
-                partial.unlink(missing_ok=True)
-        fulls = sum(t.full for t in summary.timings)
-        typer.echo(f"wrote {summary.frames} frames to {out} in {summary.wall_s:.1f} s "
-                   f"(detect+track median {summary.median_ms():.1f} ms/frame, "
-                   f"{fulls} full-frame passes)")
-        actions = ", ".join(f"{k}: {n}" for k, n in sorted(summary.actions.items())) or "none"
-        typer.echo(f"  3D people in {summary.people3d_frames} frames, a navigator in "
-                   f"{summary.navigator_frames}; actions {actions}")
-        for cam, counts in summary.track_frames.items():
-            ids = ", ".join(f"#{tid}: {n}" for tid, n in sorted(counts.items())) or "nobody"
-            typer.echo(f"  {cam}: frames per track id {ids}")
+        out.parent.mkdir(parents=True, exist_ok=True)
+        partial = out.with_name(out.name + ".partial")
+        try:
+            with ResultsWriter(partial) as writer:
+                summary = pipeline.run(videos, writer, max_frames=frames, progress=progress)
+            partial.replace(out)
+        finally:
+            partial.unlink(missing_ok=True)
+    fulls = sum(t.full for t in summary.timings)
+    typer.echo(f"wrote {summary.frames} frames to {out} in {summary.wall_s:.1f} s "
+               f"(detect+track median {summary.median_ms():.1f} ms/frame, "
+               f"{fulls} full-frame passes)")
+    actions = ", ".join(f"{k}: {n}" for k, n in sorted(summary.actions.items())) or "none"
+    typer.echo(f"  3D people in {summary.people3d_frames} frames, a navigator in "
+               f"{summary.navigator_frames}; actions {actions}")
+    for cam, counts in summary.track_frames.items():
+        ids = ", ".join(f"#{tid}: {n}" for tid, n in sorted(counts.items())) or "nobody"
+        typer.echo(f"  {cam}: frames per track id {ids}")

@@ -6,13 +6,21 @@ import json
 import signal
 import sys
 import threading
+from dataclasses import replace
 from pathlib import Path
 from typing import Annotated, Any
 
 import typer
 
 from app.core.config import get_settings
+from pipeline.calibration.io import load_calibration
+from pipeline.demo_data import fetch_demo
+from pipeline.emitter.receiver import open_receiver_socket, receive
 from pipeline.errors import InputError
+from pipeline.runtime import Pipeline, RuntimeConfig, SimWorldFactory
+from pipeline.runtime.bench import Scenario, machine_info, run_scenario
+
+app = typer.Typer()
 
 
 def _install_stop_handlers(stop: threading.Event) -> None:
@@ -23,121 +31,109 @@ def _install_stop_handlers(stop: threading.Event) -> None:
     signal.signal(signal.SIGINT, handler)
 
 
-def register(cli: typer.Typer) -> None:
-    @cli.command("receive")
-    def receive_cmd(
-        port: Annotated[int, typer.Option("--port", "-p", help="UDP port to listen on.")],
-        host: Annotated[str, typer.Option("--host", help="Address to bind.")] = "0.0.0.0",
-        count: Annotated[int | None, typer.Option("--count", "-n", help="Stop after N datagrams.")] = None,
-        duration: Annotated[float | None, typer.Option("--duration", help="Stop after S seconds.")] = None,
-        multicast: Annotated[str | None, typer.Option("--multicast", help="Join this multicast group.")]
-        = None,
-        as_json: Annotated[bool, typer.Option("--json", help="One JSON object per datagram, then a "
-                                              "summary object.")] = False,
-        quiet: Annotated[bool, typer.Option("--quiet", "-q", help="Only the summary.")] = False,
-    ) -> None:
-        """A reference workstation: validate each datagram (protocol v1), count drops by seq,
-        print rate and latency (ts against the receive time). Exit 1 if any datagram was invalid."""
-        from pipeline.emitter.receiver import open_receiver_socket, receive
+@app.command("receive")
+def receive_cmd(
+    port: Annotated[int, typer.Option("--port", "-p", help="UDP port to listen on.")],
+    host: Annotated[str, typer.Option("--host", help="Address to bind.")] = "0.0.0.0",
+    count: Annotated[int | None, typer.Option("--count", "-n", help="Stop after N datagrams.")] = None,
+    duration: Annotated[float | None, typer.Option("--duration", help="Stop after S seconds.")] = None,
+    multicast: Annotated[str | None, typer.Option("--multicast", help="Join this multicast group.")]
+    = None,
+    as_json: Annotated[bool, typer.Option("--json", help="One JSON object per datagram, then a "
+                                          "summary object.")] = False,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="Only the summary.")] = False,
+) -> None:
+    """A reference workstation: validate each datagram (protocol v1), count drops by seq,
+    print rate and latency (ts against the receive time). Exit 1 if any datagram was invalid."""
+    if not 1 <= port <= 65535:
+        raise InputError(f"--port must be 1-65535, got {port}")
+    if count is not None and count < 1:
+        raise InputError(f"--count must be >= 1, got {count}")
+    if duration is not None and duration <= 0:
+        raise InputError(f"--duration must be > 0, got {duration}")
+    sock = open_receiver_socket(port, host, multicast)
+    stop = threading.Event()
+    _install_stop_handlers(stop)
+    if not as_json:
+        typer.echo(f"listening on udp://{host}:{port}" + (f" (group {multicast})" if multicast else ""),
+                   err=True)
 
-        if not 1 <= port <= 65535:
-            raise InputError(f"--port must be 1-65535, got {port}")
-        if count is not None and count < 1:
-            raise InputError(f"--count must be >= 1, got {count}")
-        if duration is not None and duration <= 0:
-            raise InputError(f"--duration must be > 0, got {duration}")
-        sock = open_receiver_socket(port, host, multicast)
-        stop = threading.Event()
-        _install_stop_handlers(stop)
-        if not as_json:
-            typer.echo(f"listening on udp://{host}:{port}" + (f" (group {multicast})" if multicast else ""),
-                       err=True)
-
-        def show(msg: dict[str, Any] | None, data: bytes) -> None:
-            if quiet:
-                return
-            if as_json:
-                typer.echo(json.dumps({"valid": msg is not None, "message": msg} if msg is not None else
-                                      {"valid": False, "raw": data[:200].decode("utf-8", "replace")}))
-            elif msg is None:
-                typer.echo(f"INVALID {data[:120]!r}")
-            elif msg["type"] == "locomotion":
-                typer.echo(f"#{msg['seq']:>6} locomotion user {msg['user_id']} {msg['action']:<8} "
-                           f"conf {msg['confidence']:.2f} yaw {msg['yaw_deg']:7.1f} speed "
-                           f"{msg['speed_mps']:.2f} pos {msg['position_m']}")
-            else:
-                typer.echo(f"#{msg['seq']:>6} heartbeat {msg['state']}")
-
-        try:
-            stats = receive(sock, count=count, duration_s=duration, on_message=show, should_stop=stop.is_set)
-        finally:
-            sock.close()
-        summary = stats.summary()
+    def show(msg: dict[str, Any] | None, data: bytes) -> None:
+        if quiet:
+            return
         if as_json:
-            typer.echo(json.dumps({"summary": summary}))
+            typer.echo(json.dumps({"valid": msg is not None, "message": msg} if msg is not None else
+                                  {"valid": False, "raw": data[:200].decode("utf-8", "replace")}))
+        elif msg is None:
+            typer.echo(f"INVALID {data[:120]!r}")
+        elif msg["type"] == "locomotion":
+            typer.echo(f"#{msg['seq']:>6} locomotion user {msg['user_id']} {msg['action']:<8} "
+                       f"conf {msg['confidence']:.2f} yaw {msg['yaw_deg']:7.1f} speed "
+                       f"{msg['speed_mps']:.2f} pos {msg['position_m']}")
         else:
-            lat = summary["latency_ms"]
-            typer.echo(
-                f"received {summary['received']} ({summary['valid']} valid, {summary['invalid']} invalid), "
-                f"dropped {summary['dropped']}, out of order {summary['out_of_order']}, "
-                f"rate {summary['rate_hz'] or 0:.1f} Hz, "
-                f"locomotion {summary['locomotion_rate_hz'] or 0:.1f} Hz"
-                + (f", latency p50 {lat['p50']:.1f} / p95 {lat['p95']:.1f} / p99 {lat['p99']:.1f} ms"
-                   if lat else ""), err=True)
-            for err in summary["errors"][:5]:
-                typer.echo(f"  invalid: {err}", err=True)
-        if stats.invalid:
-            raise typer.Exit(1)
+            typer.echo(f"#{msg['seq']:>6} heartbeat {msg['state']}")
 
-    @cli.command("bench")
-    def bench_cmd(
-        source: Annotated[str, typer.Option("--source", help="demo, sim or both.")] = "both",
-        duration: Annotated[float, typer.Option("--duration", help="Seconds measured per scenario.")] = 20.0,
-        json_out: Annotated[Path | None, typer.Option("--json", help="Write the figures to this file.")]
-        = None,
-        flat_out: Annotated[bool, typer.Option("--flat-out/--no-flat-out",
-                                               help="Also run the demo videos flat out.")] = True,
-        warmup: Annotated[float, typer.Option("--warmup", help="Seconds run before measuring.")] = 2.0,
-    ) -> None:
-        """Throughput, dropped frames, per-stage and end-to-end latency, CPU and memory of the live
-        pipeline: the four real demo views paced at 30 fps (and flat out), and the simulator at 60 fps."""
-        from pipeline.runtime.bench import machine_info, run_scenario
+    try:
+        stats = receive(sock, count=count, duration_s=duration, on_message=show, should_stop=stop.is_set)
+    finally:
+        sock.close()
+    summary = stats.summary()
+    if as_json:
+        typer.echo(json.dumps({"summary": summary}))
+    else:
+        lat = summary["latency_ms"]
+        typer.echo(
+            f"received {summary['received']} ({summary['valid']} valid, {summary['invalid']} invalid), "
+            f"dropped {summary['dropped']}, out of order {summary['out_of_order']}, "
+            f"rate {summary['rate_hz'] or 0:.1f} Hz, "
+            f"locomotion {summary['locomotion_rate_hz'] or 0:.1f} Hz"
+            + (f", latency p50 {lat['p50']:.1f} / p95 {lat['p95']:.1f} / p99 {lat['p99']:.1f} ms"
+               if lat else ""), err=True)
+        for err in summary["errors"][:5]:
+            typer.echo(f"  invalid: {err}", err=True)
+    if stats.invalid:
+        raise typer.Exit(1)
 
-        signal.signal(signal.SIGTERM, signal.default_int_handler)  # SIGTERM ends like Ctrl-C: clean stop
-        if source not in ("demo", "sim", "both"):
-            raise InputError(f"--source must be demo, sim or both, got {source!r}")
-        if duration <= 0:
-            raise InputError(f"--duration must be > 0, got {duration}")
-        if warmup < 0:
-            raise InputError(f"--warmup must be >= 0, got {warmup}")
-        if json_out is not None and json_out.exists() and json_out.is_dir():
-            raise InputError(f"--json {json_out} is a folder")
-        scenarios = _scenarios(source, flat_out)
-        report: dict[str, Any] = {"machine": machine_info(), "duration_s": duration, "warmup_s": warmup,
-                                  "scenarios": {}}
-        for sc in scenarios:
-            typer.echo(f"== {sc.name}: {sc.notes}", err=True)
-            report["scenarios"][sc.name] = run_scenario(sc, duration, warmup_s=warmup,
-                                                        progress=lambda m: typer.echo(m, err=True))
-        _print_report(report)
-        if json_out is not None:
-            json_out.parent.mkdir(parents=True, exist_ok=True)
-            json_out.write_text(json.dumps(report, indent=1, allow_nan=False, default=_nan_none))
-            typer.echo(f"wrote {json_out}", err=True)
+@app.command("bench")
+def bench_cmd(
+    source: Annotated[str, typer.Option("--source", help="demo, sim or both.")] = "both",
+    duration: Annotated[float, typer.Option("--duration", help="Seconds measured per scenario.")] = 20.0,
+    json_out: Annotated[Path | None, typer.Option("--json", help="Write the figures to this file.")]
+    = None,
+    flat_out: Annotated[bool, typer.Option("--flat-out/--no-flat-out",
+                                           help="Also run the demo videos flat out.")] = True,
+    warmup: Annotated[float, typer.Option("--warmup", help="Seconds run before measuring.")] = 2.0,
+) -> None:
+    """Throughput, dropped frames, per-stage and end-to-end latency, CPU and memory of the live
+    pipeline: the four real demo views paced at 30 fps (and flat out), and the simulator at 60 fps."""
+    signal.signal(signal.SIGTERM, signal.default_int_handler)  # SIGTERM ends like Ctrl-C: clean stop
+    if source not in ("demo", "sim", "both"):
+        raise InputError(f"--source must be demo, sim or both, got {source!r}")
+    if duration <= 0:
+        raise InputError(f"--duration must be > 0, got {duration}")
+    if warmup < 0:
+        raise InputError(f"--warmup must be >= 0, got {warmup}")
+    if json_out is not None and json_out.exists() and json_out.is_dir():
+        raise InputError(f"--json {json_out} is a folder")
+    scenarios = _scenarios(source, flat_out)
+    report: dict[str, Any] = {"machine": machine_info(), "duration_s": duration, "warmup_s": warmup,
+                              "scenarios": {}}
+    for sc in scenarios:
+        typer.echo(f"== {sc.name}: {sc.notes}", err=True)
+        report["scenarios"][sc.name] = run_scenario(sc, duration, warmup_s=warmup,
+                                                    progress=lambda m: typer.echo(m, err=True))
+    _print_report(report)
+    if json_out is not None:
+        json_out.parent.mkdir(parents=True, exist_ok=True)
+        json_out.write_text(json.dumps(report, indent=1, allow_nan=False, default=_nan_none))
+        typer.echo(f"wrote {json_out}", err=True)
 
 
 def _nan_none(obj: Any) -> Any:
     return None
 
 
-def _scenarios(source: str, flat_out: bool) -> list[Any]:
-    from dataclasses import replace
-
-    from pipeline.calibration.io import load_calibration
-    from pipeline.demo_data import fetch_demo
-    from pipeline.runtime import Pipeline, RuntimeConfig, SimWorldFactory
-    from pipeline.runtime.bench import Scenario
-
+def _scenarios(source: str, flat_out: bool) -> list[Scenario]:
     settings = get_settings()
     base = replace(RuntimeConfig.from_settings(settings.runtime), latency_window=1_000_000)
     out = []

@@ -8,8 +8,14 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
+import uvicorn
 
+from app.core.config import get_settings, load_settings, parse_endpoint, set_settings
+from app.db.migrate import prepare_database
+from app.main import create_app, operator_token
 from pipeline.errors import ConfigError, InputError
+
+app = typer.Typer()
 
 
 def port_free(host: str, port: int) -> bool:
@@ -47,13 +53,8 @@ def run_server(
     config: Path | None,
     emit: list[str] | None,
 ) -> None:
-    import uvicorn
-
-    from app.cli import apply_config
-    from app.core.config import get_settings, parse_endpoint, set_settings
-    from app.main import create_app, operator_token
-
-    apply_config(config)
+    if config is not None:  # serve and demo also take --config after the command name
+        set_settings(load_settings(config))
     settings = get_settings()
     given = {"host": host, "port": port, "viser_port": viser_port}
     server = settings.server.model_copy(update={k: v for k, v in given.items() if v is not None})
@@ -73,8 +74,6 @@ def run_server(
         raise ConfigError(f"port {server.port} on {server.host} is in use (choose another with --port)")
     if server.viser and not port_free(server.host, server.viser_port):
         raise ConfigError(f"port {server.viser_port} is in use (choose another with --viser-port)")
-    from app.db.migrate import prepare_database
-
     prepare_database(paths.db)  # a database that cannot be used ends here with one message
     token = operator_token(settings)
     app = create_app(settings, autostart="simulator" if demo else None, token=token)
@@ -105,7 +104,7 @@ def _command(demo: bool, doc: str) -> Callable[..., None]:
     return command
 
 
-def register(cli: typer.Typer) -> None:
-    serve_doc = "The dashboard, REST API, WebSocket and viser 3D view (cameras from the settings)."
-    cli.command("serve")(_command(False, serve_doc))
-    cli.command("demo")(_command(True, "``serve`` with a simulated CAVE and user: no cameras needed."))
+serve = app.command("serve")(
+    _command(False, "The dashboard, REST API, WebSocket and viser 3D view (cameras from the settings).")
+)
+demo = app.command("demo")(_command(True, "``serve`` with a simulated CAVE and user: no cameras needed."))

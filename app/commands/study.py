@@ -2,19 +2,25 @@
 
 from __future__ import annotations
 
+import sqlite3
 from pathlib import Path
 from typing import Annotated
 
 import typer
 
 from app.core.config import get_settings
+from app.db.engine import make_engine, make_session_factory
+from app.db.migrate import upgrade
+from app.study.analysis import AnalysisConfig
+from app.study.data import load_study
+from app.study.design import DesignConfig
+from app.study.report import write_report
+from pipeline.errors import InputError
+
+app = typer.Typer(name="study", help="The user study.", no_args_is_help=True)
 
 
 def _table_names(path: Path) -> set[str]:
-    import sqlite3
-
-    from pipeline.errors import InputError
-
     try:
         con = sqlite3.connect(f"file:{path}?mode=ro", uri=True)
         try:
@@ -26,50 +32,38 @@ def _table_names(path: Path) -> set[str]:
     return {str(r[0]) for r in rows}
 
 
-def register(cli: typer.Typer) -> None:
-    group = typer.Typer(help="The user study.", no_args_is_help=True)
+@app.command("report")
+def report(
+    out: Annotated[Path, typer.Option("--out", help="Folder to write the report into.")],
+    db: Annotated[
+        Path | None, typer.Option("--db", help="SQLite database (default: the settings' paths.db).")
+    ] = None,
+) -> None:
+    """Write the study's figures (PNG + SVG), tables (CSV), analysis.json and report.md into OUT."""
+    settings = get_settings()
+    path = db or settings.paths.db
+    if not path.is_file():
+        raise InputError(f"database not found: {path}")
+    tables = _table_names(path)  # read-only: a rejected file is left exactly as it was
+    if "participants" not in tables:
+        raise InputError(f"{path} is not a cavewalk database (no participants table)")
+    engine = make_engine(path)
+    try:
+        upgrade(engine)  # an older database is read as the app would: migrated in place first
+        with make_session_factory(engine)() as session:
+            data = load_study(session)
+    finally:
+        engine.dispose()
+    typer.echo(
+        f"{len(data.participants)} participants, {len(data.sessions)} sessions, "
+        f"{len(data.responses)} questionnaires"
+    )
+    written = write_report(
+        data,
+        out,
+        AnalysisConfig.from_settings(settings),
+        DesignConfig.from_settings(settings),
+        progress=typer.echo,
+    )
+    typer.echo(f"report: {out / 'report.md'} ({len(written)} files)")
 
-    @group.command("report")
-    def report(
-        out: Annotated[Path, typer.Option("--out", help="Folder to write the report into.")],
-        db: Annotated[
-            Path | None, typer.Option("--db", help="SQLite database (default: the settings' paths.db).")
-        ] = None,
-    ) -> None:
-        """Write the study's figures (PNG + SVG), tables (CSV), analysis.json and report.md into OUT."""
-        from app.db.engine import make_engine, make_session_factory
-        from app.db.migrate import upgrade
-        from app.study.analysis import AnalysisConfig
-        from app.study.data import load_study
-        from app.study.design import DesignConfig
-        from app.study.report import write_report
-        from pipeline.errors import InputError
-
-        settings = get_settings()
-        path = db or settings.paths.db
-        if not path.is_file():
-            raise InputError(f"database not found: {path}")
-        tables = _table_names(path)  # read-only: a rejected file is left exactly as it was
-        if "participants" not in tables:
-            raise InputError(f"{path} is not a cavewalk database (no participants table)")
-        engine = make_engine(path)
-        try:
-            upgrade(engine)  # an older database is read as the app would: migrated in place first
-            with make_session_factory(engine)() as session:
-                data = load_study(session)
-        finally:
-            engine.dispose()
-        typer.echo(
-            f"{len(data.participants)} participants, {len(data.sessions)} sessions, "
-            f"{len(data.responses)} questionnaires"
-        )
-        written = write_report(
-            data,
-            out,
-            AnalysisConfig.from_settings(settings),
-            DesignConfig.from_settings(settings),
-            progress=typer.echo,
-        )
-        typer.echo(f"report: {out / 'report.md'} ({len(written)} files)")
-
-    cli.add_typer(group, name="study")

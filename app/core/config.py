@@ -27,6 +27,7 @@ from pydantic_settings import (
 
 from pipeline.cave import CaveGeometry, Wall, box_cave
 from pipeline.errors import ConfigError
+from pipeline.pose.model_files import pose_model_file
 
 DEFAULT_CONFIG_FILE = Path("cavewalk.toml")
 # The TOML file given to load_settings(); read by Settings.settings_customise_sources.
@@ -97,7 +98,7 @@ class PathSettings(_Section):
 
 
 class PoseSettings(_Section):
-    model: Path | None = None  # default: <models_dir>/yolo11n-pose.onnx
+    model: Path | None = None  # default: the prepared model in paths.models_dir (see `precision`)
     # long side of the network input, px (multiple of 32); the short side follows the
     # images' aspect, so 1088x1920 portrait views run at 384x640, not padded to a square
     input_long_side: int = Field(640, ge=32, multiple_of=32)
@@ -112,11 +113,11 @@ class PoseSettings(_Section):
     threads: int = Field(0, ge=0)  # onnxruntime threads per model call (0 = its choice; 1 if parallel > 1)
     # model calls of a frame run side by side on this many threads (0 = one per CPU core)
     parallel: int = Field(0, ge=0)
-    # ROI crops run on the crop model beside the model file (yolo11n-pose.crop*.onnx, made by
-    # `cavewalk models prepare`: the head without its stride-8 level, a third faster in int8)
+    # ROI crops run on the crop model beside the model file (made by `cavewalk models prepare`:
+    # the head without its stride-8 level, a third faster in int8; see pipeline.pose.model_files)
     crop_model: bool = True
-    # which model file: yolo11n-pose.onnx or the int8 copy `cavewalk models prepare` makes
-    # beside it (yolo11n-pose.int8.onnx); ignored when `model` names a file
+    # which prepared model file: the float32 one or the int8 copy `cavewalk models prepare`
+    # makes beside it; ignored when `model` names a file
     precision: Literal["fp32", "int8"] = "int8"  # int8: 6-14 % faster, same tracks (bench_detect)
 
 
@@ -392,10 +393,10 @@ class Settings(BaseSettings):
 
     @property
     def pose_model_path(self) -> Path:
+        """The pose model file: ``pose.model``, else the prepared model of ``pose.precision``."""
         if self.pose.model is not None:
             return self.pose.model
-        suffix = ".int8" if self.pose.precision == "int8" else ""
-        return self.paths.models_dir / f"yolo11n-pose{suffix}.onnx"
+        return pose_model_file(self.paths.models_dir, self.pose.precision)
 
 
 class _ConfigPath(BaseSettings):

@@ -10,6 +10,10 @@ from alembic.config import Config
 from alembic.runtime.migration import MigrationContext
 from alembic.script import ScriptDirectory
 from sqlalchemy import Engine
+from sqlalchemy.exc import SQLAlchemyError
+
+from app.db.engine import make_engine
+from pipeline.errors import ConfigError
 
 log = logging.getLogger(__name__)
 
@@ -50,11 +54,6 @@ def upgrade(engine: Engine, revision: str = "head") -> None:
 
 def prepare_database(db_path: Path) -> None:
     """Create or upgrade the database file in place; ConfigError with the reason when it cannot be used."""
-    from sqlalchemy.exc import SQLAlchemyError
-
-    from app.db.engine import make_engine
-    from pipeline.errors import ConfigError
-
     if db_path.is_dir():
         raise ConfigError(f"database {db_path} is a folder, not a file")
     engine = make_engine(db_path)

@@ -193,10 +193,6 @@ def list_events(
     return db.scalars(q).all()
 
 
-def count_events(db: Session) -> int:
-    return int(db.scalar(select(func.count()).select_from(Event)) or 0)
-
-
 # --- questionnaires -----------------------------------------------------------------------
 
 

@@ -10,12 +10,6 @@ from pydantic import BaseModel, ConfigDict, Field
 CalibrationStatus = Literal["pending", "running", "done", "failed"]
 
 
-class CalibrationStart(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-
-    activate: bool = Field(True, description="Make the result the active calibration when it succeeds.")
-
-
 class CalibrationCameraPublic(BaseModel):
     name: str
     rms_px: float | None = None

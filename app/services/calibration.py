@@ -28,8 +28,15 @@ from app.db import repositories as repo
 from app.db.models import CalibrationRun
 from app.services.event_log import EventWriter
 from app.services.live import PipelineService
+from pipeline.calibration.config import CalibrationConfig
+from pipeline.calibration.overlay import calibration_overlay, encode_png
+from pipeline.calibration.patterns import make_layout, render_wall_pattern
+from pipeline.calibration.pnp import calibrate_cameras
 from pipeline.camera import Camera
 from pipeline.errors import CalibrationError, CavewalkError, InputError
+from pipeline.sim.scene import default_cameras
+from pipeline.sim.walls import render_wall_views
+from pipeline.sources import open_source
 
 log = logging.getLogger(__name__)
 
@@ -38,20 +45,9 @@ U8 = NDArray[np.uint8]
 
 def calibration_config(settings: Settings) -> Any:
     """The calibration stage's config from the settings (its own section when there is one)."""
-    from pipeline.calibration.config import CalibrationConfig
-
     section = getattr(settings, "calibration", None)
     to_config = getattr(section, "to_config", None)
     return to_config() if callable(to_config) else CalibrationConfig()
-
-
-def encode_png(image: U8) -> bytes:
-    import cv2
-
-    ok, buf = cv2.imencode(".png", image)
-    if not ok:
-        raise InputError("could not encode the image as PNG")
-    return bytes(buf.tobytes())
 
 
 def camera_record(cam: Camera, extra: dict[str, Any]) -> dict[str, Any]:
@@ -102,8 +98,6 @@ class CalibrationService:
     def layout(self) -> Any:
         with self._lock:
             if self._layout is None:
-                from pipeline.calibration.patterns import make_layout
-
                 self._layout = make_layout(self._cave, calibration_config(self._settings))
             return self._layout
 
@@ -114,8 +108,6 @@ class CalibrationService:
         layout = self.layout()
         with self._lock:
             if wall not in self._patterns:
-                from pipeline.calibration.patterns import render_wall_pattern
-
                 self._patterns[wall] = encode_png(render_wall_pattern(self._cave, layout, wall))
             return self._patterns[wall]
 
@@ -200,15 +192,11 @@ class CalibrationService:
     def _grab(self, source: str) -> dict[str, U8]:
         """One image per camera of the walls showing the patterns."""
         if source == "simulator":
-            from pipeline.sim.scene import default_cameras
-            from pipeline.sim.walls import render_wall_views
-
             if self._sim_images is None:  # the virtual cameras and walls never move: render once
                 sim = self._settings.sim
                 cameras = default_cameras(self._cave, sim.camera_preset, 4)  # the simulator source's cameras
                 self._sim_images = dict(render_wall_views(self._cave, self.layout(), cameras, seed=sim.seed))
             return dict(self._sim_images)
-        from pipeline.sources import open_source
 
         images: dict[str, U8] = {}
         for cam in self._settings.cameras:
@@ -223,8 +211,6 @@ class CalibrationService:
         return images
 
     def _solve(self, run_id: int, images: dict[str, U8]) -> dict[str, Any]:
-        from pipeline.calibration.pnp import calibrate_cameras
-
         layout = self.layout()
         results = calibrate_cameras(
             {k: [v] for k, v in images.items()}, layout, calibration_config(self._settings)
@@ -251,8 +237,6 @@ class CalibrationService:
 
     def _overlay(self, image: U8, result: Any) -> U8:
         """Detected and reprojected corners, the wall outlines and the CAVE axes on the camera's image."""
-        from pipeline.calibration.overlay import calibration_overlay
-
         return np.asarray(calibration_overlay(result, self._cave, image), dtype=np.uint8)
 
     def _show_cameras(self, run: CalibrationRun) -> None:

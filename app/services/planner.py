@@ -19,8 +19,14 @@ from datetime import UTC, datetime
 from typing import Any, Literal
 
 from app.core.config import Settings
+from pipeline.calibration.io import cameras_from_dict
 from pipeline.camera import Camera
 from pipeline.errors import CavewalkError, InputError
+from pipeline.planner.figures import figure_files, render
+from pipeline.planner.plan import make_plan
+from pipeline.planner.room import check_cameras, floor_polygon
+from pipeline.planner.search import check_search
+from pipeline.sim.scene import default_cameras
 
 log = logging.getLogger(__name__)
 
@@ -30,8 +36,6 @@ KEEP_JOBS = 8
 
 def default_layout(settings: Settings, count: int | None = None) -> list[Camera]:
     """The simulator's cameras (one above each wall, then the corners) for ``count`` cameras (default 4)."""
-    from pipeline.sim.scene import default_cameras
-
     return list(default_cameras(settings.cave.geometry(), settings.sim.camera_preset, count or 4))
 
 
@@ -50,8 +54,6 @@ def run_plan(
     progress: Callable[[float, str], None] | None = None,
 ) -> Any:
     """A :class:`pipeline.planner.plan.Plan` of ``cameras`` or of a mount search for ``count`` cameras."""
-    from pipeline.planner.plan import make_plan
-
     o = dict(overrides or {})
     top_k = o.pop("top_k", None)
     preset = o.pop("preset", None) or settings.sim.camera_preset
@@ -105,9 +107,6 @@ class PlannerService:
         self, *, cameras: Sequence[Camera] | None, count: int | None, source: str, overrides: dict[str, Any]
     ) -> PlanJob:
         """Check the input (InputError before any job exists) and start the plan; PlanBusy while one runs."""
-        from pipeline.planner.room import check_cameras, floor_polygon
-        from pipeline.planner.search import check_search
-
         room = floor_polygon(self._settings.cave.geometry())
         cfg = planner_config(
             self._settings, **{k: v for k, v in overrides.items() if k not in ("top_k", "preset")}
@@ -161,8 +160,6 @@ class PlannerService:
     def _run(
         self, job: PlanJob, cameras: Sequence[Camera] | None, count: int | None, overrides: dict[str, Any]
     ) -> None:
-        from pipeline.planner.figures import figure_files, render
-
         t0 = time.monotonic()
         self._update(job, status="running", progress=0.02, message="starting")
         try:
@@ -201,8 +198,6 @@ class PlannerService:
 
 def cameras_from_json(data: object) -> list[Camera]:
     """A proposed camera set in the calibration JSON of SPEC.md (InputError when malformed or empty)."""
-    from pipeline.calibration.io import cameras_from_dict
-
     if isinstance(data, dict) and isinstance(data.get("cameras"), list) and not data["cameras"]:
         raise InputError("the proposed camera set has zero cameras")
     return cameras_from_dict(data, "proposed cameras")

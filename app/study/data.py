@@ -14,6 +14,8 @@ from typing import Any
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
+from app.db.models import Event, Participant, QuestionnaireResponse, StudySession
+
 CONDITIONS: tuple[str, str] = ("CC", "EC")
 
 
@@ -94,8 +96,6 @@ class StudyData:
 
 def load_study(db: Session) -> StudyData:
     """Every participant, session and questionnaire of the database, ordered by id."""
-    from app.db.models import Participant, QuestionnaireResponse, StudySession
-
     participants = tuple(
         ParticipantRecord(p.id, p.code, p.first_condition)
         for p in db.scalars(select(Participant).order_by(Participant.id))
@@ -124,8 +124,6 @@ def load_study(db: Session) -> StudyData:
 
 def load_events(db: Session, session_id: int, kind: str | None = None) -> list[EventRecord]:
     """The event log of one study session, oldest first (optionally one kind only)."""
-    from app.db.models import Event
-
     query = select(Event).where(Event.session_id == session_id)
     if kind is not None:
         query = query.where(Event.kind == kind)

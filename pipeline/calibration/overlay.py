@@ -136,10 +136,3 @@ def encode_png(image: U8) -> bytes:
     if not ok:
         raise InputError("could not encode the overlay as PNG")
     return bytes(buf.tobytes())
-
-
-def draw_overlay(
-    image: U8 | None, result: CameraCalibration, cave: CaveGeometry, layout: object = None
-) -> U8:
-    """:func:`calibration_overlay` with the argument order the app's calibration service uses."""
-    return calibration_overlay(result, cave, image)

@@ -27,6 +27,7 @@ from numpy.typing import NDArray
 from pipeline.errors import InputError, ModelError
 from pipeline.pixels import image_size
 from pipeline.pose.decode import OUTPUT_CHANNELS, RawPoses, decode, iou_matrix, nms
+from pipeline.pose.model_files import crop_model_path
 from pipeline.pose.preprocess import Letterbox, fit_region, letterbox_into, net_size_for
 from pipeline.pose.types import Job, Region, ViewDetections
 from pipeline.skeleton import NUM_JOINTS
@@ -116,8 +117,6 @@ class PoseDetectorConfig:
     def from_settings(cls, pose: PoseSettingsLike, model_path: Path) -> PoseDetectorConfig:
         """From the ``pose`` settings; crops use the crop model beside ``model_path`` when
         ``pose.crop_model`` is on and ``cavewalk models prepare`` made it."""
-        from pipeline.pose.prepare import crop_model_path
-
         crop = crop_model_path(Path(model_path))
         return cls(
             model_path=Path(model_path),

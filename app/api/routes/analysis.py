@@ -10,6 +10,7 @@ from fastapi import Path as PathParam
 from fastapi.responses import JSONResponse
 
 from app.api.deps import SessionDep, SettingsDep
+from app.db.models import StudySession
 from app.schemas.study import AnalysisPublic
 from app.study.analysis import AnalysisConfig, analyse
 from app.study.data import load_events, load_study
@@ -71,8 +72,6 @@ def get_timeline(
     session_id: Annotated[int, PathParam(ge=1, le=2**63 - 1)], ext: str, db: SessionDep
 ) -> Response:
     """The session's recognised actions over time (from its ``action`` events)."""
-    from app.db.models import StudySession
-
     fmt = _format(ext)
     session = db.get(StudySession, session_id)
     if session is None:

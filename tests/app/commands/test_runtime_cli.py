@@ -14,8 +14,7 @@ import psutil
 import pytest
 
 from pipeline.emitter import EmitterConfig, LocomotionCommand, UdpEmitter
-
-from .live import children_alive, shm_segments
+from tests.pipeline.runtime.live import children_alive, shm_segments
 
 ROOT = Path(__file__).resolve().parents[3]
 
