@@ -283,6 +283,8 @@ class NavigatorSettings(_Section):
     hold_s: float = Field(1.5, ge=0)  # the choice survives an occlusion this long
     max_radius_m: float = Field(1.5, gt=0)  # auto: only people this near the centre
     switch_margin_m: float = Field(0.5, ge=0)  # auto: a challenger must be this much nearer
+    manual_grace_s: float = Field(3.0, ge=0)  # manual: a lost choice falls back to auto after this
+    reacquire_radius_m: float = Field(0.6, ge=0)  # manual: a new id this near where it vanished = same person
 
     def to_config(self) -> Any:
         """The selector's frozen NavigatorConfig."""

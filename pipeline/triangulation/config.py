@@ -169,6 +169,13 @@ class NavigatorConfig:
     max_radius_m: in auto mode, only people within this floor distance of the centre are eligible.
     switch_margin_m: in auto mode, another person takes over only when nearer the centre by this
         much for ``dwell_s``.
+    manual_grace_s: a manual navigator lost for longer than ``hold_s`` is waited for this much
+        longer (or re-acquired, below); then the choice falls back to automatic, so a session never
+        runs on with nobody steering.
+    reacquire_radius_m: while the manual navigator is missing, a newly tracked user first seen
+        within this floor distance of where the navigator was last seen (and within
+        ``hold_s + manual_grace_s`` of that) is taken for the same person: the tracker gave them a
+        new id. 0 turns re-acquisition off.
     """
 
     mode: Literal["auto", "manual"] = "auto"
@@ -177,6 +184,8 @@ class NavigatorConfig:
     hold_s: float = 1.5
     max_radius_m: float = 1.5
     switch_margin_m: float = 0.5
+    manual_grace_s: float = 3.0
+    reacquire_radius_m: float = 0.6
 
     @classmethod
     def from_settings(cls, section: SettingsSection) -> NavigatorConfig:
@@ -190,3 +199,5 @@ class NavigatorConfig:
         _check(self.hold_s >= 0.0, "hold_s must be >= 0", self.hold_s)
         _check(self.max_radius_m > 0.0, "max_radius_m must be > 0", self.max_radius_m)
         _check(self.switch_margin_m >= 0.0, "switch_margin_m must be >= 0", self.switch_margin_m)
+        _check(self.manual_grace_s >= 0.0, "manual_grace_s must be >= 0", self.manual_grace_s)
+        _check(self.reacquire_radius_m >= 0.0, "reacquire_radius_m must be >= 0", self.reacquire_radius_m)

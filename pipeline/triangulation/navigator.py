@@ -1,7 +1,10 @@
 """The primary navigator: which tracked user drives the locomotion.
 
 ``manual``: the operator picks a user id (``set_manual``); that user is the navigator whenever
-tracked, and stays chosen through an occlusion of up to ``hold_s``.
+tracked, and stays chosen through an occlusion of up to ``hold_s``. A manual navigator lost for
+longer is re-acquired when a new user id appears where they vanished (the tracker lost them and
+gave them a new id: same person), or after ``manual_grace_s`` more the choice falls back to ``auto``
+(a session must not run on with nobody steering).
 ``auto``: the person nearest the CAVE centre who has been tracked for ``dwell_s``; the choice is
 sticky (it survives an occlusion of up to ``hold_s``) and passes to someone else only when they
 have been nearer the centre by ``switch_margin_m`` for ``dwell_s``, or the navigator is lost.
@@ -50,6 +53,16 @@ class _Seen:
     first_s: float
     last_s: float
     radius_m: float
+    xy_m: tuple[float, float]
+
+
+@dataclass(slots=True)
+class _LastSeen:
+    """Where and when the manual navigator was last seen (for re-acquisition and the grace period)."""
+
+    user_id: int
+    t_s: float
+    xy_m: tuple[float, float]
 
 
 class NavigatorSelector:
@@ -62,6 +75,7 @@ class NavigatorSelector:
         self._current: int | None = None
         self._seen: dict[int, _Seen] = {}
         self._challenger_since: dict[int, float] = {}
+        self._manual_last: _LastSeen | None = None
         self._t = 0.0
 
     @classmethod
@@ -103,13 +117,15 @@ class NavigatorSelector:
             raise InputError(f"user {uid} is not tracked (tracked users: {known})")
         previous, previous_mode = self._current, self._mode
         self._mode, self._manual_id, self._current = "manual", uid, uid
+        seen = self._seen[uid]
+        self._manual_last = _LastSeen(uid, seen.last_s, seen.xy_m)
         self._challenger_since.clear()
         return self._change(previous, previous_mode, "chosen by the operator")
 
     def set_auto(self) -> NavigatorChange | None:
         """Return to automatic choice (the current navigator stays while tracked)."""
         previous, previous_mode = self._current, self._mode
-        self._mode, self._manual_id = "auto", None
+        self._mode, self._manual_id, self._manual_last = "auto", None, None
         self._challenger_since.clear()
         if self._current is not None and self._current not in self._seen:
             self._current = None
@@ -129,21 +145,24 @@ class NavigatorSelector:
             if not np.all(np.isfinite(pos)):
                 continue
             r = float(math.hypot(pos[0] - cx, pos[1] - cy))
+            xy = (float(pos[0]), float(pos[1]))
             s = self._seen.get(p.user_id)
             if s is None or t - s.last_s > cfg.hold_s:
-                self._seen[p.user_id] = _Seen(t, t, r)
+                self._seen[p.user_id] = _Seen(t, t, r, xy)
             else:
-                s.last_s, s.radius_m = t, r
+                s.last_s, s.radius_m, s.xy_m = t, r, xy
             present.add(p.user_id)
         for uid in [u for u, s in self._seen.items() if t - s.last_s > cfg.hold_s]:
             del self._seen[uid]
             self._challenger_since.pop(uid, None)
 
         previous, previous_mode = self._current, self._mode
+        auto_reason: str | None = None
         if self._mode == "manual":
-            self._current = self._manual_id if self._manual_id in self._seen else None
-            reason = "operator's choice tracked" if self._current is not None else "operator's choice lost"
-            return self._change(previous, previous_mode, reason)
+            change, fell_back = self._update_manual(present, t, previous, previous_mode)
+            if not fell_back:
+                return change
+            auto_reason = fell_back
 
         eligible = {
             u: self._seen[u].radius_m
@@ -167,4 +186,55 @@ class NavigatorSelector:
         self._challenger_since.clear()
         self._current = min(eligible, key=lambda u: (eligible[u], u)) if eligible else None
         reason = "nearest the centre" if self._current is not None else "navigator lost"
+        if auto_reason is not None:
+            reason = f"{auto_reason}; {reason}" if self._current is not None else auto_reason
         return self._change(previous, previous_mode, reason)
+
+    def _update_manual(
+        self, present: set[int], t: float, previous: int | None, previous_mode: str
+    ) -> tuple[NavigatorChange | None, str | None]:
+        """The manual branch of :meth:`update`: (the change, None) or (None, why it fell back to auto)."""
+        cfg = self.config
+        mid = self._manual_id
+        if mid is not None and mid in present:
+            seen = self._seen[mid]
+            self._manual_last = _LastSeen(mid, t, seen.xy_m)
+            self._current = mid
+            return self._change(previous, previous_mode, "operator's choice tracked"), None
+        last = self._manual_last
+        if last is None:  # manual from the config, nobody chosen yet: wait for the operator
+            self._current = None
+            return self._change(previous, previous_mode, "waiting for the operator's choice"), None
+        newcomer = self._newcomer_near(last, present, t)
+        if newcomer is not None:
+            self._manual_id = self._current = newcomer
+            self._manual_last = _LastSeen(newcomer, t, self._seen[newcomer].xy_m)
+            reason = (
+                f"operator's choice re-acquired: user {newcomer} appeared where user {last.user_id} "
+                f"was last seen"
+            )
+            return self._change(previous, previous_mode, reason), None
+        if mid is not None and mid in self._seen:  # an occlusion shorter than hold_s
+            self._current = mid
+            return None, None
+        self._current = None
+        missing_s = t - last.t_s
+        if missing_s <= cfg.hold_s + cfg.manual_grace_s:
+            return self._change(previous, previous_mode, "operator's choice lost"), None
+        self._mode, self._manual_id, self._manual_last = "auto", None, None
+        return None, f"operator's choice lost for {missing_s:.1f} s: automatic choice"
+
+    def _newcomer_near(self, last: _LastSeen, present: set[int], t: float) -> int | None:
+        """A user first seen after the manual navigator vanished, near where they were last seen."""
+        cfg = self.config
+        if cfg.reacquire_radius_m <= 0 or t - last.t_s > cfg.hold_s + cfg.manual_grace_s:
+            return None
+        best: tuple[float, int] | None = None
+        for u in present:
+            s = self._seen[u]
+            if u == last.user_id or s.first_s < last.t_s - 1e-9:
+                continue
+            d = math.hypot(s.xy_m[0] - last.xy_m[0], s.xy_m[1] - last.xy_m[1])
+            if d <= cfg.reacquire_radius_m and (best is None or d < best[0]):
+                best = (d, u)
+        return None if best is None else best[1]

@@ -129,3 +129,73 @@ def test_changes_are_logged_and_the_selector_comes_from_the_settings(caplog) -> 
         sel.update([person(4, 0.0, 0.0)], 0.0)
     assert sel.current == 4
     assert any("navigator None -> 4" in r.getMessage() for r in caplog.records), caplog.text
+
+
+def test_a_lost_manual_navigator_falls_back_to_automatic_after_the_grace_period() -> None:
+    """Issue 19.1: a manual choice lost for good must not leave the session with nobody steering."""
+    sel = NavigatorSelector(NavigatorConfig(dwell_s=0.3, hold_s=1.0, manual_grace_s=2.0))
+    t, _ = run(sel, [[person(1, 0.0, 0.0), person(2, 0.6, 0.0)]] * 5)
+    sel.set_manual(1)
+    t, events = run(sel, [[person(2, 0.6, 0.0)]] * 25, t)  # 1 walks away: 2.5 s, within hold + grace
+    assert sel.current is None and sel.mode == "manual", "waited for within hold_s + manual_grace_s"
+    assert [(e.previous, e.current, e.reason) for e in events] == [(1, None, "operator's choice lost")]
+    t, events = run(sel, [[person(2, 0.6, 0.0)]] * 6, t)  # past 3.0 s missing
+    assert sel.mode == "auto" and sel.current == 2, "after the grace period the automatic choice takes over"
+    assert events[-1].mode == "auto" and events[-1].current == 2
+    assert "operator's choice lost for 3.0 s: automatic choice" in events[-1].reason, events[-1].reason
+
+
+def test_a_lost_manual_navigator_with_nobody_left_still_returns_to_automatic() -> None:
+    sel = NavigatorSelector(NavigatorConfig(dwell_s=0.0, hold_s=0.5, manual_grace_s=1.0))
+    t, _ = run(sel, [[person(1, 0.0, 0.0), person(2, 0.6, 0.0)]] * 2)
+    sel.set_manual(2)
+    t, events = run(sel, [[]] * 20, t)
+    assert sel.mode == "auto" and sel.current is None
+    assert [(e.current, e.mode) for e in events] == [(None, "manual"), (None, "auto")]
+    t, events = run(sel, [[person(5, 0.1, 0.0)]], t)
+    assert sel.current == 5, "whoever comes back is chosen automatically"
+
+
+def test_a_lost_manual_navigator_is_reacquired_under_a_new_id_where_they_vanished() -> None:
+    """The tracker gives a person a new id after a break: the operator's choice follows them."""
+    sel = NavigatorSelector(NavigatorConfig(dwell_s=0.3, hold_s=1.5, reacquire_radius_m=0.6))
+    t, _ = run(sel, [[person(1, 0.0, 0.0), person(2, 1.0, 0.5)]] * 5)
+    sel.set_manual(2)
+    t, _ = run(sel, [[person(1, 0.0, 0.0), person(2, 1.0, 0.5)]] * 3, t)
+    t, events = run(sel, [[person(1, 0.0, 0.0)]] * 4, t)  # 2 drops out of tracking for 0.4 s ...
+    t, events = run(sel, [[person(1, 0.0, 0.0), person(7, 1.2, 0.4)]] * 3, t)  # ... and is back as 7
+    assert sel.mode == "manual" and sel.current == 7
+    assert [(e.previous, e.current) for e in events] == [(2, 7)]
+    assert "re-acquired" in events[0].reason and "user 2" in events[0].reason
+
+
+@pytest.mark.parametrize(
+    ("config", "newcomer_xy"),
+    [
+        (NavigatorConfig(reacquire_radius_m=0.6), (-1.0, -1.0)),  # too far from where 2 vanished
+        (NavigatorConfig(reacquire_radius_m=0.0), (1.1, 0.5)),  # re-acquisition off
+    ],
+)
+def test_no_reacquisition_far_away_or_when_off(config: NavigatorConfig, newcomer_xy) -> None:
+    sel = NavigatorSelector(config)
+    t, _ = run(sel, [[person(1, 0.0, 0.0), person(2, 1.0, 0.5)]] * 6)
+    sel.set_manual(2)
+    t, _ = run(sel, [[person(1, 0.0, 0.0)]] * 3, t)
+    run(sel, [[person(1, 0.0, 0.0), person(8, *newcomer_xy)]] * 3, t)
+    assert sel.mode == "manual" and sel.current == 2, "held through the short occlusion, nobody else taken"
+
+
+def test_an_old_bystander_is_not_taken_for_the_lost_navigator() -> None:
+    sel = NavigatorSelector(NavigatorConfig(dwell_s=0.0, hold_s=0.5, manual_grace_s=5.0))
+    t, _ = run(sel, [[person(1, 0.0, 0.0), person(3, 0.9, 0.5)]] * 3)
+    sel.set_manual(1)
+    t, _ = run(sel, [[person(1, 0.8, 0.5), person(3, 0.9, 0.5)]] * 3, t)
+    run(sel, [[person(3, 0.9, 0.5)]] * 10, t)  # 1 leaves right next to 3, who was there all along
+    assert sel.current is None and sel.mode == "manual"
+
+
+def test_grace_settings_are_checked() -> None:
+    with pytest.raises(ValueError, match="manual_grace_s"):
+        NavigatorConfig(manual_grace_s=-1.0)
+    with pytest.raises(ValueError, match="reacquire_radius_m"):
+        NavigatorConfig(reacquire_radius_m=-0.1)
