@@ -37,6 +37,7 @@ from app.services.event_log import EventWriter, EventWriterConfig
 from app.services.live import PipelineFacade, PipelineService, SourceName
 from app.services.pipeline_factory import runtime_factory
 from app.services.planner import PlannerService
+from app.services.session_timer import SessionTimer
 from app.viewer import Viewer
 from pipeline.errors import CavewalkError, InputError
 
@@ -119,6 +120,11 @@ def create_app(
         app.state.pipeline = pipeline
         app.state.calibration = calibration
         app.state.planner = planner = PlannerService(settings)
+        session_timer = SessionTimer(factory, events)
+        app.state.session_timer = session_timer
+        if running is not None:  # its run time goes on (or is over) across a restart
+            with factory() as db:
+                session_timer.schedule(db.get(type(running), running.id) or running)
         events.record(
             "server", {"state": "started", "host": settings.server.host, "port": settings.server.port}
         )
@@ -132,6 +138,7 @@ def create_app(
             yield
         finally:
             planner.close()
+            session_timer.close()
             calibration.close()
             pipeline.close()
             events.record("server", {"state": "stopped"})

@@ -15,6 +15,7 @@ from app.api.routes import (
     calibration,
     health,
     live,
+    participant,
     participants,
     people,
     pipeline,
@@ -26,6 +27,8 @@ from app.api.routes import (
 
 api_router = APIRouter(prefix="/api/v1")
 api_router.include_router(health.router)
+# the participant page's API: authenticated by its session-scoped link, not by the operator token
+api_router.include_router(participant.router)
 api_router.include_router(status.router, dependencies=[TokenDep])
 api_router.include_router(pipeline.router, dependencies=[TokenDep])
 api_router.include_router(people.router, dependencies=[TokenDep])

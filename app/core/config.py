@@ -88,6 +88,9 @@ class ServerSettings(_Section):
     live_rate_hz: float = Field(10.0, gt=0, le=60)  # WebSocket status messages per second
     event_flush_s: float = Field(0.5, gt=0, le=1.0)  # event log batch interval (loss bound on a crash)
     viser: bool = True  # serve the 3D view
+    # the address a participant's tablet opens (the participant link and its QR code); None = this
+    # server's own address on the network (or loopback when it listens on loopback only)
+    public_url: str | None = Field(None, pattern=r"^https?://[^\s/?#]+$")
 
 
 class PathSettings(_Section):

@@ -11,7 +11,7 @@ from __future__ import annotations
 from datetime import UTC, datetime
 from typing import Any
 
-from sqlalchemy import JSON, Boolean, DateTime, Float, ForeignKey, Index, Integer, String, Text
+from sqlalchemy import JSON, Boolean, DateTime, Float, ForeignKey, Index, Integer, String, Text, func
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column, relationship
 from sqlalchemy.types import TypeDecorator
 
@@ -21,6 +21,8 @@ SESSION_STATUSES = ("planned", "running", "stopped")
 INSTRUMENTS = ("ssq", "mssq", "ipq", "nasa_tlx")
 PHASES = ("pre", "post")
 CALIBRATION_STATUSES = ("pending", "running", "done", "failed")
+#: Who made a change in the audit trail: the operator (dashboard/API) or a participant link.
+AUDIT_ACTIONS = ("create", "correct", "exclude", "include", "delete", "override", "update")
 
 
 def utcnow() -> datetime:
@@ -58,10 +60,15 @@ class Participant(Base):
     first_condition: Mapped[str | None] = mapped_column(String(2), nullable=True)  # "CC" | "EC"
     notes: Mapped[str] = mapped_column(Text, default="", nullable=False)
     created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow, nullable=False)
+    excluded_at: Mapped[datetime | None] = mapped_column(UTCDateTime(), nullable=True)
+    exclusion_reason: Mapped[str | None] = mapped_column(Text, nullable=True)
 
     sessions: Mapped[list[StudySession]] = relationship(
         back_populates="participant", order_by="StudySession.id"
     )
+
+    # p01 and P01 are one participant: codes are unique ignoring case
+    __table_args__ = (Index("ix_participants_code_nocase", func.upper(code), unique=True),)
 
 
 class StudySession(Base):
@@ -78,6 +85,11 @@ class StudySession(Base):
     stopped_at: Mapped[datetime | None] = mapped_column(UTCDateTime(), nullable=True)
     notes: Mapped[str] = mapped_column(Text, default="", nullable=False)
     created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow, nullable=False)
+    #: the session script's run time (None = stopped by hand); the server stops the session after it
+    planned_duration_s: Mapped[float | None] = mapped_column(Float, nullable=True)
+    stopped_by: Mapped[str | None] = mapped_column(String(16), nullable=True)  # operator | timer
+    excluded_at: Mapped[datetime | None] = mapped_column(UTCDateTime(), nullable=True)
+    exclusion_reason: Mapped[str | None] = mapped_column(Text, nullable=True)
 
     participant: Mapped[Participant] = relationship(back_populates="sessions")
     questionnaires: Mapped[list[QuestionnaireResponse]] = relationship(
@@ -98,6 +110,16 @@ class QuestionnaireResponse(Base):
     pairwise: Mapped[dict[str, Any] | None] = mapped_column(JSON, nullable=True)
     scores: Mapped[dict[str, Any]] = mapped_column(JSON, nullable=False)
     created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow, nullable=False)
+    #: "operator" (the dashboard's form or the API) or "participant" (the session's participant link)
+    entered_by: Mapped[str] = mapped_column(String(16), default="operator", nullable=False)
+    #: an explicit correction replaces an earlier entry (kept, marked superseded) and says why
+    corrects_id: Mapped[int | None] = mapped_column(
+        ForeignKey("questionnaire_responses.id"), nullable=True
+    )
+    correction_reason: Mapped[str | None] = mapped_column(Text, nullable=True)
+    superseded_by_id: Mapped[int | None] = mapped_column(Integer, nullable=True)
+    excluded_at: Mapped[datetime | None] = mapped_column(UTCDateTime(), nullable=True)
+    exclusion_reason: Mapped[str | None] = mapped_column(Text, nullable=True)
 
     session: Mapped[StudySession] = relationship(back_populates="questionnaires")
 
@@ -116,6 +138,36 @@ class Event(Base):
     __table_args__ = (Index("ix_events_ts", "ts"),)
 
 
+class AuditEntry(Base):
+    """One change to the study's records: who, when, what (before and after) and why."""
+
+    __tablename__ = "audit_log"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow, nullable=False)
+    actor: Mapped[str] = mapped_column(String(64), nullable=False)
+    action: Mapped[str] = mapped_column(String(16), nullable=False)
+    entity: Mapped[str] = mapped_column(String(16), nullable=False)  # participant | session | questionnaire
+    entity_id: Mapped[int] = mapped_column(Integer, nullable=False)
+    before: Mapped[dict[str, Any] | None] = mapped_column(JSON, nullable=True)
+    after: Mapped[dict[str, Any] | None] = mapped_column(JSON, nullable=True)
+    reason: Mapped[str] = mapped_column(Text, default="", nullable=False)
+
+    __table_args__ = (Index("ix_audit_log_entity", "entity", "entity_id"),)
+
+
+class ParticipantLink(Base):
+    """A per-session credential for the participant's tablet (only its SHA-256 is stored)."""
+
+    __tablename__ = "participant_links"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    session_id: Mapped[int] = mapped_column(ForeignKey("study_sessions.id"), nullable=False, index=True)
+    token_sha256: Mapped[str] = mapped_column(String(64), unique=True, nullable=False)
+    created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow, nullable=False)
+    revoked_at: Mapped[datetime | None] = mapped_column(UTCDateTime(), nullable=True)
+
+
 class CalibrationRun(Base):
     """A calibration of the cameras: its progress, its result and whether it is the active one."""
 
@@ -131,16 +183,19 @@ class CalibrationRun(Base):
 
 
 __all__ = [
+    "AUDIT_ACTIONS",
     "CALIBRATION_STATUSES",
     "CONDITIONS",
     "INSTRUMENTS",
     "PARTICIPANT_CODE_PATTERN",
     "PHASES",
     "SESSION_STATUSES",
+    "AuditEntry",
     "Base",
     "CalibrationRun",
     "Event",
     "Participant",
+    "ParticipantLink",
     "QuestionnaireResponse",
     "StudySession",
     "utcnow",

@@ -2,6 +2,8 @@
 
 Functions raise :class:`RecordNotFound` or :class:`StateConflict` (mapped to HTTP 404 and
 409 by the app) and never commit half a change: a rejected request leaves the rows as they were.
+The study's records (participants, sessions, questionnaires, audit trail) live in
+:mod:`app.db.study_repository` and are re-exported here.
 """
 
 from __future__ import annotations
@@ -10,158 +12,82 @@ from collections.abc import Iterable, Sequence
 from typing import Any
 
 from sqlalchemy import func, insert, select, update
-from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
-from app.db.models import (
-    CONDITIONS,
-    CalibrationRun,
-    Event,
-    Participant,
-    QuestionnaireResponse,
-    StudySession,
-    utcnow,
+from app.db.errors import DesignRuleViolation, RecordNotFound, StateConflict
+from app.db.models import CalibrationRun, Event, utcnow
+from app.db.study_repository import (
+    Change,
+    add_questionnaire,
+    check_questionnaire,
+    create_participant,
+    create_participant_link,
+    create_session,
+    delete_participant,
+    delete_session,
+    get_participant,
+    get_questionnaire,
+    get_session,
+    in_use,
+    list_audit,
+    list_participants,
+    list_questionnaires,
+    list_sessions,
+    next_first_condition,
+    running_session,
+    session_for_link,
+    set_participant_excluded,
+    set_questionnaire_excluded,
+    set_session_excluded,
+    start_session,
+    stop_session,
+    update_participant,
+    update_session,
+    update_session_notes,
 )
 
-
-class RecordNotFound(LookupError):
-    """The requested row does not exist."""
-
-
-class StateConflict(Exception):
-    """The request contradicts the stored state (duplicate code, session already running ...)."""
-
-
-# --- participants -------------------------------------------------------------------------
-
-
-def next_first_condition(db: Session) -> str:
-    """The counterbalanced first condition for the next participant: the rarer one so far, CC on a tie."""
-    counts = dict.fromkeys(CONDITIONS, 0)
-    rows = db.execute(
-        select(Participant.first_condition, func.count()).group_by(Participant.first_condition)
-    ).all()
-    for cond, n in rows:
-        if cond in counts:
-            counts[cond] = int(n)
-    return "EC" if counts["EC"] < counts["CC"] else "CC"
-
-
-def create_participant(db: Session, code: str, first_condition: str | None, notes: str) -> Participant:
-    if db.scalar(select(Participant.id).where(Participant.code == code)) is not None:
-        raise StateConflict(f"participant code {code!r} already exists")
-    row = Participant(
-        code=code,
-        first_condition=first_condition or next_first_condition(db),
-        notes=notes,
-        created_at=utcnow(),
-    )
-    db.add(row)
-    try:
-        db.commit()
-    except IntegrityError as exc:
-        db.rollback()
-        raise StateConflict(f"participant code {code!r} already exists") from exc
-    return row
-
-
-def list_participants(db: Session) -> Sequence[Participant]:
-    return db.scalars(select(Participant).order_by(Participant.id)).all()
-
-
-def get_participant(db: Session, participant_id: int) -> Participant:
-    row = db.get(Participant, participant_id)
-    if row is None:
-        raise RecordNotFound(f"participant {participant_id} not found")
-    return row
-
-
-def update_participant(
-    db: Session, participant_id: int, first_condition: str | None, notes: str | None
-) -> Participant:
-    row = get_participant(db, participant_id)
-    if first_condition is not None:
-        row.first_condition = first_condition
-    if notes is not None:
-        row.notes = notes
-    db.commit()
-    return row
-
-
-# --- study sessions -----------------------------------------------------------------------
-
-
-def create_session(
-    db: Session, participant_id: int, condition: str, planned_index: int | None, notes: str
-) -> StudySession:
-    participant = get_participant(db, participant_id)
-    if planned_index is None and participant.first_condition is not None:
-        planned_index = 1 if condition == participant.first_condition else 2
-    row = StudySession(
-        participant_id=participant.id,
-        condition=condition,
-        planned_index=planned_index,
-        status="planned",
-        notes=notes,
-        created_at=utcnow(),
-    )
-    db.add(row)
-    db.commit()
-    return row
-
-
-def list_sessions(db: Session, participant_id: int | None = None) -> Sequence[StudySession]:
-    q = select(StudySession).order_by(StudySession.id)
-    if participant_id is not None:
-        q = q.where(StudySession.participant_id == participant_id)
-    return db.scalars(q).all()
-
-
-def get_session(db: Session, session_id: int) -> StudySession:
-    row = db.get(StudySession, session_id)
-    if row is None:
-        raise RecordNotFound(f"session {session_id} not found")
-    return row
-
-
-def running_session(db: Session) -> StudySession | None:
-    return db.scalars(
-        select(StudySession).where(StudySession.status == "running").order_by(StudySession.id)
-    ).first()
-
-
-def start_session(db: Session, session_id: int, ts: float) -> StudySession:
-    """planned -> running (one running session at a time); writes a ``session`` event."""
-    row = get_session(db, session_id)
-    if row.status != "planned":
-        raise StateConflict(f"session {session_id} is {row.status}; only a planned session can start")
-    other = running_session(db)
-    if other is not None:
-        raise StateConflict(f"session {other.id} is still running; stop it first")
-    row.status = "running"
-    row.started_at = utcnow()
-    db.add(Event(session_id=row.id, ts=ts, kind="session", payload={"state": "running"}))
-    db.commit()
-    return row
-
-
-def stop_session(db: Session, session_id: int, ts: float) -> StudySession:
-    """running -> stopped; writes a ``session`` event."""
-    row = get_session(db, session_id)
-    if row.status != "running":
-        raise StateConflict(f"session {session_id} is {row.status}; only a running session can stop")
-    row.status = "stopped"
-    row.stopped_at = utcnow()
-    db.add(Event(session_id=row.id, ts=ts, kind="session", payload={"state": "stopped"}))
-    db.commit()
-    return row
-
-
-def update_session_notes(db: Session, session_id: int, notes: str) -> StudySession:
-    row = get_session(db, session_id)
-    row.notes = notes
-    db.commit()
-    return row
+__all__ = [
+    "Change",
+    "DesignRuleViolation",
+    "RecordNotFound",
+    "StateConflict",
+    "activate_calibration_run",
+    "active_calibration_run",
+    "add_events",
+    "add_questionnaire",
+    "check_questionnaire",
+    "create_calibration_run",
+    "create_participant",
+    "create_participant_link",
+    "create_session",
+    "delete_participant",
+    "delete_session",
+    "fail_unfinished_calibration_runs",
+    "finish_calibration_run",
+    "get_calibration_run",
+    "get_participant",
+    "get_questionnaire",
+    "get_session",
+    "in_use",
+    "list_audit",
+    "list_calibration_runs",
+    "list_events",
+    "list_participants",
+    "list_questionnaires",
+    "list_sessions",
+    "next_first_condition",
+    "running_session",
+    "session_for_link",
+    "set_participant_excluded",
+    "set_questionnaire_excluded",
+    "set_session_excluded",
+    "start_session",
+    "stop_session",
+    "update_calibration_run",
+    "update_participant",
+    "update_session",
+    "update_session_notes",
+]
 
 
 # --- events -------------------------------------------------------------------------------
@@ -193,40 +119,6 @@ def list_events(
     return db.scalars(q).all()
 
 
-# --- questionnaires -----------------------------------------------------------------------
-
-
-def add_questionnaire(
-    db: Session,
-    session_id: int,
-    instrument: str,
-    phase: str | None,
-    answers: dict[str, Any],
-    pairwise: dict[str, Any] | None,
-    scores: dict[str, float],
-) -> QuestionnaireResponse:
-    get_session(db, session_id)
-    row = QuestionnaireResponse(
-        session_id=session_id,
-        instrument=instrument,
-        phase=phase,
-        answers=answers,
-        pairwise=pairwise,
-        scores=scores,
-        created_at=utcnow(),
-    )
-    db.add(row)
-    db.commit()
-    return row
-
-
-def list_questionnaires(db: Session, session_id: int) -> Sequence[QuestionnaireResponse]:
-    get_session(db, session_id)
-    return db.scalars(
-        select(QuestionnaireResponse)
-        .where(QuestionnaireResponse.session_id == session_id)
-        .order_by(QuestionnaireResponse.id)
-    ).all()
 
 
 # --- calibration runs ---------------------------------------------------------------------

@@ -5,28 +5,33 @@ from __future__ import annotations
 from datetime import datetime
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, StrictInt
 
-from app.schemas.participants import MAX_ID, Condition
+from app.schemas.participants import MAX_ID, Condition, OverrideReason, StrictRequest
+from app.schemas.text import Notes
 
 SessionStatus = Literal["planned", "running", "stopped"]
 
 
-class SessionCreate(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-
-    participant_id: int = Field(ge=1, le=MAX_ID)
+class SessionCreate(StrictRequest):
+    participant_id: StrictInt = Field(ge=1, le=MAX_ID)
     condition: Condition
-    planned_index: Literal[1, 2] | None = Field(
-        None, description="1 or 2 in the counterbalanced order; omitted = from the participant's order."
+    planned_index: StrictInt | None = Field(
+        None,
+        ge=1,
+        le=2,
+        description="1 or 2 in the counterbalanced order; omitted = from the participant's order.",
     )
-    notes: str = Field("", max_length=10_000)
+    planned_duration_s: float | None = Field(
+        None, ge=5, le=4 * 3600, description="Run time of the session script: the server stops it then."
+    )
+    notes: Notes = ""
+    override_reason: OverrideReason = None
 
 
-class SessionUpdate(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-
-    notes: str = Field(max_length=10_000)
+class SessionUpdate(StrictRequest):
+    notes: Notes | None = None
+    planned_duration_s: float | None = Field(None, ge=5, le=4 * 3600)
 
 
 class SessionPublic(BaseModel):
@@ -42,6 +47,11 @@ class SessionPublic(BaseModel):
     stopped_at: datetime | None
     notes: str
     created_at: datetime
+    planned_duration_s: float | None = None
+    stopped_by: str | None = None
+    duration_s: float | None = Field(None, description="Run time of a stopped session, seconds.")
+    excluded_at: datetime | None = None
+    exclusion_reason: str | None = None
 
 
 class EventPublic(BaseModel):

@@ -101,3 +101,77 @@ class InstrumentPublic(BaseModel):
     score_keys: list[str]
     items: list[InstrumentItem]
     pairs: list[InstrumentPair]
+
+
+class ParticipantLinkPublic(BaseModel):
+    """The participant page's link for one session (its credential opens that session only)."""
+
+    session_id: int
+    url: str
+    qr_svg: str = Field(description="The link as a QR code (SVG).")
+    reachable_from_lan: bool = Field(
+        description="False when the server listens on loopback only: a tablet cannot open the link."
+    )
+
+
+class ScriptStepPublic(BaseModel):
+    model_config = ConfigDict(extra="allow")
+
+    key: str
+    label: str
+    kind: Literal["questionnaire", "run"]
+    instrument: str | None = None
+    phase: str | None = None
+    state: Literal["done", "current", "todo", "running"]
+
+
+class SessionScriptPublic(BaseModel):
+    session_id: int
+    status: str
+    condition: Condition
+    steps: list[ScriptStepPublic]
+    current: str | None
+    complete: bool
+
+
+class SessionSummaryPublic(BaseModel):
+    session_id: int
+    status: str
+    duration_s: float | None
+    without_navigator_s: float | None = Field(description="Time the session ran with nobody steering.")
+    without_navigator_fraction: float | None
+    locomotion_alarms: int = Field(description="Times no locomotion command went out for more than 2 s.")
+    locomotion_gap_s: float
+    navigator_changes: int
+    actions_s: dict[str, float]
+    questionnaires: int
+    corrections: int
+    overrides: int
+    stopped_by: str | None
+
+
+class PlanRequest(BaseModel):
+    """Plan the whole study at once: N participants, each with both sessions, orders from a Latin square."""
+
+    model_config = ConfigDict(extra="forbid", strict=True)
+
+    participants: int = Field(ge=1, le=500)
+    code_prefix: str = Field("P", pattern=r"^[A-Za-z][A-Za-z0-9_-]{0,20}$")
+    first_number: int = Field(1, ge=0, le=100_000)
+    run_minutes: float | None = Field(10.0, gt=0, le=240, description="The session script's run time.")
+    first_conditions: list[Condition] | None = Field(
+        None, description="Override: each participant's first condition instead of the Latin square's."
+    )
+
+
+class PlannedParticipant(BaseModel):
+    participant_id: int
+    code: str
+    order: list[Condition]
+    session_ids: list[int]
+
+
+class PlanPublic(BaseModel):
+    participants: list[PlannedParticipant]
+    latin_square: list[list[Condition]]
+    overridden: bool

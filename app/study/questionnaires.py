@@ -33,11 +33,16 @@ NOT_EXPERIENCED: Final = "not_experienced"
 
 
 class QuestionnaireError(InputError):
-    """An answer sheet that cannot be scored; ``item`` is the offending item key (or field)."""
+    """An answer sheet that cannot be scored.
 
-    def __init__(self, item: str, message: str) -> None:
+    item: the first offending item key (or field); items: every offending key, in the form's order
+    (the form marks them all at once). The message names the items in the instrument's wording.
+    """
+
+    def __init__(self, item: str, message: str, items: tuple[str, ...] = ()) -> None:
         super().__init__(message)
         self.item = item
+        self.items = items or (item,)
 
 
 @dataclass(frozen=True, slots=True)
@@ -268,7 +273,7 @@ DEFINITIONS: Final[dict[str, Definition]] = {
             for section in MSSQ_SECTIONS
             for key, text in MSSQ_TYPES
         ),
-        phases=(None, "pre"),
+        phases=("pre",),
         score_keys=("child", "adult", "total"),
     ),
     "ipq": Definition(
@@ -276,7 +281,7 @@ DEFINITIONS: Final[dict[str, Definition]] = {
         title="igroup presence questionnaire (IPQ)",
         instructions="Rate each statement about the virtual world you just experienced (7-point scale).",
         items=tuple(Item(k, t, a, 0, 6, reversed=r) for k, t, a, r in _IPQ_ITEMS),
-        phases=(None, "post"),
+        phases=("post",),
         score_keys=("G1", "SP", "INV", "REAL"),
     ),
     "nasa_tlx": Definition(
@@ -287,7 +292,7 @@ DEFINITIONS: Final[dict[str, Definition]] = {
             "scale that contributed more to the workload."
         ),
         items=tuple(Item(k, t, a, 0, 100) for k, t, a in _TLX_ITEMS),
-        phases=(None, "post"),
+        phases=("post",),
         score_keys=("raw_tlx", "weighted_tlx", *TLX_SCALES),
         pairs=TLX_PAIRS,
     ),
@@ -322,47 +327,73 @@ def instrument_definitions() -> dict[str, Any]:
 
 # --- validation ------------------------------------------------------------------------------
 
+SHORT_NAMES: Final[dict[str, str]] = {"ssq": "SSQ", "mssq": "MSSQ", "ipq": "IPQ", "nasa_tlx": "NASA-TLX"}
+TLX_SCALE_NAMES: Final[dict[str, str]] = {k: t.split(":", 1)[0] for k, t, _ in _TLX_ITEMS}
 
-def _value(item: Item, raw: object) -> int | None:
-    """The answer as an integer in range, or None for an allowed non-numeric answer."""
+
+def _wording(d: Definition, item: Item) -> str:
+    """How the form shows an item: its number and (up to 70 characters of) its text."""
+    text = item.text if len(item.text) <= 70 else item.text[:67].rstrip() + "…"
+    return f"{d.keys.index(item.key) + 1}. “{text}”"
+
+
+def _value(item: Item, raw: object) -> int | str | None:
+    """The answer as an integer in range, None for an allowed non-numeric answer, or a problem (str)."""
     if isinstance(raw, str) and raw in item.allow:
         return None
-    if isinstance(raw, bool) or not isinstance(raw, int | float):
-        allowed = f" or {', '.join(repr(a) for a in item.allow)}" if item.allow else ""
-        raise QuestionnaireError(
-            item.key,
-            f"item {item.key!r}: expected an integer {item.min}-{item.max}{allowed}, got {raw!r}",
-        )
-    if isinstance(raw, float) and not raw.is_integer():
-        raise QuestionnaireError(
-            item.key, f"item {item.key!r}: expected an integer {item.min}-{item.max}, got {raw!r}"
-        )
-    value = int(raw)
-    if not item.min <= value <= item.max:
-        raise QuestionnaireError(
-            item.key, f"item {item.key!r}: value {value} out of range {item.min}-{item.max}"
-        )
-    return value
+    allowed = f" or {', '.join(repr(a) for a in item.allow)}" if item.allow else ""
+    if isinstance(raw, bool) or not isinstance(raw, int):
+        return f"expected a whole number {item.min}-{item.max}{allowed}, got {raw!r}"
+    if not item.min <= raw <= item.max:
+        return f"{raw} is not on the scale {item.min}-{item.max}"
+    return int(raw)
 
 
 def _answers(d: Definition, answers: Mapping[str, object]) -> dict[str, int | None]:
     if not isinstance(answers, Mapping):
         raise QuestionnaireError("answers", f"answers must be an object, got {type(answers).__name__}")
+    name = SHORT_NAMES[d.name]
     known = set(d.keys)
-    for key in answers:
-        if key not in known:
-            raise QuestionnaireError(str(key), f"unknown item {key!r} for {d.name}")
+    unknown = [str(k) for k in answers if k not in known]
+    if unknown:
+        raise QuestionnaireError(
+            unknown[0],
+            f"unknown item{'s' if len(unknown) > 1 else ''} {', '.join(repr(k) for k in unknown)} for {name}",
+            tuple(unknown),
+        )
     out: dict[str, int | None] = {}
+    missing: list[Item] = []
+    bad: list[tuple[Item, str]] = []
     for item in d.items:
         if item.key not in answers:
-            raise QuestionnaireError(item.key, f"missing item {item.key!r} for {d.name}")
-        out[item.key] = _value(item, answers[item.key])
+            missing.append(item)
+            continue
+        v = _value(item, answers[item.key])
+        if isinstance(v, str):
+            bad.append((item, v))
+        else:
+            out[item.key] = v
+    if missing or bad:
+        parts = []
+        if missing:
+            parts.append(
+                f"{len(missing)} of {len(d.items)} items not answered: "
+                + "; ".join(_wording(d, i) for i in missing)
+            )
+        if bad:
+            parts.append("; ".join(f"{_wording(d, i)}: {problem}" for i, problem in bad))
+        keys = tuple(i.key for i in d.items if i in missing or any(i is b for b, _ in bad))
+        raise QuestionnaireError(keys[0], f"{name}: " + ". ".join(parts), keys)
     return out
 
 
 def _check_phase(d: Definition, phase: str | None) -> None:
     if phase not in d.phases:
-        raise QuestionnaireError("phase", f"{d.name}: phase must be one of {list(d.phases)}, got {phase!r}")
+        expected = " or ".join(str(p) for p in d.phases)
+        got = "none" if phase is None else repr(phase)
+        raise QuestionnaireError(
+            "phase", f"{SHORT_NAMES[d.name]}: the phase is required and must be {expected}, got {got}"
+        )
 
 
 # --- scoring ---------------------------------------------------------------------------------
@@ -381,10 +412,12 @@ def score_mssq(values: Mapping[str, int | None]) -> dict[str, float]:
         answered = [values[f"{section}_{key}"] for key, _ in MSSQ_TYPES]
         rated = [v for v in answered if v is not None]
         if not rated:
+            items = [i for i in DEFINITIONS["mssq"].items if i.key.startswith(f"{section}_")]
             raise QuestionnaireError(
-                f"{section}_{MSSQ_TYPES[0][0]}",
-                f"mssq: items {section}_{MSSQ_TYPES[0][0]}..{section}_{MSSQ_TYPES[-1][0]} are all "
-                f"'not experienced' ({label}); the section cannot be scored",
+                items[0].key,
+                f"MSSQ: {label}: all {len(items)} types are 'not experienced' (from “{items[0].text}” "
+                f"to “{items[-1].text}”); the section cannot be scored",
+                tuple(i.key for i in items),
             )
         not_experienced = len(answered) - len(rated)
         out[section] = sum(rated) * len(MSSQ_TYPES) / (len(MSSQ_TYPES) - not_experienced)
@@ -405,21 +438,39 @@ def tlx_weights(pairwise: Mapping[str, object]) -> dict[str, int]:
     if not isinstance(pairwise, Mapping):
         raise QuestionnaireError("pairwise", f"pairwise must be an object, got {type(pairwise).__name__}")
     expected = {_pair_key(a, b): (a, b) for a, b in TLX_PAIRS}
-    for key in pairwise:
-        if key not in expected:
-            raise QuestionnaireError(
-                str(key), f"unknown pairwise comparison {key!r}; expected keys like 'mental_vs_physical'"
-            )
+    unknown = [str(k) for k in pairwise if k not in expected]
+    if unknown:
+        raise QuestionnaireError(
+            unknown[0],
+            f"unknown pairwise comparison(s) {', '.join(map(repr, unknown))}; expected keys like "
+            f"'mental_vs_physical'",
+            tuple(unknown),
+        )
+
+    def names(key: str) -> str:
+        a, b = expected[key]
+        return f"{TLX_SCALE_NAMES[a]} or {TLX_SCALE_NAMES[b]}"
+
+    missing = [k for k in expected if k not in pairwise]
+    if missing:
+        raise QuestionnaireError(
+            missing[0],
+            f"NASA-TLX pairwise comparisons: answer all 15 or none (the weighted score needs all 15); "
+            f"{len(missing)} not answered: " + "; ".join(names(k) for k in missing),
+            tuple(missing),
+        )
+    bad = [k for k, pair in expected.items() if pairwise[k] not in pair]
+    if bad:
+        raise QuestionnaireError(
+            bad[0],
+            "NASA-TLX pairwise comparisons: "
+            + "; ".join(f"{names(k)}: expected {expected[k][0]!r} or {expected[k][1]!r}, got "
+                        f"{pairwise[k]!r}" for k in bad),
+            tuple(bad),
+        )
     weights = dict.fromkeys(TLX_SCALES, 0)
-    for key, pair in expected.items():
-        if key not in pairwise:
-            raise QuestionnaireError(key, f"missing pairwise comparison {key!r} (all 15 are required)")
-        choice = pairwise[key]
-        if choice not in pair:
-            raise QuestionnaireError(
-                key, f"pairwise {key!r}: expected {pair[0]!r} or {pair[1]!r}, got {choice!r}"
-            )
-        weights[str(choice)] += 1
+    for key in expected:
+        weights[str(pairwise[key])] += 1
     return weights
 
 

@@ -84,11 +84,15 @@ def test_session_lifecycle_logs_events(client: TestClient) -> None:
     assert stopped["status"] == "stopped" and stopped["stopped_at"] >= stopped["started_at"]
     client.app.state.events.record("action", {"label": "left"})  # after the stop: not this session's
     events = client.get(f"/api/v1/sessions/{sid}/events").json()
-    assert [(e["kind"], e["payload"]) for e in events] == [
-        ("session", {"state": "running"}),
+    assert [(e["kind"], e["payload"].get("state") or e["payload"]) for e in events] == [
+        ("session", "running"),
         ("action", {"label": "forward"}),
-        ("session", {"state": "stopped"}),
+        ("session", "stopped"),
     ]
+    start = events[0]["payload"]
+    assert start["pose_model"].startswith("yolo11n-pose") and "calibration_id" in start, (
+        "the start event names the calibration and the models used (issue 19.10)"
+    )
     assert [e["ts"] for e in events] == sorted(e["ts"] for e in events)
     assert client.get(f"/api/v1/sessions/{sid}/events", params={"kind": "action"}).json()[0]["payload"] == {
         "label": "forward"
@@ -98,6 +102,8 @@ def test_session_lifecycle_logs_events(client: TestClient) -> None:
 def test_questionnaire_is_scored_and_stored_with_raw_answers(client: TestClient) -> None:
     pid = client.post("/api/v1/participants", json={"code": "P01"}).json()["id"]
     sid = client.post("/api/v1/sessions", json={"participant_id": pid, "condition": "CC"}).json()["id"]
+    client.post(f"/api/v1/sessions/{sid}/start")
+    client.post(f"/api/v1/sessions/{sid}/stop")
     answers = ssq_answers(0, nausea=2, headache=1, vertigo=3)
     r = client.post(
         f"/api/v1/sessions/{sid}/questionnaires",

@@ -4,15 +4,19 @@ from __future__ import annotations
 
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Query
+from fastapi import APIRouter, Query, status
 
 from app.api.deps import SessionDep, SettingsDep
+from app.db import study_repository as study_repo
 from app.schemas.study import (
     CompletenessPublic,
     DesignPublic,
     GapWarningPublic,
     InstrumentPublic,
     OrderPublic,
+    PlannedParticipant,
+    PlanPublic,
+    PlanRequest,
 )
 from app.study.data import load_study
 from app.study.design import (
@@ -56,3 +60,25 @@ def study_warnings(db: SessionDep, settings: SettingsDep) -> list[dict[str, Any]
     """Sessions of one participant closer together than the minimum gap (settings: study.min_gap_days)."""
     cfg = DesignConfig.from_settings(settings)
     return [w.as_dict() for w in gap_warnings(load_study(db), cfg.min_gap_days)]
+
+
+@router.post("/study/plan", response_model=PlanPublic, status_code=status.HTTP_201_CREATED)
+def plan(body: PlanRequest, db: SessionDep) -> PlanPublic:
+    """N participants with both sessions planned at once, orders from a Latin square (or given)."""
+    planned = study_repo.plan_study(
+        db,
+        body.participants,
+        body.code_prefix,
+        body.first_number,
+        body.run_minutes * 60.0 if body.run_minutes is not None else None,
+        body.first_conditions,
+    )
+    return PlanPublic(
+        participants=[
+            PlannedParticipant(participant_id=p.id, code=p.code, order=order,  # type: ignore[arg-type]
+                               session_ids=[s.id for s in sessions])
+            for p, order, sessions in planned
+        ],
+        latin_square=study_repo.latin_square(("CC", "EC")),  # type: ignore[arg-type]
+        overridden=body.first_conditions is not None,
+    )

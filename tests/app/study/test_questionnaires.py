@@ -59,7 +59,7 @@ def test_mssq_correction_for_types_not_experienced() -> None:
     ne = "not_experienced"
     sheet = mssq({"cars": 3, "buses_coaches": 2, "ships": ne, "small_boats": ne}, {}, default=0)
     sheet.update({k: 1 for k in sheet if k.startswith("adult_")})
-    s = score("mssq", None, sheet)
+    s = score("mssq", "pre", sheet)
     assert s == pytest.approx({"child": 45 / 7, "adult": 9.0, "total": 45 / 7 + 9}, abs=1e-4)
 
 
@@ -67,12 +67,12 @@ def test_ipq_reversed_items() -> None:
     # SP2, INV3 and REAL1 reversed: 6 -> 0.
     s = score("ipq", "post", IPQ_ALL_6)
     assert s == pytest.approx({"G1": 6.0, "SP": 24 / 5, "INV": 18 / 4, "REAL": 18 / 4})
-    s = score("ipq", None, {k: 0 for k in IPQ_ALL_6})
+    s = score("ipq", "post", {k: 0 for k in IPQ_ALL_6})
     assert s == pytest.approx({"G1": 0.0, "SP": 6 / 5, "INV": 6 / 4, "REAL": 6 / 4})
 
 
 def test_tlx_raw_and_weighted() -> None:
-    s = score("nasa_tlx", None, TLX)
+    s = score("nasa_tlx", "post", TLX)
     assert s["raw_tlx"] == pytest.approx(230 / 6, abs=1e-4)
     assert "weighted_tlx" not in s, "weighted TLX only with the pairwise choices"
     assert s["mental"] == 70 and s["frustration"] == 10
@@ -105,37 +105,46 @@ def _bad_pairwise(**change: Any) -> dict[str, Any]:
 
 
 BAD: list[tuple[str, str | None, dict[str, Any], dict[str, Any] | None, str, str]] = [
-    ("ssq", "pre", ssq(headache=4), None, "headache", r"out of range 0-3"),
-    ("ssq", "pre", ssq(headache=-1), None, "headache", r"out of range"),
-    ("ssq", "pre", {**ssq(), "fatigue": "2"}, None, "fatigue", r"expected an integer"),
-    ("ssq", "pre", {**ssq(), "fatigue": 1.5}, None, "fatigue", r"expected an integer"),
-    ("ssq", "pre", {**ssq(), "fatigue": True}, None, "fatigue", r"expected an integer"),
-    ("ssq", "pre", {k: 0 for k in SSQ_KEYS if k != "burping"}, None, "burping", r"missing item"),
+    ("ssq", "pre", ssq(headache=4), None, "headache", r"4 is not on the scale 0-3"),
+    ("ssq", "pre", ssq(headache=-1), None, "headache", r"not on the scale"),
+    ("ssq", "pre", {**ssq(), "fatigue": "2"}, None, "fatigue", r"expected a whole number"),
+    ("ssq", "pre", {**ssq(), "fatigue": 1.5}, None, "fatigue", r"expected a whole number"),
+    ("ssq", "pre", {**ssq(), "fatigue": 1.0}, None, "fatigue", r"expected a whole number"),
+    ("ssq", "pre", {**ssq(), "fatigue": True}, None, "fatigue", r"expected a whole number"),
+    ("ssq", "pre", {k: 0 for k in SSQ_KEYS if k != "burping"}, None, "burping", r"1 of 16 items not"),
     ("ssq", "pre", {**ssq(), "hunger": 1}, None, "hunger", r"unknown item"),
-    ("ssq", None, ssq(), None, "phase", r"phase must be one of"),
-    ("ssq", "during", ssq(), None, "phase", r"phase must be one of"),
+    ("ssq", None, ssq(), None, "phase", r"phase is required and must be pre or post, got none"),
+    ("ssq", "during", ssq(), None, "phase", r"phase is required"),
     ("ssq", "post", ssq(), PAIRWISE_FIRST, "pairwise", r"nasa_tlx only"),
     ("vrsq", "pre", ssq(), None, "instrument", r"unknown instrument"),
-    ("mssq", None, mssq({"cars": 4}, {}), None, "child_cars", r"out of range"),
-    ("mssq", None, mssq({"cars": "never"}, {}), None, "child_cars", r"not_experienced"),
-    ("mssq", None, mssq({}, {}, default="not_experienced"), None, "child_cars", r"cannot be scored"),
+    ("mssq", "pre", mssq({"cars": 4}, {}), None, "child_cars", r"not on the scale"),
+    ("mssq", "pre", mssq({"cars": "never"}, {}), None, "child_cars", r"not_experienced"),
+    ("mssq", "pre", mssq({}, {}, default="not_experienced"), None, "child_cars", r"cannot be scored"),
     ("mssq", "post", mssq({}, {}), None, "phase", r"phase"),
-    ("ipq", "post", {**IPQ_ALL_6, "SP3": 7}, None, "SP3", r"out of range 0-6"),
+    ("ipq", "post", {**IPQ_ALL_6, "SP3": 7}, None, "SP3", r"not on the scale 0-6"),
     ("ipq", "pre", IPQ_ALL_6, None, "phase", r"phase"),
-    ("ipq", None, {k: v for k, v in IPQ_ALL_6.items() if k != "REAL4"}, None, "REAL4", r"missing"),
-    ("nasa_tlx", None, {**TLX, "effort": 101}, None, "effort", r"out of range 0-100"),
-    ("nasa_tlx", None, {**TLX, "stress": 5}, None, "stress", r"unknown item"),
-    ("nasa_tlx", None, TLX, _bad_pairwise(mental_vs_effort=None), "mental_vs_effort", r"missing pairwise"),
-    ("nasa_tlx", None, TLX, _bad_pairwise(mental_vs_effort="physical"), "mental_vs_effort", r"expected"),
+    ("ipq", None, IPQ_ALL_6, None, "phase", r"must be post, got none"),
+    ("ipq", "post", {k: v for k, v in IPQ_ALL_6.items() if k != "REAL4"}, None, "REAL4", r"not answered"),
+    ("nasa_tlx", "post", {**TLX, "effort": 101}, None, "effort", r"not on the scale 0-100"),
+    ("nasa_tlx", "post", {**TLX, "stress": 5}, None, "stress", r"unknown item"),
+    ("nasa_tlx", "post", TLX, _bad_pairwise(mental_vs_effort=None), "mental_vs_effort", r"all 15 or none"),
+    ("nasa_tlx", "post", TLX, _bad_pairwise(mental_vs_effort="physical"), "mental_vs_effort", r"expected"),
     (
         "nasa_tlx",
-        None,
+        "post",
         TLX,
         _bad_pairwise(effort_vs_mental="effort"),
         "effort_vs_mental",
         r"unknown pairwise",
     ),
 ]
+
+
+def wording(instrument: str, key: str) -> str | None:
+    """What the form shows for an item key: the start of its text (None for a field or an unknown key)."""
+    d = DEFINITIONS.get(instrument)
+    item = next((i for i in d.items if i.key == key), None) if d else None
+    return item.text[:40] if item is not None else None
 
 
 @pytest.mark.parametrize(
@@ -154,10 +163,35 @@ def test_rejected_sheet_names_the_item(
     before = json.dumps(answers, sort_keys=True)
     with pytest.raises(QuestionnaireError, match=match) as info:
         score(instrument, phase, answers, pairwise)
-    assert info.value.item == item
-    assert item in str(info.value), "the message names the item"
+    assert info.value.item == item and item in info.value.items
+    text = wording(instrument, item)
+    if text is not None:
+        assert text in str(info.value), "the message names the item in the instrument's own wording"
+    elif item not in ("phase", "pairwise", "instrument") and "_vs_" not in item:
+        assert item in str(info.value), "an unknown key is named as it was sent"
     assert isinstance(info.value, ValueError) and isinstance(info.value, CavewalkError)
     assert json.dumps(answers, sort_keys=True) == before, "scoring leaves the answers unchanged"
+
+
+def test_every_missing_item_is_named_at_once_in_the_instruments_wording() -> None:
+    """Issue 19.6: not one missing item at a time by internal key."""
+    sheet = {k: 0 for k in SSQ_KEYS if k not in ("sweating", "burping", "vertigo")}
+    with pytest.raises(QuestionnaireError) as info:
+        score("ssq", "pre", sheet)
+    assert info.value.items == ("sweating", "vertigo", "burping"), "in the form's order"
+    msg = str(info.value)
+    assert "3 of 16 items not answered" in msg
+    assert "7. “Sweating”" in msg and "14. “Vertigo”" in msg and "16. “Burping”" in msg
+    assert "sweating" not in msg, "no internal keys"
+
+
+def test_some_pairwise_comparisons_are_refused_naming_all_missing() -> None:
+    three = dict(list(PAIRWISE_FIRST.items())[:3])
+    with pytest.raises(QuestionnaireError, match="answer all 15 or none") as info:
+        score("nasa_tlx", "post", TLX, three)
+    assert len(info.value.items) == 12
+    assert "Temporal Demand or Frustration" in str(info.value)
+    assert "weighted_tlx" not in score("nasa_tlx", "post", TLX, None), "none is fine: raw TLX only"
 
 
 @pytest.mark.parametrize(
@@ -166,7 +200,7 @@ def test_rejected_sheet_names_the_item(
         ("ssq", "pre", ssq(), None),
         ("mssq", "pre", mssq({"cars": "not_experienced"}, {}), None),
         ("ipq", "post", IPQ_ALL_6, None),
-        ("nasa_tlx", "post", {**TLX, "effort": 100.0}, PAIRWISE_FIRST),
+        ("nasa_tlx", "post", {**TLX, "effort": 100}, PAIRWISE_FIRST),
     ],
 )
 def test_accepted_sheets(instrument: str, phase: str | None, answers: dict[str, Any], pairwise: Any) -> None:

@@ -1,0 +1,105 @@
+"""A session's summary from its event log: how long it ran, how long it ran without a navigator,
+the gaps in the locomotion stream (the dashboard's alarm), the actions, and what was corrected.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import defaultdict
+from typing import Any
+
+from sqlalchemy import select
+from sqlalchemy.orm import Session
+
+from app.db.models import Event
+from app.db.study_repository import get_session
+
+
+def without_navigator_s(events: list[Event], start_ts: float, end_ts: float) -> float:
+    """Seconds of [start_ts, end_ts] with no navigator, from the session's ``session``, ``navigator``
+    and ``pipeline`` events (a stopped or failed pipeline has no navigator)."""
+    nav: Any = None
+    t = start_ts
+    total = 0.0
+    for e in events:
+        if e.ts < start_ts:
+            continue
+        if e.ts > end_ts:
+            break
+        if nav is None:
+            total += e.ts - t
+        t = e.ts
+        p = e.payload or {}
+        if e.kind == "session" and p.get("state") == "running":
+            nav = p.get("navigator")
+        elif e.kind == "navigator":
+            nav = p.get("current")
+        elif e.kind == "pipeline" and p.get("state") in ("stopped", "error", "stalled"):
+            nav = None
+    if nav is None:
+        total += end_ts - t
+    return max(0.0, total)
+
+
+def session_summary(db: Session, session_id: int) -> dict[str, Any]:
+    session = get_session(db, session_id)
+    events = list(
+        db.scalars(select(Event).where(Event.session_id == session_id).order_by(Event.ts, Event.id))
+    )
+    out: dict[str, Any] = {
+        "session_id": session_id,
+        "status": session.status,
+        "duration_s": None,
+        "without_navigator_s": None,
+        "without_navigator_fraction": None,
+        "locomotion_alarms": 0,
+        "locomotion_gap_s": 0.0,
+        "navigator_changes": 0,
+        "actions_s": {},
+        "questionnaires": 0,
+        "corrections": 0,
+        "overrides": 0,
+        "stopped_by": session.stopped_by,
+    }
+    starts = [e.ts for e in events if e.kind == "session" and (e.payload or {}).get("state") == "running"]
+    stops = [e.ts for e in events if e.kind == "session" and (e.payload or {}).get("state") == "stopped"]
+    if not starts:
+        return out
+    start = starts[0]
+    end = stops[-1] if stops and session.status == "stopped" else time.time()
+    duration = max(0.0, end - start)
+    out["duration_s"] = round(duration, 1)
+    without = without_navigator_s(events, start, end)
+    out["without_navigator_s"] = round(without, 1)
+    out["without_navigator_fraction"] = round(without / duration, 4) if duration > 0 else None
+    actions: dict[str, float] = defaultdict(float)
+    label: str | None = None
+    t = start
+    open_gap: float | None = None
+    for e in events:
+        p = e.payload or {}
+        if e.kind == "action" and start <= e.ts <= end:
+            if label is not None:
+                actions[label] += e.ts - t
+            label, t = p.get("label"), e.ts
+        elif e.kind == "navigator":
+            out["navigator_changes"] += 1
+        elif e.kind == "alarm" and p.get("alarm") == "no_locomotion":
+            if p.get("state") == "raised":
+                out["locomotion_alarms"] += 1
+                open_gap = float(p.get("since_ts", e.ts))
+            elif p.get("state") == "cleared" and open_gap is not None:
+                out["locomotion_gap_s"] += e.ts - open_gap
+                open_gap = None
+        elif e.kind == "questionnaire":
+            out["questionnaires"] += 1
+            out["corrections"] += "corrects" in p
+        elif e.kind == "override":
+            out["overrides"] += 1
+    if label is not None:
+        actions[label] += end - t
+    if open_gap is not None:
+        out["locomotion_gap_s"] += end - open_gap
+    out["locomotion_gap_s"] = round(out["locomotion_gap_s"], 1)
+    out["actions_s"] = {k: round(v, 1) for k, v in actions.items()}
+    return out
