@@ -222,6 +222,7 @@ class StudySettings(_Section):
 
     min_gap_days: float = Field(2.0, ge=0)  # minimum time between a participant's two sessions
     alpha: float = Field(0.05, gt=0, lt=1)  # significance level (Shapiro-Wilk decision, stars)
+    correction: Literal["holm", "bonferroni", "none"] = "holm"  # multiple comparisons over the measures
 
 
 class CalibrationSettings(_Section):

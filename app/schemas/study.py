@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
@@ -20,6 +20,8 @@ class MeasurePublic(BaseModel):
     p: float | None
     cohens_d: float | None
     cohens_d_ci95: list[float] | None = None
+    p_adjusted: float | None = None
+    normality_note: str | None = None
     effect_label: str | None
     normal: bool | None
     mean_cc: float | None
@@ -33,6 +35,9 @@ class AnalysisPublic(BaseModel):
     model_config = ConfigDict(extra="allow")
 
     participants: int = Field(description="Registered participants.")
+    correction: Literal["holm", "bonferroni", "none"] = "holm"
+    correction_text: str = ""
+    exclusions: list[dict[str, Any]] = Field(default_factory=list, description="Excluded by the operator.")
     excluded: list[str] = Field(description="Codes of participants left out of the paired tests.")
     excluded_reasons: dict[str, str] = {}
     measures: dict[str, MeasurePublic]
@@ -65,7 +70,10 @@ class CompletenessPublic(BaseModel):
 
 class DesignPublic(BaseModel):
     participants: int
-    first_condition_counts: dict[str, int]
+    completed_participants: int = Field(description="Participants who ran both conditions (not excluded).")
+    incomplete: list[str] = Field(description="Codes of participants who have not run both conditions.")
+    first_condition_counts: dict[str, int] = Field(description="Over the participants who completed both.")
+    enrolled_first_condition_counts: dict[str, int]
     balanced: bool = Field(description="The CC-first and EC-first groups differ by at most one.")
     next_first_condition: Condition
     next_order: list[Condition]

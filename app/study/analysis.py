@@ -5,7 +5,14 @@ condition; Shapiro-Wilk on the paired differences (EC - CC); when they look norm
 t-test and the repeated-measures ANOVA F(1, n-1) with partial eta squared (sphericity is trivially
 met with two levels; Mauchly's test and the Greenhouse-Geisser correction are applied for designs
 with more levels); otherwise the Wilcoxon signed-rank test with Z and r = Z / sqrt(n); Cohen's
-d_z for paired data with its 95 % confidence interval and the paper's six-level label.
+d_z for paired data with its exact 95 % confidence interval (noncentral t, as R's effectsize and
+MBESS compute it: it excludes 0 exactly when the paired t-test's p < .05) and the paper's six-level
+label. Below ``normality_min_n`` pairs Shapiro-Wilk has too little power to judge normality, which
+each measure then says. The p-values of all tested measures are corrected for multiple comparisons
+(Holm by default, or Bonferroni), and the table says which.
+
+Only what is in use enters: excluded participants, sessions and entries, and entries replaced by a
+correction, are left out and listed; each measure names the entries (ids) it used.
 
 Statistics come from scipy and pingouin. Wilcoxon p-values follow R's ``wilcox.test``: zero
 differences are dropped ("wilcox" zero method); exact p without ties or zeros for n < 50,
@@ -44,6 +51,7 @@ MEASURES: dict[str, tuple[str, str | None, str]] = {
     "ipq_INV": ("ipq", None, "INV"),
     "ipq_REAL": ("ipq", None, "REAL"),
     "tlx_raw": ("nasa_tlx", None, "raw_tlx"),
+    "tlx_weighted": ("nasa_tlx", None, "weighted_tlx"),
     "tlx_mental": ("nasa_tlx", None, "mental"),
     "tlx_physical": ("nasa_tlx", None, "physical"),
     "tlx_temporal": ("nasa_tlx", None, "temporal"),
@@ -68,17 +76,49 @@ SPHERICITY_TWO_LEVELS = (
 )
 
 
+CORRECTIONS: tuple[str, ...] = ("holm", "bonferroni", "none")
+CORRECTION_NAMES: dict[str, str] = {"holm": "Holm", "bonferroni": "Bonferroni", "none": "no correction"}
+
+
 @dataclass(frozen=True, slots=True)
 class AnalysisConfig:
+    """alpha: significance level. correction: for multiple comparisons over the tested measures.
+    normality_min_n: below this many pairs Shapiro-Wilk is said to be underpowered."""
+
     alpha: float = 0.05
+    correction: str = "holm"
+    normality_min_n: int = 10
 
     def __post_init__(self) -> None:
         if not 0 < self.alpha < 1:
             raise ValueError(f"alpha must be in (0, 1), got {self.alpha}")
+        if self.correction not in CORRECTIONS:
+            raise ValueError(f"correction must be one of {CORRECTIONS}, got {self.correction!r}")
+        if self.normality_min_n < 3:
+            raise ValueError(f"normality_min_n must be >= 3, got {self.normality_min_n}")
 
     @classmethod
-    def from_settings(cls, settings: Settings) -> AnalysisConfig:
-        return cls(alpha=settings.study.alpha)
+    def from_settings(cls, settings: Settings, correction: str | None = None) -> AnalysisConfig:
+        return cls(alpha=settings.study.alpha, correction=correction or settings.study.correction)
+
+
+def adjust_p(p_values: Sequence[float], method: str) -> list[float]:
+    """Family-wise adjusted p-values (as R's ``p.adjust``): Holm's step-down, Bonferroni, or none."""
+    p = np.asarray(p_values, dtype=float)
+    m = p.size
+    if method == "none" or m == 0:
+        return [float(v) for v in p]
+    if method == "bonferroni":
+        return [float(v) for v in np.minimum(1.0, p * m)]
+    if method != "holm":
+        raise ValueError(f"unknown correction {method!r}")
+    order = np.argsort(p, kind="stable")
+    adjusted = np.empty(m)
+    running = 0.0
+    for rank, i in enumerate(order):
+        running = max(running, min(1.0, (m - rank) * p[i]))
+        adjusted[i] = running
+    return [float(v) for v in adjusted]
 
 
 def _num(x: Any) -> float | None:
@@ -168,16 +208,46 @@ def wilcoxon(x: NDArray[np.float64], y: NDArray[np.float64]) -> dict[str, Any] |
     }
 
 
-def cohens_dz(x: NDArray[np.float64], y: NDArray[np.float64]) -> tuple[float | None, list[float] | None]:
-    """Cohen's d_z of x - y (mean / SD of the differences) and its 95 % CI (pingouin)."""
-    import pingouin as pg
+def dz_interval(d: float, n: int, level: float = 0.95) -> tuple[float, float]:
+    """The exact confidence interval of Cohen's d_z from n pairs: invert the noncentral t.
 
+    t = d sqrt(n) has a noncentral t distribution with n - 1 df and noncentrality delta sqrt(n);
+    the limits are the noncentralities at which the observed t is the (1 + level) / 2 and
+    (1 - level) / 2 quantile, divided by sqrt(n) (Steiger & Fouladi 1997; R's effectsize and MBESS).
+    """
+    from scipy.optimize import brentq
+    from scipy.stats import nct
+
+    df = n - 1
+    t = d * math.sqrt(n)
+    upper_q, lower_q = (1 + level) / 2, (1 - level) / 2
+    span = abs(t) + 10.0 + 10.0 * math.sqrt(abs(t))
+
+    def limit(q: float) -> float:
+        def f(ncp: float) -> float:
+            p = float(nct.cdf(t, df, ncp))
+            if not math.isfinite(p):  # far in a tail, where scipy's series gives up
+                p = 0.0 if ncp > t else 1.0
+            return p - q
+
+        lo, hi = t - span, t + span
+        while f(lo) < 0:
+            lo -= span
+        while f(hi) > 0:
+            hi += span
+        return float(brentq(f, lo, hi, xtol=1e-12))
+
+    return limit(upper_q) / math.sqrt(n), limit(lower_q) / math.sqrt(n)
+
+
+def cohens_dz(x: NDArray[np.float64], y: NDArray[np.float64]) -> tuple[float | None, list[float] | None]:
+    """Cohen's d_z of x - y (mean / SD of the differences) and its exact 95 % CI (noncentral t)."""
     diff = x - y
     if diff.size < 2 or is_constant(diff):
         return None, None
-    d = float(pg.compute_effsize(x, y, paired=True, eftype="cohen_dz"))
-    ci = pg.compute_esci(stat=d, nx=diff.size, ny=diff.size, paired=True, eftype="cohen", decimals=6)
-    return _num(d), [float(ci[0]), float(ci[1])]
+    d = float(np.mean(diff) / np.std(diff, ddof=1))
+    lo, hi = dz_interval(d, int(diff.size))
+    return _num(d), [lo, hi]
 
 
 def rm_anova(levels: Mapping[str, ArrayLike]) -> dict[str, Any]:
@@ -235,7 +305,9 @@ def rm_anova(levels: Mapping[str, ArrayLike]) -> dict[str, Any]:
     return out
 
 
-def paired_test(cc: ArrayLike, ec: ArrayLike, alpha: float = 0.05) -> dict[str, Any]:
+def paired_test(
+    cc: ArrayLike, ec: ArrayLike, alpha: float = 0.05, normality_min_n: int = 10
+) -> dict[str, Any]:
     """Compare the two conditions on paired values (index i = the same participant); EC - CC."""
     # Rounded to 10 decimals so that floating-point noise in differences of scores (e.g. 0.1 + 0.2
     # - 0.3) is not taken for a real difference by the zero and tie handling of the tests.
@@ -273,6 +345,12 @@ def paired_test(cc: ArrayLike, ec: ArrayLike, alpha: float = 0.05) -> dict[str, 
     w, p_sw = shapiro(diff)
     out["shapiro_w"], out["shapiro_p"] = w, p_sw
     out["normal"] = bool(p_sw is not None and p_sw > alpha)
+    if a.size < normality_min_n:
+        out["normality_underpowered"] = True
+        out["normality_note"] = (
+            f"n = {a.size}: too few pairs to judge normality (Shapiro-Wilk has little power below "
+            f"n = {normality_min_n}); the test was chosen by it all the same"
+        )
     d, ci = cohens_dz(b, a)
     out["cohens_d"], out["cohens_d_ci95"], out["effect_label"] = d, ci, effect_label(d)
     if np.all(diff == 0):
@@ -297,35 +375,51 @@ def paired_test(cc: ArrayLike, ec: ArrayLike, alpha: float = 0.05) -> dict[str, 
 
 
 def _latest(responses: Sequence[ResponseRecord], instrument: str, phase: str | None) -> ResponseRecord | None:
-    match = [r for r in responses if r.instrument == instrument and (phase is None or r.phase == phase)]
+    """The entry in use (a correction replaces the entry it corrects; duplicates are refused)."""
+    match = [
+        r for r in responses if r.instrument == instrument and (phase is None or r.phase == phase) and r.in_use
+    ]
     return match[-1] if match else None
 
 
-def session_value(responses: Sequence[ResponseRecord], measure: str) -> float | None:
-    """The measure's value in one session (its latest matching questionnaire), or None."""
+def session_entries(responses: Sequence[ResponseRecord], measure: str) -> tuple[float, list[int]] | None:
+    """The measure's value in one session and the ids of the entries it comes from, or None."""
     instrument, phase, key = MEASURES[measure]
     if phase == "post-pre":
         post, pre = _latest(responses, instrument, "post"), _latest(responses, instrument, "pre")
         if post is None or pre is None or key not in post.scores or key not in pre.scores:
             return None
-        return float(post.scores[key]) - float(pre.scores[key])
+        return float(post.scores[key]) - float(pre.scores[key]), [pre.id, post.id]
     r = _latest(responses, instrument, phase)
     if r is None or key not in r.scores or r.scores[key] is None:
         return None
-    return float(r.scores[key])
+    return float(r.scores[key]), [r.id]
+
+
+def session_value(responses: Sequence[ResponseRecord], measure: str) -> float | None:
+    """The measure's value in one session (its questionnaire in use), or None."""
+    found = session_entries(responses, measure)
+    return None if found is None else found[0]
+
+
+def condition_entries(data: StudyData, measure: str) -> dict[str, dict[str, tuple[float, list[int]]]]:
+    """participant code -> condition -> (value, entry ids), from the session of that condition."""
+    out: dict[str, dict[str, tuple[float, list[int]]]] = {}
+    for p in data.participants:
+        per: dict[str, tuple[float, list[int]]] = {}
+        for s in data.sessions_of(p.id):  # ordered by id: a later session of a condition wins
+            found = session_entries(data.responses_of(s.id), measure)
+            if found is not None:
+                per[s.condition] = found
+        out[p.code] = per
+    return out
 
 
 def condition_values(data: StudyData, measure: str) -> dict[str, dict[str, float]]:
     """participant code -> condition -> value (from the latest session of that condition that has it)."""
-    out: dict[str, dict[str, float]] = {}
-    for p in data.participants:
-        per: dict[str, float] = {}
-        for s in data.sessions_of(p.id):  # ordered by id: later sessions override earlier ones
-            v = session_value(data.responses_of(s.id), measure)
-            if v is not None:
-                per[s.condition] = v
-        out[p.code] = per
-    return out
+    return {
+        code: {c: v for c, (v, _ids) in per.items()} for code, per in condition_entries(data, measure).items()
+    }
 
 
 def paired_values(
@@ -375,6 +469,9 @@ def _mssq(data: StudyData) -> dict[str, Any]:
 def analyse(data: StudyData, config: AnalysisConfig | None = None) -> dict[str, Any]:
     """The whole analysis as JSON-able data (the shape of ``GET /api/v1/analysis``)."""
     config = config or AnalysisConfig()
+    exclusions = data.exclusions()
+    registered = len(data.participants)
+    data = data.analysed()
     reasons: dict[str, str] = {}
     for p in data.participants:
         have = {s.condition for s in data.sessions_of(p.id) if data.responses_of(s.id)}
@@ -387,19 +484,36 @@ def analyse(data: StudyData, config: AnalysisConfig | None = None) -> dict[str, 
             )
     measures: dict[str, Any] = {}
     for name in MEASURES:
-        values = condition_values(data, name)
+        entries = condition_entries(data, name)
+        values = {code: {c: v for c, (v, _) in per.items()} for code, per in entries.items()}
         codes, cc, ec = paired_values(data, name)
-        result = paired_test(cc, ec, config.alpha)
+        result = paired_test(cc, ec, config.alpha, config.normality_min_n)
         result["participants"] = codes
+        result["entries"] = {code: {c: entries[code][c][1] for c in CONDITIONS} for code in codes}
         result["excluded"] = sorted(
             c for c, v in values.items() if not all(k in v for k in CONDITIONS) and c not in reasons
         )
         measures[name] = result
+    tested = [name for name, m in measures.items() if m["p"] is not None]
+    adjusted = adjust_p([measures[name]["p"] for name in tested], config.correction)
+    for name, m in measures.items():
+        m["p_adjusted"] = adjusted[tested.index(name)] if name in tested else None
+        m["correction"] = config.correction
+        m["significant"] = m["p_adjusted"] is not None and m["p_adjusted"] < config.alpha
     return {
-        "participants": len(data.participants),
+        "participants": registered,
+        "analysed_participants": len(data.participants),
         "excluded": sorted(reasons),
         "excluded_reasons": reasons,
+        "exclusions": exclusions,
         "alpha": config.alpha,
+        "correction": config.correction,
+        "correction_text": (
+            f"p adjusted for {len(tested)} tests ({CORRECTION_NAMES[config.correction]})"
+            if config.correction != "none"
+            else f"p unadjusted for {len(tested)} tests"
+        ),
+        "family_size": len(tested),
         "direction": "differences are EC - CC",
         "measures": measures,
         "mssq": _mssq(data),

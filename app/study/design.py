@@ -144,14 +144,32 @@ def completeness(data: StudyData) -> list[dict[str, Any]]:
     return out
 
 
+def completed_both(data: StudyData, participant_id: int) -> bool:
+    """The participant ran a session in each condition (both stopped)."""
+    ran = {s.condition for s in data.sessions_of(participant_id) if s.status == "stopped"}
+    return all(c in ran for c in CONDITIONS)
+
+
 def design_summary(data: StudyData, config: DesignConfig) -> dict[str, Any]:
-    """Everything the study panel shows about the design, JSON-able."""
+    """Everything the study panel shows about the design, JSON-able.
+
+    The design counts (CC first / EC first, balanced) are over the participants who completed both
+    conditions; those still incomplete are listed, and counted only in the enrolment counts (which
+    the next participant's order balances). Excluded participants count nowhere.
+    """
+    registered = len(data.participants)
+    data = data.analysed()
     firsts = [p.first_condition for p in data.participants]
-    counts = Counter(c for c in firsts if c is not None)
+    enrolled = Counter(c for c in firsts if c is not None)
+    done = [p for p in data.participants if completed_both(data, p.id)]
+    counts = Counter(p.first_condition for p in done if p.first_condition is not None)
     nxt = next_first_condition(firsts)
     return {
-        "participants": len(data.participants),
+        "participants": registered,
+        "completed_participants": len(done),
+        "incomplete": [p.code for p in data.participants if p not in done],
         "first_condition_counts": {c: counts[c] for c in CONDITIONS},
+        "enrolled_first_condition_counts": {c: enrolled[c] for c in CONDITIONS},
         "balanced": abs(counts["CC"] - counts["EC"]) <= 1,
         "next_first_condition": nxt,
         "next_order": list(order_for(nxt)),

@@ -43,7 +43,8 @@ GROUPS: Final[dict[str, tuple[str, str, tuple[tuple[str, str], ...]]]] = {
         "NASA-TLX workload",
         "rating (0-100)",
         (
-            ("tlx_raw", "Total"),
+            ("tlx_raw", "Raw TLX"),
+            ("tlx_weighted", "Weighted"),
             ("tlx_mental", "Mental"),
             ("tlx_physical", "Physical"),
             ("tlx_temporal", "Temporal"),
@@ -53,12 +54,16 @@ GROUPS: Final[dict[str, tuple[str, str, tuple[tuple[str, str], ...]]]] = {
         ),
     ),
 }
+#: The dashboard's action colours (frontend/css/dashboard.css, ``--still`` ...): one palette for the
+#: Command panel and the timeline (a test compares the two).
 ACTION_COLOURS: Final[dict[str, str]] = {
-    "still": "#9E9E9E",
-    "forward": "#2E7D32",
-    "left": "#1565C0",
-    "right": "#C62828",
+    "still": "#9ca3af",
+    "forward": "#2563eb",
+    "left": "#16a34a",
+    "right": "#9333ea",
 }
+#: Text sizes (points) readable when the dashboard shows a figure at about 600 px wide.
+FONT = {"base": 13, "title": 15, "ticks": 12.5, "legend": 12.5, "stars": 15}
 
 
 def stars(p: float | None, alpha: float = 0.05) -> str:
@@ -100,7 +105,7 @@ def bar_figure(
     ``values[measure][condition]`` holds the participants' values; ``p_values[measure]`` the
     test's p, drawn as stars over the pair of bars.
     """
-    fig = _new_figure(1.6 + 1.25 * len(labels), 4.2)
+    fig = _new_figure(1.4 + 0.95 * len(labels), 4.4)
     ax = fig.add_subplot()
     width = 0.38
     rng = np.random.default_rng(0)  # fixed jitter: the same data draws the same figure
@@ -140,15 +145,18 @@ def bar_figure(
                 color="black",
                 linewidth=0.8,
             )
-            ax.text(x[i], y + 0.01 * span, mark, ha="center", va="bottom", fontsize=12)
-    ax.set_xticks(x, [label for _, label in labels])
-    ax.set_ylabel(f"{ylabel} (mean ± SE)")
-    ax.set_title(title)
+            ax.text(x[i], y + 0.01 * span, mark, ha="center", va="bottom", fontsize=FONT["stars"])
+    ax.set_xticks(x, [label for _, label in labels], fontsize=FONT["ticks"],
+                  rotation=30 if len(labels) > 5 else 0, ha="right" if len(labels) > 5 else "center")
+    ax.tick_params(axis="y", labelsize=FONT["ticks"])
+    ax.set_ylabel(f"{ylabel} (mean ± SE)", fontsize=FONT["base"])
+    ax.set_title(title, fontsize=FONT["title"])
     ax.set_ylim(bottom=min(0.0, ax.get_ylim()[0]), top=top + 0.18 * span)
     ax.spines[["top", "right"]].set_visible(False)
     handles, names = ax.get_legend_handles_labels()
     if handles:
-        ax.legend(handles, names, frameon=False, loc="upper center", bbox_to_anchor=(0.5, -0.08), ncol=2)
+        ax.legend(handles, names, frameon=False, loc="lower center", bbox_to_anchor=(0.5, 1.06), ncol=2,
+                  fontsize=FONT["legend"])
     else:
         ax.text(0.5, 0.5, "no data yet", transform=ax.transAxes, ha="center", va="center", color="grey")
     return _render(fig, fmt)
@@ -163,7 +171,9 @@ def study_figure(data: StudyData, analysis: Mapping[str, Any], name: str, fmt: s
     for measure, _ in labels:
         per = condition_values(data, measure)
         values[measure] = {c: [v[c] for v in per.values() if c in v] for c in CONDITIONS}
-    p_values = {m: analysis["measures"][m]["p"] for m, _ in labels if m in analysis.get("measures", {})}
+    measures = analysis.get("measures", {})
+    # stars from the p corrected for multiple comparisons (the analysis table's p_adj)
+    p_values = {m: measures[m].get("p_adjusted", measures[m]["p"]) for m, _ in labels if m in measures}
     return bar_figure(values, labels, p_values, title, ylabel, fmt, float(analysis.get("alpha", 0.05)))
 
 
@@ -202,15 +212,16 @@ def timeline_figure(events: Sequence[EventRecord], title: str, fmt: str = "png")
     segments = action_segments(events)
     lanes = list(ACTION_COLOURS)
     lanes += sorted({s[0] for s in segments} - set(lanes))
-    fig = _new_figure(9.0, 2.6)
+    fig = _new_figure(9.0, 2.8)
     ax = fig.add_subplot()
     for i, lane in enumerate(lanes):
         spans = [(start, max(dur, 1e-3)) for lab, start, dur in segments if lab == lane]
         if spans:
             ax.broken_barh(spans, (i - 0.4, 0.8), color=ACTION_COLOURS.get(lane, "#6A1B9A"))
-    ax.set_yticks(range(len(lanes)), lanes)
-    ax.set_xlabel("time since the first action (s)")
-    ax.set_title(title)
+    ax.set_yticks(range(len(lanes)), lanes, fontsize=FONT["ticks"])
+    ax.tick_params(axis="x", labelsize=FONT["ticks"])
+    ax.set_xlabel("time since the first action (s)", fontsize=FONT["base"])
+    ax.set_title(title, fontsize=FONT["title"])
     if not segments:
         ax.text(
             0.5, 0.5, "no action events in this session", transform=ax.transAxes, ha="center", va="center"

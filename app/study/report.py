@@ -37,6 +37,10 @@ EXPORT_COLUMNS: tuple[str, ...] = (
     "instrument",
     "phase",
     "submitted_at",
+    "entered_by",
+    "used_in_analysis",
+    "not_used_because",
+    "corrects_id",
     "kind",
     "item",
     "value",
@@ -62,6 +66,9 @@ MEASURE_COLUMNS: tuple[str, ...] = (
     "z",
     "r",
     "p",
+    "p_adjusted",
+    "correction",
+    "normality_note",
     "anova_F",
     "anova_df1",
     "anova_df2",
@@ -98,6 +105,10 @@ def export_rows(data: StudyData) -> list[dict[str, Any]]:
                     "instrument": r.instrument,
                     "phase": r.phase or "",
                     "submitted_at": _iso(r.created_at),
+                    "entered_by": r.entered_by,
+                    "used_in_analysis": "no" if data.why_not_used(r) else "yes",
+                    "not_used_because": data.why_not_used(r) or "",
+                    "corrects_id": r.corrects if r.corrects is not None else "",
                 }
                 parts: list[tuple[str, Mapping[str, Any]]] = [("answer", r.answers), ("score", r.scores)]
                 if r.pairwise is not None:
@@ -163,13 +174,21 @@ def markdown_report(analysis: Mapping[str, Any], design: Mapping[str, Any], figu
         "# cavewalk user study: analysis",
         "",
         f"Generated {datetime.now(UTC).strftime('%Y-%m-%d %H:%M UTC')}. "
-        f"{analysis['participants']} participants registered; "
-        f"first condition CC: {design['first_condition_counts']['CC']}, "
-        f"EC: {design['first_condition_counts']['EC']}.",
+        f"{analysis['participants']} participants registered, {design['completed_participants']} "
+        f"completed both conditions (CC first: {design['first_condition_counts']['CC']}, "
+        f"EC first: {design['first_condition_counts']['EC']})"
+        + (f"; incomplete: {', '.join(design['incomplete'])}" if design["incomplete"] else "")
+        + ".",
         "",
     ]
+    if analysis.get("exclusions"):
+        lines.append("Excluded by the operator:")
+        lines += [
+            f"- {e['kind']} {e['id']} ({e['code']}): {e['reason']}" for e in analysis["exclusions"]
+        ]
+        lines.append("")
     if analysis["excluded"]:
-        lines.append("Excluded from the paired tests (one condition only):")
+        lines.append("Left out of the paired tests (one condition only):")
         lines += [f"- {code}: {analysis['excluded_reasons'][code]}" for code in analysis["excluded"]]
         lines.append("")
     if design["gap_warnings"]:
@@ -179,17 +198,20 @@ def markdown_report(analysis: Mapping[str, Any], design: Mapping[str, Any], figu
     lines += [
         "Differences are EC − CC. Shapiro-Wilk on the paired differences decides between the paired "
         "t-test (with the repeated-measures ANOVA F(1, n−1); sphericity is trivially met with two "
-        "levels) and the Wilcoxon signed-rank test (Z, r = Z/√n). Effect size: Cohen's d_z with 95 % CI.",
+        "levels) and the Wilcoxon signed-rank test (Z, r = Z/√n). Effect size: Cohen's d_z with its exact "
+        "95 % CI (noncentral t). "
+        f"p: unadjusted; p_adj: {analysis.get('correction_text', '')}. "
+        "normal: '(n small)' where the n is too small for Shapiro-Wilk to judge normality.",
         "",
-        "| measure | n | CC mean (SD) | EC mean (SD) | normal | test | statistic | p | d [95 % CI] "
-        "| effect |",
-        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+        "| measure | n | CC mean (SD) | EC mean (SD) | normal | test | statistic | p | p_adj "
+        "| d [95 % CI] | effect |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
     ]
     for name, m in analysis["measures"].items():
         if m["test"] is None:
             lines.append(
                 f"| {name} | {m['n']} | {_fmt(m['mean_cc'])} ({_fmt(m['sd_cc'])}) | "
-                f"{_fmt(m['mean_ec'])} ({_fmt(m['sd_ec'])}) | – | – | | | | {m.get('note', '')} |"
+                f"{_fmt(m['mean_ec'])} ({_fmt(m['sd_ec'])}) | – | – | | | | | {m.get('note', '')} |"
             )
             continue
         stat = (
@@ -201,8 +223,10 @@ def markdown_report(analysis: Mapping[str, Any], design: Mapping[str, Any], figu
         ci = m.get("cohens_d_ci95") or [None, None]
         lines.append(
             f"| {name} | {m['n']} | {_fmt(m['mean_cc'])} ({_fmt(m['sd_cc'])}) | "
-            f"{_fmt(m['mean_ec'])} ({_fmt(m['sd_ec'])}) | {'yes' if m['normal'] else 'no'} | {m['test']} | "
-            f"{stat} | {_p(m['p'])} | {_fmt(m['cohens_d'])} [{_fmt(ci[0])}, {_fmt(ci[1])}] | "
+            f"{_fmt(m['mean_ec'])} ({_fmt(m['sd_ec'])}) | {'yes' if m['normal'] else 'no'}"
+            f"{' (n small)' if m.get('normality_underpowered') else ''} | {m['test']} | "
+            f"{stat} | {_p(m['p'])} | {_p(m.get('p_adjusted'))} | "
+            f"{_fmt(m['cohens_d'])} [{_fmt(ci[0])}, {_fmt(ci[1])}] | "
             f"{m['effect_label'] or '–'} |"
         )
     mssq = analysis["mssq"]

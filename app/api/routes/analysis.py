@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 from datetime import UTC, datetime
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
-from fastapi import APIRouter, HTTPException, Response, status
+from fastapi import APIRouter, HTTPException, Query, Response, status
 from fastapi import Path as PathParam
 from fastapi.responses import JSONResponse
 
@@ -34,10 +34,17 @@ def _format(ext: str) -> str:
     return ext
 
 
+CorrectionQuery = Annotated[
+    Literal["holm", "bonferroni", "none"] | None,
+    Query(description="Multiple-comparison correction (default: settings study.correction, Holm)."),
+]
+
+
 @router.get("/analysis", response_model=AnalysisPublic)
-def get_analysis(db: SessionDep, settings: SettingsDep) -> dict[str, Any]:
-    """Per measure: descriptives per condition, Shapiro-Wilk, the chosen paired test and Cohen's d."""
-    return analyse(load_study(db), AnalysisConfig.from_settings(settings))
+def get_analysis(db: SessionDep, settings: SettingsDep, correction: CorrectionQuery = None) -> dict[str, Any]:
+    """Per measure: descriptives per condition, Shapiro-Wilk, the chosen paired test, Cohen's d_z with its
+    exact CI, and the p-values corrected for multiple comparisons (Holm by default)."""
+    return analyse(load_study(db), AnalysisConfig.from_settings(settings, correction))
 
 
 @router.get("/analysis.json")

@@ -107,12 +107,55 @@ def test_anova_three_levels_matches_statsmodels_and_reports_sphericity() -> None
     assert ours["p_gg"] == pytest.approx(f.sf(ours["F"], eps * 2, eps * 22), rel=1e-6), "GG scales both dfs"
 
 
-def test_cohens_dz_and_ci() -> None:
-    # lsr::cohensD(x, y, method = "paired") = 1.284558 for the sleep data (sign: x - y < 0).
-    d, ci = cohens_dz(SLEEP_1, SLEEP_2)
-    assert d == pytest.approx(-1.284558, abs=1e-6)
-    # Hedges & Olkin: SE = sqrt(1/n + d^2/(2n)) = 0.42720, t(0.975, 9) = 2.262157 -> d -/+ 0.96640.
-    assert ci == pytest.approx([-2.25096, -0.31815], abs=1e-4)
+# Reference values: R 4.2.2 with the effectsize package 0.8.3 (Ben-Shachar, Lüdecke & Makowski 2020,
+# JOSS 5(56), 2815), `cohens_d(x, y, paired = TRUE)`, whose CI inverts the noncentral t
+# distribution. Reproduced offline with Debian's r-cran-effectsize (`Rscript -e ...`, the calls are
+# in the comments). The sleep example is effectsize's own documented one (?cohens_d: "Pair(extra[group
+# == 1], extra[group == 2]) ~ 1, data = sleep" -> d = -1.28, 95% CI [-2.12, -0.41]).
+DZ_REFERENCE = [
+    # (x, y, level, d, ci_low, ci_high)
+    (SLEEP_1, SLEEP_2, 0.95, -1.2845575626, -2.1180165952, -0.4146276621),  # cohens_d(x, y, paired = TRUE)
+    (MICE_BEFORE, MICE_AFTER, 0.95, -6.603826611, -9.657852290, -3.545122276),
+    (HW_X, HW_Y, 0.95, 1.0117918052, 0.1771477399, 1.8071690610),
+    (HW_X, HW_Y, 0.90, 1.0117918052, 0.3035651863, 1.6716969949),  # ..., ci = 0.9
+    # n = 4: cohens_d(c(4, 5, 5, 7), c(10, 12, 9, 14), paired = TRUE); t.test p = 0.0034
+    (np.array([4.0, 5, 5, 7]), np.array([10.0, 12, 9, 14]), 0.95, -4.2426406871, -7.6104125224, -0.9447423674),
+]
+
+
+@pytest.mark.parametrize(("x", "y", "level", "d", "low", "high"), DZ_REFERENCE)
+def test_cohens_dz_ci_matches_r_effectsize(
+    x: np.ndarray, y: np.ndarray, level: float, d: float, low: float, high: float
+) -> None:
+    """Issue 19.8: the d_z interval must come from the noncentral t, not the normal approximation that
+    put 0 inside the interval of a test with p < .01 (d -3.44 [-7.63, 0.74], p .006)."""
+    from app.study.analysis import dz_interval
+
+    got_d, ci = cohens_dz(x, y)
+    assert got_d == pytest.approx(d, abs=1e-8)
+    lo, hi = ci if level == 0.95 else dz_interval(got_d, x.size, level)
+    assert (lo, hi) == pytest.approx((low, high), abs=1e-6)
+
+
+def test_dz_interval_excludes_zero_exactly_when_the_t_test_is_significant() -> None:
+    rng = np.random.default_rng(11)
+    for n in (4, 5, 8, 20):
+        for _ in range(15):
+            x, y = rng.normal(0, 1, n), rng.normal(0.8, 1, n)
+            d, ci = cohens_dz(x, y)
+            p = paired_t(x, y)["p"]
+            assert d is not None and ci is not None and p is not None
+            assert (ci[0] > 0 or ci[1] < 0) == (p < 0.05), (n, d, ci, p)
+
+
+def test_holm_and_bonferroni_match_r_p_adjust() -> None:
+    from app.study.analysis import adjust_p
+
+    p = [0.01, 0.04, 0.03, 0.005, 0.2, 0.5]
+    # R: p.adjust(p, "holm"); p.adjust(p, "bonferroni")
+    assert adjust_p(p, "holm") == pytest.approx([0.05, 0.12, 0.12, 0.03, 0.40, 0.50])
+    assert adjust_p(p, "bonferroni") == pytest.approx([0.06, 0.24, 0.18, 0.03, 1.00, 1.00])
+    assert adjust_p(p, "none") == p
 
 
 @pytest.mark.parametrize(
@@ -243,6 +286,10 @@ def test_analyse_shape_and_exclusions() -> None:
     a = analyse(data)
     assert a["participants"] == 10
     assert a["excluded"] == ["P09", "P10"], "participants with one condition only are listed"
+    assert a["correction"] == "holm" and a["correction_text"].startswith("p adjusted for")
+    tested = [m for m in a["measures"].values() if m["p"] is not None]
+    assert a["family_size"] == len(tested) and all(m["p_adjusted"] >= m["p"] for m in tested)
+    assert "tlx_weighted" in a["measures"], "the weighted TLX is analysed (issue 19.8)"
     assert set(a["measures"]) == set(MEASURES)
     for name, m in a["measures"].items():
         for key in (
@@ -287,3 +334,46 @@ def test_analyse_too_few_participants_does_not_crash() -> None:
     assert a["excluded"] == ["P03"]
     empty = analyse(StudyData())
     assert empty["participants"] == 0 and empty["measures"]["tlx_raw"]["n"] == 0
+
+
+def test_small_n_says_shapiro_wilk_cannot_judge_normality() -> None:
+    r = paired_test(SLEEP_1[:4], SLEEP_2[:4])
+    assert r["normality_underpowered"] is True and "too few pairs to judge normality" in r["normality_note"]
+    assert "normality_note" not in paired_test(SLEEP_1, SLEEP_2), "n = 10 is enough"
+
+
+def test_exclusions_and_corrections_are_honoured_named_and_listed() -> None:
+    from dataclasses import replace
+
+    data = build_study(n_full=6)
+    p1 = data.participants[0]
+    s_p2 = [s for s in data.sessions if s.participant_id == 2]
+    post = next(r for r in data.responses if r.session_id == s_p2[0].id and r.instrument == "ssq"
+                and r.phase == "post")  # fmt: skip
+    fixed = replace(post, id=999, scores={**post.scores, "total": 123.0}, corrects=post.id)
+    responses = tuple(replace(r, superseded_by=999) if r is post else r for r in data.responses) + (fixed,)
+    data = StudyData(
+        (replace(p1, excluded_reason="withdrew"), *data.participants[1:]), data.sessions, responses
+    )
+    a = analyse(data)
+    m = a["measures"]["ssq_total_post"]
+    assert m["n"] == 5 and "P01" not in m["participants"], "an excluded participant is left out"
+    assert {"kind": "participant", "code": "P01", "id": 1, "reason": "withdrew"} in a["exclusions"]
+    cond = s_p2[0].condition
+    assert m["entries"]["P02"][cond] == [999], "the analysis names the entry it used: the correction"
+    from app.study.analysis import condition_values
+
+    assert condition_values(data.analysed(), "ssq_total_post")["P02"][cond] == 123.0
+
+
+def test_timeline_colours_are_the_dashboards() -> None:
+    """Issue 19.8: the timeline's action colours are the Command panel's."""
+    import re
+    from pathlib import Path
+
+    from app.study.figures import ACTION_COLOURS
+
+    css = (Path(__file__).resolve().parents[3] / "frontend" / "css" / "dashboard.css").read_text()
+    for action, colour in ACTION_COLOURS.items():
+        m = re.search(rf"--{action}:\s*(#[0-9a-fA-F]{{6}})", css)
+        assert m is not None and m.group(1).lower() == colour.lower(), (action, colour)

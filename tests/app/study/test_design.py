@@ -88,7 +88,10 @@ def test_completeness_lists_what_is_missing() -> None:
 
 def test_design_summary() -> None:
     s = design_summary(_data(timedelta(days=1)), DesignConfig(min_gap_days=2))
-    assert s["first_condition_counts"] == {"CC": 1, "EC": 1} and s["balanced"] is True
+    # P02 ran only their first session: enrolled, but not counted in the design counts (issue 19.8)
+    assert s["first_condition_counts"] == {"CC": 1, "EC": 0} and s["incomplete"] == ["P02"]
+    assert s["enrolled_first_condition_counts"] == {"CC": 1, "EC": 1} and s["completed_participants"] == 1
+    assert s["balanced"] is True
     assert s["next_first_condition"] == "CC" and s["next_order"] == ["CC", "EC"]
     assert len(s["gap_warnings"]) == 1 and len(s["completeness"]) == 2
 

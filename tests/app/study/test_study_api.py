@@ -267,7 +267,7 @@ def test_report_command(study: TestClient, tmp_path: Path) -> None:
     md = (out / "report.md").read_text()
     assert "ssq_total_post" in md and "P06" in md and "![ssq.png](ssq.png)" in md
     measures = list(csv.DictReader((out / "measures.csv").open()))
-    assert len(measures) == 16 and measures[0]["measure"] == "ssq_total_post" and measures[0]["n"] == "5"
+    assert len(measures) == 17 and measures[0]["measure"] == "ssq_total_post" and measures[0]["n"] == "5"
     assert json.loads((out / "analysis.json").read_text())["analysis"]["excluded"] == ["P06"]
 
 

@@ -129,7 +129,7 @@ def test_questionnaire_form_and_analysis_panel(server: str, artifacts_dir: Path)
 
             # the analysis panel: three figures that load, one table row per measure
             page.locator("#analysis-refresh").click()
-            expect(page.locator("#analysis-table tbody tr")).to_have_count(16)
+            expect(page.locator("#analysis-table tbody tr")).to_have_count(17)
             imgs = page.locator("#analysis-figures img")
             expect(imgs).to_have_count(3)
             loaded = "[...document.querySelectorAll('#analysis-figures img')]"
