@@ -377,7 +377,9 @@ def paired_test(
 def _latest(responses: Sequence[ResponseRecord], instrument: str, phase: str | None) -> ResponseRecord | None:
     """The entry in use (a correction replaces the entry it corrects; duplicates are refused)."""
     match = [
-        r for r in responses if r.instrument == instrument and (phase is None or r.phase == phase) and r.in_use
+        r
+        for r in responses
+        if r.instrument == instrument and (phase is None or r.phase == phase) and r.in_use
     ]
     return match[-1] if match else None
 

@@ -119,7 +119,8 @@ DZ_REFERENCE = [
     (HW_X, HW_Y, 0.95, 1.0117918052, 0.1771477399, 1.8071690610),
     (HW_X, HW_Y, 0.90, 1.0117918052, 0.3035651863, 1.6716969949),  # ..., ci = 0.9
     # n = 4: cohens_d(c(4, 5, 5, 7), c(10, 12, 9, 14), paired = TRUE); t.test p = 0.0034
-    (np.array([4.0, 5, 5, 7]), np.array([10.0, 12, 9, 14]), 0.95, -4.2426406871, -7.6104125224, -0.9447423674),
+    (np.array([4.0, 5, 5, 7]), np.array([10.0, 12, 9, 14]), 0.95,
+     -4.2426406871, -7.6104125224, -0.9447423674),
 ]
 
 
@@ -351,7 +352,7 @@ def test_exclusions_and_corrections_are_honoured_named_and_listed() -> None:
     post = next(r for r in data.responses if r.session_id == s_p2[0].id and r.instrument == "ssq"
                 and r.phase == "post")  # fmt: skip
     fixed = replace(post, id=999, scores={**post.scores, "total": 123.0}, corrects=post.id)
-    responses = tuple(replace(r, superseded_by=999) if r is post else r for r in data.responses) + (fixed,)
+    responses = (*(replace(r, superseded_by=999) if r is post else r for r in data.responses), fixed)
     data = StudyData(
         (replace(p1, excluded_reason="withdrew"), *data.participants[1:]), data.sessions, responses
     )
