@@ -103,8 +103,11 @@ def create_app(
             built, reason = runtime_factory(settings, factory)
         else:
             built, reason = (pipeline_factory or None), "no pipeline in this app"
+        from app.services.locomotion_watch import LocomotionWatch
+
+        watch = LocomotionWatch(events)
         pipeline = PipelineService(
-            built, events, sinks=(viewer,) if viewer else (), rate_hz=settings.server.live_rate_hz
+            built, events, sinks=(watch, *((viewer,) if viewer else ())), rate_hz=settings.server.live_rate_hz
         )
         if built is None:
             pipeline.unavailable_reason = reason
@@ -120,6 +123,7 @@ def create_app(
         app.state.pipeline = pipeline
         app.state.calibration = calibration
         app.state.planner = planner = PlannerService(settings)
+        app.state.watch = watch
         session_timer = SessionTimer(factory, events)
         app.state.session_timer = session_timer
         if running is not None:  # its run time goes on (or is over) across a restart

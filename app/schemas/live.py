@@ -59,6 +59,16 @@ class ActionPublic(BaseModel):
     speed_mps: float | None = None
 
 
+class AlarmPublic(BaseModel):
+    """No locomotion command has gone out for more than 2 s during a running session."""
+
+    kind: Literal["no_locomotion"]
+    session_id: int
+    since_ts: float = Field(description="Unix time of the last command (or of the session's start).")
+    gap_s: float
+    reason: str
+
+
 class StatusPublic(BaseModel):
     """Everything the dashboard shows live (also the WebSocket message, with ``type: "status"``)."""
 
@@ -74,6 +84,7 @@ class StatusPublic(BaseModel):
     action: ActionPublic | None = None
     running_session_id: int | None = None
     active_calibration_id: int | None = None
+    alarm: AlarmPublic | None = None
     ts: float = 0.0
     extra: dict[str, Any] = Field(default_factory=dict)
 

@@ -27,19 +27,26 @@ function statText(m) {
   return m.note || "–";
 }
 
-function measureRow(name, m, alpha) {
+function normalText(m) {
+  if (m.normal === null) return "–";
+  const word = m.normal ? "yes" : "no";
+  return m.normality_underpowered ? `${word} (n too small to judge)` : word;
+}
+
+function measureRow(name, m) {
   const ci = m.cohens_d_ci95 ? ` [${num(m.cohens_d_ci95[0])}, ${num(m.cohens_d_ci95[1])}]` : "";
   return el(
     "tr",
-    { class: m.p !== null && m.p < alpha ? "significant" : "", dataset: { measure: name } },
+    { class: m.significant ? "significant" : "", dataset: { measure: name }, title: m.normality_note || "" },
     el("td", {}, name),
     el("td", {}, m.n),
     el("td", {}, `${num(m.mean_cc)} (${num(m.sd_cc)})`),
     el("td", {}, `${num(m.mean_ec)} (${num(m.sd_ec)})`),
-    el("td", {}, m.normal === null ? "–" : m.normal ? "yes" : "no"),
+    el("td", { class: "normal" }, normalText(m)),
     el("td", {}, m.test || "–"),
     el("td", {}, statText(m)),
     el("td", {}, pText(m.p)),
+    el("td", { class: "p-adjusted" }, pText(m.p_adjusted)),
     el("td", {}, `${num(m.cohens_d)}${ci}`),
     el("td", {}, m.effect_label || "–"),
   );
@@ -55,7 +62,15 @@ export function mountAnalysis(element) {
     " · ",
     el("a", { href: withToken("/api/v1/analysis.json"), download: "cavewalk-analysis.json" }, "analysis JSON"),
   );
+  const correction = el(
+    "select",
+    { id: "analysis-correction", "aria-label": "multiple-comparison correction" },
+    el("option", { value: "holm" }, "Holm"),
+    el("option", { value: "bonferroni" }, "Bonferroni"),
+    el("option", { value: "none" }, "no correction"),
+  );
   const summary = el("p", { id: "analysis-summary" });
+  const caption = el("p", { id: "analysis-caption", class: "a-caption" });
   const warnings = el("ul", { class: "a-warnings", id: "analysis-warnings" });
   const figures = el("div", { class: "a-figures", id: "analysis-figures" });
   const table = el(
@@ -67,8 +82,8 @@ export function mountAnalysis(element) {
       el(
         "tr",
         {},
-        ...["measure", "n", "CC mean (SD)", "EC mean (SD)", "normal", "test", "statistic", "p", "d [95 % CI]", "effect"].map((h) =>
-          el("th", {}, h),
+        ...["measure", "n", "CC mean (SD)", "EC mean (SD)", "normal", "test", "statistic", "p", "p adj.", "d_z [95 % CI]", "effect"].map(
+          (h) => el("th", {}, h),
         ),
       ),
     ),
@@ -77,10 +92,11 @@ export function mountAnalysis(element) {
   const sessionSelect = el("select", { id: "analysis-timeline-session", "aria-label": "session" });
   const timeline = el("div", { class: "a-timeline" });
   element.replaceChildren(
-    el("div", { class: "a-actions" }, refreshButton, links),
+    el("div", { class: "a-actions" }, refreshButton, el("label", {}, "correction ", correction), links),
     summary,
     warnings,
     figures,
+    caption,
     table,
     el("h3", {}, "Session timeline (actions over time) ", sessionSelect),
     timeline,
@@ -97,19 +113,29 @@ export function mountAnalysis(element) {
   async function refresh() {
     refreshButton.disabled = true;
     try {
-      const [analysis, design, sessions] = await Promise.all([get("/analysis"), get("/study/design"), get("/sessions")]);
-      const excluded = analysis.excluded.length
-        ? ` Excluded from paired tests: ${analysis.excluded.map((c) => `${c} (${analysis.excluded_reasons[c]})`).join(", ")}.`
+      const [analysis, design, sessions] = await Promise.all([
+        get(`/analysis?correction=${correction.value}`),
+        get("/study/design"),
+        get("/sessions"),
+      ]);
+      const left = analysis.excluded.length
+        ? ` Left out of the paired tests: ${analysis.excluded.map((c) => `${c} (${analysis.excluded_reasons[c]})`).join(", ")}.`
         : "";
       const counts = design.first_condition_counts;
       summary.textContent =
-        `${analysis.participants} participants (CC first: ${counts.CC}, EC first: ${counts.EC}; ` +
-        `next: ${design.next_order.join(" → ")}). Differences are EC − CC.${excluded}`;
+        `${analysis.participants} participants registered, ${design.completed_participants} completed both conditions ` +
+        `(CC first: ${counts.CC}, EC first: ${counts.EC})` +
+        (design.incomplete.length ? `; incomplete: ${design.incomplete.join(", ")}` : "") +
+        `. Next: ${design.next_order.join(" → ")}. Differences are EC − CC.${left}`;
       const incomplete = design.completeness.filter((c) => !c.complete).map((c) => c.code);
       warnings.replaceChildren(
         ...design.gap_warnings.map((w) => el("li", {}, w.message)),
-        ...(incomplete.length ? [el("li", {}, `incomplete: ${incomplete.join(", ")}`)] : []),
+        ...(incomplete.length ? [el("li", {}, `questionnaires missing: ${incomplete.join(", ")}`)] : []),
+        ...analysis.exclusions.map((e) => el("li", { class: "a-excluded" }, `excluded ${e.kind} ${e.id} (${e.code}): ${e.reason}`)),
       );
+      caption.textContent =
+        `p: unadjusted; p adj.: ${analysis.correction_text}; bold = significant after the correction (α = ${analysis.alpha}). ` +
+        "d_z: Cohen's d for paired data with its exact 95 % CI. \"n too small to judge\": Shapiro-Wilk has little power below 10 pairs.";
       const stamp = Date.now();
       figures.replaceChildren(
         ...FIGURES.map(([name, label]) =>
@@ -121,7 +147,7 @@ export function mountAnalysis(element) {
           ),
         ),
       );
-      table.tBodies[0].replaceChildren(...Object.entries(analysis.measures).map(([name, m]) => measureRow(name, m, analysis.alpha)));
+      table.tBodies[0].replaceChildren(...Object.entries(analysis.measures).map(([name, m]) => measureRow(name, m)));
       const keep = sessionSelect.value;
       sessionSelect.replaceChildren(
         el("option", { value: "" }, "—"),
@@ -136,5 +162,6 @@ export function mountAnalysis(element) {
     }
   }
   refreshButton.addEventListener("click", refresh);
+  correction.addEventListener("change", refresh);
   refresh();
 }

@@ -11,9 +11,10 @@ export function token() {
 }
 
 export class ApiError extends Error {
-  constructor(status, message) {
+  constructor(status, message, body = null) {
     super(message);
     this.status = status;
+    this.body = body; // the whole JSON answer (a 422 of a questionnaire lists its "items")
   }
 }
 
@@ -37,7 +38,7 @@ export async function api(method, path, body) {
   const text = await res.text();
   const data = text ? JSON.parse(text) : null;
   if (!res.ok) {
-    throw new ApiError(res.status, data && data.detail !== undefined ? detailText(data.detail) : res.statusText);
+    throw new ApiError(res.status, data && data.detail !== undefined ? detailText(data.detail) : res.statusText, data);
   }
   return data;
 }
@@ -46,6 +47,7 @@ export const get = (path) => api("GET", path);
 export const post = (path, body) => api("POST", path, body);
 export const put = (path, body) => api("PUT", path, body);
 export const patch = (path, body) => api("PATCH", path, body);
+export const del = (path, body) => api("DELETE", path, body);
 
 export function withToken(url) {
   return token() ? `${url}${url.includes("?") ? "&" : "?"}token=${encodeURIComponent(token())}` : url;

@@ -3,14 +3,17 @@
 import { get, toast } from "./api.js";
 import { connect } from "./live.js";
 import { mountAction } from "./panels/action.js";
+import { mountAlarm } from "./panels/alarm.js";
 import { mountCalibration } from "./panels/calibration.js";
 import { mountCameras } from "./panels/cameras.js";
 import { mountPeople } from "./panels/people.js";
+import { mountScript } from "./panels/script.js";
+import { mountSession } from "./panels/session.js";
 import { mountStatus } from "./panels/status.js";
 import { mountStudy } from "./panels/study.js";
 import { mountViewer } from "./panels/viewer.js";
+import { mountQuestionnaire } from "./questionnaire.js";
 
-// The study module's panels; the dashboard still works without them.
 async function optionalModule(load, name) {
   try {
     return await load();
@@ -29,32 +32,36 @@ async function main() {
     return;
   }
   mountStatus();
+  mountAlarm();
   mountAction();
   mountPeople();
   mountCameras(info);
   mountViewer(info);
   mountCalibration(info);
-
-  const planner = await optionalModule(() => import("./panels/planner.js"), "planner.js");
-  if (planner) planner.mountPlanner(document.getElementById("planner-mount"));
-
-  const questionnaire = await optionalModule(() => import("./questionnaire.js"), "questionnaire.js");
+  const script = mountScript();
+  const detail = mountSession();
   const qMount = document.getElementById("questionnaire-mount");
-  mountStudy({
-    onSelectSession(session) {
-      document.getElementById("questionnaire-session").textContent =
-        `session ${session.id}: ${session.participant_code}, ${session.condition}`;
-      if (questionnaire) {
-        qMount.replaceChildren();
-        questionnaire.mountQuestionnaire(qMount, { sessionId: session.id });
-      } else {
-        qMount.textContent = "The questionnaire forms are not installed.";
-      }
+  const qTitle = document.getElementById("questionnaire-session");
+  let formSession = null;
+  const study = mountStudy({
+    onSelectSession(session, { refreshOnly }) {
+      detail.show(session, { refreshOnly });
+      if (refreshOnly && formSession === session.id) return;
+      script.show(session);
+      // the form is replaced at once: never another session's form on screen
+      formSession = session.id;
+      qTitle.textContent = `session ${session.id}: ${session.participant_code}, ${session.condition}`;
+      qMount.replaceChildren();
+      mountQuestionnaire(qMount, { session, onSubmitted: () => script.refresh() });
     },
   });
   const analysis = await optionalModule(() => import("./analysis.js"), "analysis.js");
   if (analysis) analysis.mountAnalysis(document.getElementById("analysis-mount"));
+  // panels of other areas, each its own module
+  const planner = await optionalModule(() => import("./panels/planner.js"), "planner.js");
+  if (planner) planner.mountPlanner(document.getElementById("planner-mount"));
   connect();
+  return study;
 }
 
 main();

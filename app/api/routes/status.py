@@ -28,6 +28,8 @@ def live_snapshot(conn: HTTPConnection) -> dict[str, Any]:
     snap = conn.app.state.pipeline.snapshot()
     snap["running_session_id"] = conn.app.state.events.session_id
     snap["active_calibration_id"] = conn.app.state.calibration.active_id
+    watch = getattr(conn.app.state, "watch", None)  # the no-locomotion alarm of a running session
+    snap["alarm"] = watch.current() if watch is not None else None
     return snap
 
 
