@@ -182,11 +182,12 @@ def activate_calibration_run(db: Session, run_id: int) -> CalibrationRun:
 
 
 def finish_calibration_run(db: Session, run_id: int, message: str, result: dict[str, Any]) -> CalibrationRun:
-    """Mark a run done with its result and make it the active one in one transaction, so that
-    no reader sees it done but not yet active."""
+    """Mark a run done with its result, in one commit. It waits for the operator to accept it
+    (:func:`activate_calibration_run`) after comparing it with the active one: it is not active yet."""
     row = get_calibration_run(db, run_id)
     row.status, row.progress, row.message, row.result = "done", 1.0, message, result
-    return _make_active(db, row)
+    db.commit()
+    return row
 
 
 def _make_active(db: Session, row: CalibrationRun) -> CalibrationRun:

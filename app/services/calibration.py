@@ -130,6 +130,43 @@ class CalibrationService:
             run = repo.activate_calibration_run(db, run_id)
         return self._activated(run)
 
+    def compare(self, run_id: int) -> dict[str, Any]:
+        """A run's per-camera figures beside the active run's, for the accept step."""
+        with self._factory() as db:
+            run = repo.get_calibration_run(db, run_id)
+            active = repo.active_calibration_run(db)
+        if run.status != "done" or run.result is None:
+            raise repo.StateConflict(f"calibration run {run_id} is {run.status}: nothing to compare yet")
+        ref = active if active is not None and active.id != run.id else None
+        ref_cams = {c["name"]: c for c in (ref.result or {}).get("cameras", [])} if ref is not None else {}
+        rows = []
+        for c in run.result.get("cameras", []):
+            old = ref_cams.get(c["name"])
+            row: dict[str, Any] = {
+                "name": c["name"],
+                "new": {k: c.get(k) for k in ("rms_px", "verdict", "markers_used", "walls_seen", "coverage")},
+                "active": None,
+                "moved_m": None,
+                "turned_deg": None,
+            }
+            if old is not None:
+                row["active"] = {
+                    k: old.get(k) for k in ("rms_px", "verdict", "markers_used", "walls_seen", "coverage")
+                }
+                r_new, r_old = np.asarray(c["R"], float), np.asarray(old["R"], float)
+                centre = -r_new.T @ np.asarray(c["t"], float)
+                centre_old = -r_old.T @ np.asarray(old["t"], float)
+                row["moved_m"] = round(float(np.linalg.norm(centre - centre_old)), 4)
+                cos = (np.trace(r_new @ r_old.T) - 1.0) / 2.0
+                row["turned_deg"] = round(float(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))), 3)
+            rows.append(row)
+        return {
+            "run_id": run.id,
+            "active_id": ref.id if ref is not None else None,
+            "accepted": bool(run.active),
+            "cameras": rows,
+        }
+
     def _activated(self, run: CalibrationRun) -> CalibrationRun:
         """What follows a run becoming the active one: the pipeline and the viewer take it."""
         self.active_id = run.id
@@ -174,11 +211,12 @@ class CalibrationService:
             result = self._solve(run_id, images)
             rms = {c["name"]: c.get("rms_px") for c in result["cameras"]}
             message = f"done in {time.monotonic() - t0:.1f} s"
-            with self._factory() as db:  # done and active in one commit
-                run = repo.finish_calibration_run(db, run_id, message, result)
-            log.info("calibration %d: 100%% %s", run_id, message)
-            self._events.record("calibration", {"state": "done", "run_id": run_id, "rms_px": rms})
-            self._activated(run)
+            with self._factory() as db:  # done with its result in one commit; the operator accepts it
+                repo.finish_calibration_run(db, run_id, f"{message}; review and accept it", result)
+            log.info("calibration %d: 100%% %s, waiting for the operator to accept it", run_id, message)
+            self._events.record(
+                "calibration", {"state": "done", "run_id": run_id, "rms_px": rms, "awaiting": "acceptance"}
+            )
         except Exception as exc:  # the worker's boundary: the run fails with the reason
             message = str(exc) if isinstance(exc, CavewalkError) else f"{type(exc).__name__}: {exc}"
             if not isinstance(exc, CavewalkError):

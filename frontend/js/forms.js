@@ -167,7 +167,7 @@ export function collectAnswers(form, def) {
 }
 
 // Mark every row the server named (its 422 lists them in "items"); scroll to the first.
-export function markItems(form, keys) {
+export function markItems(form, keys, { scroll = true } = {}) {
   form.querySelectorAll(".q-row.q-bad").forEach((r) => r.classList.remove("q-bad"));
   let first = null;
   for (const key of keys || []) {
@@ -177,6 +177,6 @@ export function markItems(form, keys) {
       first = first || row;
     }
   }
-  if (first) first.scrollIntoView({ block: "center", behavior: "smooth" });
+  if (first && scroll) first.scrollIntoView({ block: "center", behavior: "smooth" });
   return first !== null;
 }

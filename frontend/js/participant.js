@@ -144,7 +144,7 @@ async function submit() {
     const box = $("p-problems");
     box.hidden = false;
     if (err.status === 422 && items.length) {
-      markItems(form, items);
+      markItems(form, items, { scroll: false });
       const names = items.map((k) => {
         const row = form.querySelector(`.q-row[data-key="${k}"] .q-text`);
         return row ? row.textContent.trim() : k;

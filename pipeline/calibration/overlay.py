@@ -123,11 +123,20 @@ def calibration_overlay(result: CameraCalibration, cave: CaveGeometry, image: U8
         f"{cam.name}  RMS {result.rms_px:.2f} px  {result.markers_used} markers  "
         f"walls: {', '.join(result.walls_seen)}  [{result.verdict}]"
     )
-    cv2.putText(img, text, (12 * s, 30 * s), cv2.FONT_HERSHEY_SIMPLEX, 0.8 * s, (0, 0, 0), 4 * s, cv2.LINE_AA)
-    cv2.putText(
-        img, text, (12 * s, 30 * s), cv2.FONT_HERSHEY_SIMPLEX, 0.8 * s, (255, 255, 255), 2 * s, cv2.LINE_AA
-    )
+    draw_caption(img, text, s)
     return img
+
+
+def draw_caption(img: U8, text: str, scale: int = 1) -> None:
+    """White text on a dark band across the top left, in place: readable on the white walls too."""
+    font, size, thick = cv2.FONT_HERSHEY_SIMPLEX, 0.8 * scale, 2 * scale
+    (w, h), base = cv2.getTextSize(text, font, size, thick)
+    pad = 8 * scale
+    x0, y0 = 4 * scale, 4 * scale
+    x1, y1 = min(img.shape[1], x0 + w + 2 * pad), min(img.shape[0], y0 + h + base + 2 * pad)
+    band = img[y0:y1, x0:x1]
+    band[:] = (band.astype(np.float32) * 0.2 + np.array([39, 24, 17], np.float32) * 0.8).astype(np.uint8)
+    cv2.putText(img, text, (x0 + pad, y0 + pad + h), font, size, (255, 255, 255), thick, cv2.LINE_AA)
 
 
 def encode_png(image: U8) -> bytes:

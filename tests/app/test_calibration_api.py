@@ -58,7 +58,11 @@ def test_calibration_run_on_the_simulator_then_roll_back(client: TestClient) -> 
     first = r.json()["id"]
     run = wait_run(client, first)
     assert run["status"] == "done", run["message"]
-    assert run["active"] and run["progress"] == 1.0
+    assert not run["active"] and run["progress"] == 1.0, "a finished run waits for the operator's accept"
+    assert client.get("/api/v1/status").json()["active_calibration_id"] is None
+    cmp = client.get(f"/api/v1/calibration/runs/{first}/compare").json()
+    assert cmp["active_id"] is None and all(c["active"] is None for c in cmp["cameras"])
+    assert client.post(f"/api/v1/calibration/runs/{first}/activate").json()["active"]
     truth = {c.name: c for c in default_cameras(client.app.state.settings.cave.geometry())}
     assert [c["name"] for c in run["cameras"]] == sorted(truth)
     for cam in run["cameras"]:
@@ -76,6 +80,13 @@ def test_calibration_run_on_the_simulator_then_roll_back(client: TestClient) -> 
 
     second = client.post("/api/v1/calibration/runs").json()["id"]
     assert wait_run(client, second)["status"] == "done"
+    cmp = client.get(f"/api/v1/calibration/runs/{second}/compare").json()
+    assert cmp["active_id"] == first and len(cmp["cameras"]) == 4
+    for cam in cmp["cameras"]:  # the same virtual cameras: side by side, they agree
+        assert cam["active"]["rms_px"] is not None and cam["new"]["rms_px"] is not None
+        assert cam["moved_m"] < 0.02 and cam["turned_deg"] < 0.5, cam
+    assert client.get("/api/v1/status").json()["active_calibration_id"] == first, "not before it is accepted"
+    client.post(f"/api/v1/calibration/runs/{second}/activate")
     history = client.get("/api/v1/calibration/runs").json()
     assert [(h["id"], h["active"]) for h in history] == [(second, True), (first, False)]
     assert client.get("/api/v1/status").json()["active_calibration_id"] == second

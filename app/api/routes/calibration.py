@@ -5,13 +5,20 @@ The wall patterns the workstations show are served per wall.
 
 from __future__ import annotations
 
+from typing import Any
+
 from fastapi import APIRouter, HTTPException, Response, status
 from fastapi.responses import FileResponse
 
 from app.api.deps import CalibrationDep, IdPath, SessionDep
 from app.db import repositories as repo
 from app.db.models import CalibrationRun
-from app.schemas.calibration import CalibrationCameraPublic, CalibrationJobAccepted, CalibrationRunPublic
+from app.schemas.calibration import (
+    CalibrationCameraPublic,
+    CalibrationComparePublic,
+    CalibrationJobAccepted,
+    CalibrationRunPublic,
+)
 from pipeline.errors import InputError
 
 router = APIRouter(prefix="/calibration", tags=["calibration"])
@@ -89,8 +96,15 @@ def get_run(run_id: IdPath, db: SessionDep) -> CalibrationRunPublic:
 
 @router.post("/runs/{run_id}/activate", response_model=CalibrationRunPublic)
 def activate_run(run_id: IdPath, calibration: CalibrationDep) -> CalibrationRunPublic:
-    """Accept a finished run, or roll back to an earlier one."""
+    """Accept a finished run (a new run is not used until it is accepted), or roll back to an earlier one."""
     return run_public(calibration.activate(run_id), with_result=True)
+
+
+@router.get("/runs/{run_id}/compare", response_model=CalibrationComparePublic)
+def compare_run(run_id: IdPath, calibration: CalibrationDep) -> dict[str, Any]:
+    """The run's per-camera figures beside the active run's (RMS, markers, walls, how far each camera
+    moved and turned): what the operator looks at before accepting it."""
+    return calibration.compare(run_id)
 
 
 @router.get(

@@ -1,4 +1,9 @@
-"""The questionnaire form and the analysis panel in headless Chromium against the real app."""
+"""A scripted study session in headless Chromium against the real app and a real SQLite file:
+planned from a Latin square on the operator's dashboard (1600x1000), run from the participant page on
+a tablet-sized page (its link, its session-scoped credential), auto-stopped by the server, every
+questionnaire on the tablet, a duplicate refused then corrected with a reason on the operator's
+form, and the analysis panel. Screenshots go to test-artifacts/.
+"""
 
 from __future__ import annotations
 
@@ -7,13 +12,19 @@ import threading
 import time
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import httpx
 import pytest
 
+from app.study.questionnaires import DEFINITIONS, SSQ_KEYS, TLX_PAIRS
+
 pytestmark = [pytest.mark.e2e, pytest.mark.slow]
 
 CHROMIUM = "/usr/bin/chromium"
+TABLET = {"width": 820, "height": 1180}  # a 10.9" tablet, portrait
+OPERATOR = {"width": 1600, "height": 1000}
+TLX = {"mental": 70, "physical": 20, "temporal": 40, "performance": 30, "effort": 60, "frustration": 10}
 
 
 def free_port() -> int:
@@ -55,88 +66,136 @@ def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
         thread.join(timeout=10)
 
 
-def test_questionnaire_form_and_analysis_panel(server: str, artifacts_dir: Path) -> None:
+def fill_radios(page: Any, values: dict[str, Any]) -> None:
+    for key, value in values.items():
+        page.locator(f'input[name="{key}"][value="{value}"]').check()
+
+
+def test_scripted_session_on_the_participant_page(server: str, artifacts_dir: Path) -> None:
     from playwright.sync_api import expect, sync_playwright
 
     if not Path(CHROMIUM).exists():
         pytest.fail(f"{CHROMIUM} missing: apt-get install -y chromium")
-    p = httpx.post(f"{server}/api/v1/participants", json={"code": "UI01"}).json()
-    sid = httpx.post(f"{server}/api/v1/sessions", json={"participant_id": p["id"], "condition": "CC"}).json()[
-        "id"
-    ]
+    api = f"{server}/api/v1"
     with sync_playwright() as pw:
         browser = pw.chromium.launch(
             executable_path=CHROMIUM, args=["--headless", "--no-sandbox", "--disable-gpu"]
         )
-        page = browser.new_page(viewport={"width": 1280, "height": 2000})
         errors: list[str] = []
-        page.on("pageerror", lambda exc: errors.append(str(exc)))
+        operator = browser.new_page(viewport=OPERATOR)
+        operator.on("pageerror", lambda exc: errors.append(f"operator: {exc}"))
+        tablet = browser.new_page(viewport=TABLET, is_mobile=True, has_touch=True)
+        tablet.on("pageerror", lambda exc: errors.append(f"tablet: {exc}"))
         try:
-            page.goto(server)
-            row = page.locator("#session-table tbody tr").filter(has_text="UI01")
-            row.locator("button.session-select").click()
-            form = page.locator("#questionnaire-mount")
-            form.locator("#q-instrument").select_option("ipq")
-            expect(form.locator("#q-phase option")).to_have_count(2)
-            # every IPQ item at 4 except REAL4, left out: the server's 422 names it, the row is marked
-            for key in [
-                "G1",
-                "SP1",
-                "SP2",
-                "SP3",
-                "SP4",
-                "SP5",
-                "INV1",
-                "INV2",
-                "INV3",
-                "INV4",
-                "REAL1",
-                "REAL2",
-                "REAL3",
-            ]:
-                form.locator(f'input[name="{key}"][value="4"]').check()
-            form.locator("#q-submit").click()
-            expect(form.locator("#q-error")).to_contain_text("REAL4")
-            expect(form.locator('.q-row.q-bad[data-key="REAL4"]')).to_be_visible()
-            form.locator('input[name="REAL4"][value="1"]').check()
-            form.locator("#q-submit").click()
-            # SP: (4 + (6-4) + 4 + 4 + 4) / 5 = 3.6; REAL: ((6-4) + 4 + 4 + 1) / 4 = 2.75
-            expect(form.locator("#q-scores")).to_contain_text("SP: 3.6")
-            expect(form.locator("#q-scores")).to_contain_text("REAL: 2.75")
-            expect(form.locator("#q-error")).to_be_empty()
+            # --- plan: 2 participants, both sessions each, from the Latin square; a 6 s run
+            operator.goto(server)
+            operator.fill("#plan-n", "2")
+            operator.fill("#plan-minutes", "0.1")
+            operator.click("#plan-create")
+            rows = operator.locator("#session-table tbody tr")
+            expect(rows).to_have_count(4)
+            expect(rows.first.locator(".run-time")).to_have_text("6 s planned")
+            expect(operator.locator("#participant-table tbody")).to_contain_text("CC first")
+            expect(operator.locator("#participant-table tbody")).to_contain_text("EC first")
+            first = rows.filter(has_text="P01").first
+            sid = int(first.locator("td").first.inner_text())
+            first.locator("button.session-select").click()
+            expect(operator.locator("#q-session")).to_contain_text(f"session {sid}")
+            operator.click("#participant-link")
+            url = operator.locator("#participant-url").get_attribute("href")
+            assert url is not None and "#t=" in url and "token" not in url, url
 
-            # NASA-TLX: sliders, and the 15 pairwise choices (all first options -> weights 5..0)
-            form.locator("#q-instrument").select_option("nasa_tlx")
-            for key, value in {
-                "mental": 70,
-                "physical": 20,
-                "temporal": 40,
-                "performance": 30,
-                "effort": 60,
-                "frustration": 10,
-            }.items():
-                form.locator(f'input[name="{key}"]').fill(str(value))
-            pairs = form.locator(".q-pair")
+            # --- the tablet: one instrument at a time, progress, no operator controls
+            tablet.goto(url)
+            expect(tablet.locator("#p-title")).to_contain_text("MSSQ")
+            expect(tablet.locator("#p-progress-text")).to_have_text("Questionnaire 1 of 5")
+            assert tablet.locator("#pipeline-start, #q-instrument, .topbar").count() == 0
+            assert "#t=" not in tablet.url, "the credential leaves the address bar"
+            fill_radios(tablet, {i.key: 1 for i in DEFINITIONS["mssq"].items})
+            tablet.click("#p-submit")
+            expect(tablet.locator("#p-title")).to_contain_text("Simulator Sickness")
+            # three symptoms left out: all three are named at once, in the instrument's wording
+            fill_radios(tablet, {k: 0 for k in SSQ_KEYS if k not in ("sweating", "vertigo", "burping")})
+            tablet.click("#p-submit")
+            problems = tablet.locator("#p-problems")
+            expect(problems).to_contain_text("Please answer these 3 questions")
+            for text in ("Sweating", "Vertigo", "Burping"):
+                expect(problems).to_contain_text(text)
+            expect(tablet.locator(".q-row.q-bad")).to_have_count(3)
+            tablet.screenshot(path=str(artifacts_dir / "participant-missing-items.png"), full_page=False)
+            fill_radios(tablet, {"sweating": 1, "vertigo": 0, "burping": 0})
+            tablet.click("#p-submit")
+            expect(tablet.locator("#p-ready")).to_contain_text("experimenter will start")
+
+            # --- the operator starts the run; the server stops it after 6 s
+            operator.locator(f'#session-table tbody tr[data-session-id="{sid}"] button.session-start').click()
+            expect(tablet.locator("#p-countdown")).to_be_visible(timeout=10_000)
+            expect(operator.locator("#run-countdown")).to_be_visible()
+            operator.screenshot(path=str(artifacts_dir / "operator-view.png"))
+            # the auto-stop: the tablet goes on by itself (deadline: the 6 s run + polling, generous)
+            expect(tablet.locator("#p-title")).to_contain_text("Simulator Sickness", timeout=30_000)
+            expect(tablet.locator("#p-progress-text")).to_have_text("Questionnaire 3 of 5")
+            expect(tablet.locator('input[type="radio"]:checked')).to_have_count(0)  # empty, nothing carried over
+            fill_radios(tablet, {k: 1 if k == "nausea" else 0 for k in SSQ_KEYS})
+            tablet.click("#p-submit")
+            expect(tablet.locator("#p-title")).to_contain_text("igroup presence")
+            fill_radios(tablet, {i.key: 4 for i in DEFINITIONS["ipq"].items})
+            tablet.click("#p-submit")
+
+            # --- NASA-TLX: one slider left untouched is unanswered, and refused
+            expect(tablet.locator("#p-title")).to_contain_text("NASA")
+            for key, value in TLX.items():
+                if key != "frustration":
+                    tablet.locator(f'input[type="range"][name="{key}"]').fill(str(value))
+            pairs = tablet.locator(".q-pair")
             expect(pairs).to_have_count(15)
-            for i in range(15):
-                pairs.nth(i).locator("input").first.check()
-            form.locator("#q-submit").click()
-            # raw = 230 / 6 = 38.33; weighted = (5x70 + 4x20 + 3x40 + 2x30 + 1x60) / 15 = 44.67
-            expect(form.locator("#q-scores")).to_contain_text("raw_tlx: 38.33")
-            expect(form.locator("#q-scores")).to_contain_text("weighted_tlx: 44.67")
-            expect(form.locator("#q-done")).to_contain_text("NASA-TLX")
-            page.screenshot(path=str(artifacts_dir / "questionnaire.png"), full_page=True)
+            order = [pairs.nth(i).get_attribute("data-key") for i in range(15)]
+            assert order != [f"{a}_vs_{b}" for a, b in TLX_PAIRS], "the pairs come in a random order"
+            fill_radios(tablet, {f"{a}_vs_{b}": a for a, b in TLX_PAIRS})
+            tablet.click("#p-submit")
+            expect(problems).to_contain_text("Frustration")
+            expect(tablet.locator('.q-row.q-bad[data-key="frustration"]')).to_be_visible()
+            tablet.locator('input[type="range"][name="frustration"]').fill("10")
+            tablet.click("#p-submit")
+            expect(tablet.locator("#p-end")).to_contain_text("hand the tablet back")
+            expect(tablet.locator("#p-progress-text")).to_have_text("All done")
+            assert "score" not in tablet.locator("body").inner_text().lower(), "no scores on the tablet"
+            tablet.screenshot(path=str(artifacts_dir / "participant-end.png"))
 
-            # the analysis panel: three figures that load, one table row per measure
-            page.locator("#analysis-refresh").click()
-            expect(page.locator("#analysis-table tbody tr")).to_have_count(17)
-            imgs = page.locator("#analysis-figures img")
-            expect(imgs).to_have_count(3)
+            # --- the operator's form: a duplicate is refused, then sent as a correction with a reason
+            form = operator.locator("#questionnaire-mount")
+            form.locator("#q-instrument").select_option("ipq")
+            expect(form.locator("#q-phase")).to_have_value("post")
+            fill_radios(operator, {i.key: 5 for i in DEFINITIONS["ipq"].items})
+            form.locator("#q-submit").click()
+            expect(form.locator("#q-error")).to_contain_text("already has IPQ post")
+            form.locator("#q-correct-reason").fill("participant asked to change item 3")
+            form.locator("#q-correct").click()
+            expect(form.locator("#q-scores")).to_contain_text("G1: 5")
+            operator.locator("#analysis-refresh").click()
+            expect(operator.locator("#analysis-table tbody tr")).to_have_count(17)
+            expect(operator.locator("#analysis-caption")).to_contain_text("Holm")
             loaded = "[...document.querySelectorAll('#analysis-figures img')]"
-            page.wait_for_function(f"{loaded}.every(i => i.complete && i.naturalWidth > 0)")
-            expect(page.locator("#analysis-summary")).to_contain_text("UI01")
+            operator.wait_for_function(f"{loaded}.length === 3 && {loaded}.every(i => i.complete && i.naturalWidth > 0)")
+            operator.locator("#session-panel").scroll_into_view_if_needed()
+            expect(operator.locator("#summary-list")).to_contain_text("run time")
+            operator.screenshot(path=str(artifacts_dir / "operator-full.png"), full_page=True)
         finally:
             browser.close()
-    assert not errors, f"JavaScript errors on the page: {errors}"
-    stored = httpx.get(f"{server}/api/v1/sessions/{sid}/questionnaires").json()
-    assert [q["instrument"] for q in stored] == ["ipq", "nasa_tlx"], "the rejected sheet was not stored"
+    assert not errors, f"JavaScript errors on the pages: {errors}"
+    session = httpx.get(f"{api}/sessions/{sid}").json()
+    assert session["status"] == "stopped" and session["stopped_by"] == "timer"
+    assert 5.5 <= session["duration_s"] <= 20, session
+    entries = httpx.get(f"{api}/sessions/{sid}/questionnaires").json()
+    used = [(q["instrument"], q["phase"], q["entered_by"]) for q in entries if q["in_use"]]
+    assert used == [
+        ("mssq", "pre", "participant"),
+        ("ssq", "pre", "participant"),
+        ("ssq", "post", "participant"),
+        ("nasa_tlx", "post", "participant"),
+        ("ipq", "post", "operator"),
+    ], used
+    replaced = next(q for q in entries if q["instrument"] == "ipq" and not q["in_use"])
+    assert replaced["entered_by"] == "participant" and replaced["scores"]["G1"] == 4
+    tlx = next(q for q in entries if q["instrument"] == "nasa_tlx")
+    assert tlx["answers"] == TLX and tlx["scores"]["weighted_tlx"] == pytest.approx(670 / 15, abs=1e-3)

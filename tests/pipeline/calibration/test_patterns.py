@@ -167,3 +167,17 @@ def test_malformed_layout_is_refused_by_name(tmp_path: Path, content: object, ma
 def test_missing_layout_file_is_refused(tmp_path: Path) -> None:
     with pytest.raises(InputError, match="not found"):
         load_layout(tmp_path / "nope.json")
+
+
+def test_overlay_caption_is_readable_on_a_white_wall() -> None:
+    """Issue 19.9: the caption is white text on a dark band, not white on white."""
+    from pipeline.calibration.overlay import draw_caption
+
+    img = np.full((400, 900, 3), 255, np.uint8)
+    draw_caption(img, "cam01  RMS 0.31 px  42 markers  [good]", 1)
+    band = img[6:40, 6:300]
+    dark = (band.max(axis=2) < 90).mean()
+    white = (band.min(axis=2) > 200).mean()
+    assert dark > 0.6, f"the band behind the text is dark ({dark:.2f} of its pixels)"
+    assert 0.03 < white < 0.4, f"the text on it is white ({white:.2f} of its pixels)"
+    assert (img[200:, :] == 255).all(), "the rest of the image is untouched"
