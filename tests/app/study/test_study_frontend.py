@@ -135,7 +135,8 @@ def test_scripted_session_on_the_participant_page(server: str, artifacts_dir: Pa
             # the auto-stop: the tablet goes on by itself (deadline: the 6 s run + polling, generous)
             expect(tablet.locator("#p-title")).to_contain_text("Simulator Sickness", timeout=30_000)
             expect(tablet.locator("#p-progress-text")).to_have_text("Questionnaire 3 of 5")
-            expect(tablet.locator('input[type="radio"]:checked')).to_have_count(0)  # empty, nothing carried over
+            # the sheet is empty: nothing carries over from the SSQ before the session
+            expect(tablet.locator('input[type="radio"]:checked')).to_have_count(0)
             fill_radios(tablet, {k: 1 if k == "nausea" else 0 for k in SSQ_KEYS})
             tablet.click("#p-submit")
             expect(tablet.locator("#p-title")).to_contain_text("igroup presence")
@@ -176,7 +177,8 @@ def test_scripted_session_on_the_participant_page(server: str, artifacts_dir: Pa
             expect(operator.locator("#analysis-table tbody tr")).to_have_count(17)
             expect(operator.locator("#analysis-caption")).to_contain_text("Holm")
             loaded = "[...document.querySelectorAll('#analysis-figures img')]"
-            operator.wait_for_function(f"{loaded}.length === 3 && {loaded}.every(i => i.complete && i.naturalWidth > 0)")
+            ready = f"{loaded}.length === 3 && {loaded}.every(i => i.complete && i.naturalWidth > 0)"
+            operator.wait_for_function(ready)
             operator.locator("#session-panel").scroll_into_view_if_needed()
             expect(operator.locator("#summary-list")).to_contain_text("run time")
             operator.screenshot(path=str(artifacts_dir / "operator-full.png"), full_page=True)
