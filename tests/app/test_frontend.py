@@ -20,13 +20,15 @@ def test_index_has_every_panel_and_docs_are_served(client: TestClient) -> None:
                   "calibration-panel", "planner-panel", "study-panel", "questionnaire-panel",
                   "analysis-panel"):  # fmt: skip
         assert f'id="{panel}"' in html, panel
+    page = client.get("/participant.html").text
+    assert 'src="js/participant.js"' in page and "pipeline-start" not in page, "no operator controls"
     assert client.get("/docs").status_code == 200
     assert client.get("/openapi.json").json()["info"]["title"] == "cavewalk"
 
 
 def test_every_module_import_resolves(client: TestClient) -> None:
     seen: set[str] = set()
-    todo = ["/js/main.js"]
+    todo = ["/js/main.js", "/js/participant.js"]  # the dashboard's and the participant page's entry points
     while todo:
         url = todo.pop()
         if url in seen:

@@ -84,6 +84,9 @@ def test_demo_dashboard_live_navigator_and_ssq(demo_server: str, artifacts_dir: 
 
     if not Path(CHROMIUM).exists():
         pytest.fail(f"{CHROMIUM} missing: apt-get install -y chromium chromium-driver")
+    # the demo's live pipeline shares two cores with the browser (and, in CI, with other jobs): an
+    # API round trip and the re-render after it can take seconds; the outcomes are awaited, not raced
+    expect.set_options(timeout=20_000)
     with sync_playwright() as pw:
         browser = pw.chromium.launch(
             executable_path=CHROMIUM,
