@@ -35,6 +35,7 @@ from app.db.repositories import (
 from app.services.calibration import CalibrationService
 from app.services.event_log import EventWriter, EventWriterConfig
 from app.services.live import PipelineFacade, PipelineService, SourceName
+from app.services.locomotion_watch import LocomotionWatch
 from app.services.pipeline_factory import runtime_factory
 from app.services.planner import PlannerService
 from app.services.session_timer import SessionTimer
@@ -103,8 +104,6 @@ def create_app(
             built, reason = runtime_factory(settings, factory)
         else:
             built, reason = (pipeline_factory or None), "no pipeline in this app"
-        from app.services.locomotion_watch import LocomotionWatch
-
         watch = LocomotionWatch(events)
         pipeline = PipelineService(
             built, events, sinks=(watch, *((viewer,) if viewer else ())), rate_hz=settings.server.live_rate_hz

@@ -8,7 +8,7 @@ from typing import Annotated, Literal
 from fastapi import APIRouter, Query, Response, status
 
 from app.api.deps import IdPath, SessionDep
-from app.api.routes.sessions import session_public
+from app.api.routes.sessions import questionnaire_public, session_public
 from app.db import repositories as repo
 from app.schemas.participants import ExclusionRequest, ParticipantCreate, ParticipantPublic, ParticipantUpdate
 from app.schemas.questionnaires import AuditPublic, QuestionnairePublic
@@ -76,8 +76,6 @@ def participant_sessions(participant_id: IdPath, db: SessionDep) -> list[Session
 def exclude_questionnaire(
     questionnaire_id: IdPath, body: ExclusionRequest, db: SessionDep
 ) -> QuestionnairePublic:
-    from app.api.routes.sessions import questionnaire_public
-
     change = repo.Change(actor=body.by or "operator", reason=body.reason)
     return questionnaire_public(repo.set_questionnaire_excluded(db, questionnaire_id, True, change))
 
@@ -86,8 +84,6 @@ def exclude_questionnaire(
 def include_questionnaire(
     questionnaire_id: IdPath, body: ExclusionRequest, db: SessionDep
 ) -> QuestionnairePublic:
-    from app.api.routes.sessions import questionnaire_public
-
     change = repo.Change(actor=body.by or "operator", reason=body.reason)
     return questionnaire_public(repo.set_questionnaire_excluded(db, questionnaire_id, False, change))
 

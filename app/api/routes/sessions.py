@@ -22,6 +22,7 @@ from app.schemas.participants import ExclusionRequest
 from app.schemas.questionnaires import QuestionnaireCreate, QuestionnairePublic
 from app.schemas.sessions import EventPublic, SessionCreate, SessionPublic, SessionUpdate
 from app.schemas.study import ParticipantLinkPublic, SessionScriptPublic, SessionSummaryPublic
+from app.services.participant_link import link_url, qr_svg
 from app.study.questionnaires import QuestionnaireError, score
 from app.study.session_script import session_script
 from app.study.summary import session_summary
@@ -218,8 +219,6 @@ def create_participant_link(
 
     It carries a session-scoped credential, not the operator token; a new link revokes the old one.
     """
-    from app.services.participant_link import link_url, qr_svg
-
     _row, token = repo.create_participant_link(db, session_id)
     url = link_url(settings, request, token)
     return ParticipantLinkPublic(
