@@ -8,6 +8,8 @@ each status's updates inside ``server.atomic()``. Created and stopped by the app
 from __future__ import annotations
 
 import colorsys
+import contextlib
+import io
 import logging
 import math
 from collections.abc import Mapping, Sequence
@@ -134,7 +136,10 @@ class Viewer:
     def start(cls, settings: Settings, cameras: Sequence[Camera] | None = None) -> Viewer:
         import viser
 
-        server = viser.ViserServer(host=settings.server.host, port=settings.server.viser_port, verbose=False)
+        with contextlib.redirect_stdout(io.StringIO()):  # viser prints a banner whatever verbose says
+            server = viser.ViserServer(
+                host=settings.server.host, port=settings.server.viser_port, verbose=False
+            )
         viewer = cls(server=server, cave=settings.cave.geometry())
         viewer._build_static()
         viewer.show_cameras(cameras if cameras is not None else _default_cameras(settings))

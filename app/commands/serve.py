@@ -86,7 +86,9 @@ def run_server(
         source = "from the settings" if settings.server.token else "generated for this run"
         typer.echo(f"operator token ({source}): {token}")
         typer.echo(f"  open http://{shown}:{server.port}/?token={token}")
-    uvicorn.run(app, host=server.host.strip("[]"), port=server.port, log_level="warning", ws="websockets")
+    uvicorn.run(
+        app, host=server.host.strip("[]"), port=server.port, log_level="warning", ws="websockets-sansio"
+    )
 
 
 def _command(demo: bool, doc: str) -> Callable[..., None]:

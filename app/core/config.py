@@ -12,6 +12,7 @@ Each pipeline stage gets its own small frozen config dataclass, built here once
 
 from __future__ import annotations
 
+import os
 from contextvars import ContextVar
 from functools import lru_cache
 from pathlib import Path
@@ -33,6 +34,18 @@ DEFAULT_CONFIG_FILE = Path("cavewalk.toml")
 # The TOML file given to load_settings(); read by Settings.settings_customise_sources.
 _TOML_FILE: ContextVar[Path | None] = ContextVar("cavewalk_toml_file", default=None)
 _HOME = Path.home()
+
+
+def _user_dir(xdg_variable: str, fallback: Path) -> Path:
+    """cavewalk's folder in the user's data directory (``$XDG_DATA_HOME``, else ``fallback``)."""
+    value = os.environ.get(xdg_variable)
+    base = Path(value) if value and Path(value).is_absolute() else fallback
+    return base / "cavewalk"
+
+
+#: Where the database lives unless told otherwise (``paths.db``, ``--db``): the user's data directory.
+USER_DATA_DIR = _user_dir("XDG_DATA_HOME", _HOME / ".local" / "share")
+USER_CACHE_DIR = _HOME / ".cache" / "cavewalk"  # the pose model and the demo data (shared by installs)
 
 
 class _Section(BaseModel):
@@ -94,9 +107,9 @@ class ServerSettings(_Section):
 
 
 class PathSettings(_Section):
-    db: Path = _HOME / ".local" / "share" / "cavewalk" / "cavewalk.db"
-    models_dir: Path = _HOME / ".cache" / "cavewalk" / "models"
-    cache_dir: Path = _HOME / ".cache" / "cavewalk"
+    db: Path = USER_DATA_DIR / "cavewalk.db"  # the user's data directory, unless told otherwise
+    models_dir: Path = USER_CACHE_DIR / "models"
+    cache_dir: Path = USER_CACHE_DIR
     calibration: Path | None = None
 
 

@@ -16,5 +16,7 @@ def configure_logging(level: int = logging.INFO) -> None:
         handler._cavewalk = True  # type: ignore[attr-defined]
         root.addHandler(handler)
     root.setLevel(level)
-    for noisy in ("matplotlib", "PIL", "httpx", "websockets", "asyncio", "ultralytics"):
+    # what a user cannot act on: alembic's per-migration INFO lines (app.db.migrate says in one line
+    # what was migrated), libraries' chatter
+    for noisy in ("matplotlib", "PIL", "httpx", "websockets", "asyncio", "ultralytics", "alembic"):
         logging.getLogger(noisy).setLevel(max(level, logging.WARNING))

@@ -174,7 +174,9 @@ def paired_t(x: NDArray[np.float64], y: NDArray[np.float64]) -> dict[str, Any]:
     """Paired t-test of x - y (pingouin)."""
     import pingouin as pg
 
-    row = pg.ttest(x, y, paired=True).iloc[0]
+    with warnings.catch_warnings():  # pandas/pingouin deprecation chatter a user cannot act on
+        warnings.simplefilter("ignore")
+        row = pg.ttest(x, y, paired=True).iloc[0]
     return {"statistic": _num(row["T"]), "df": int(row["dof"]), "p": _num(row["p_val"])}
 
 

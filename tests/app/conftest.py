@@ -57,7 +57,7 @@ class Served:
         self.base = f"http://127.0.0.1:{settings.server.port}"
         self.app = create_app(settings, **({"autostart": "simulator"} | app_kw))
         config = uvicorn.Config(
-            self.app, host="127.0.0.1", port=settings.server.port, log_level="warning", ws="websockets"
+            self.app, host="127.0.0.1", port=settings.server.port, log_level="warning", ws="websockets-sansio"
         )
         self.server = uvicorn.Server(config)
         self.thread = threading.Thread(target=self.server.run, daemon=True)

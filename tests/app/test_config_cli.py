@@ -85,3 +85,17 @@ def test_cli_missing_config_file(tmp_path: Path) -> None:
         capture_output=True, text=True, check=False,
     )
     assert proc.returncode == 2 and "config file not found" in proc.stderr
+
+
+def test_the_default_database_is_in_the_users_data_directory() -> None:
+    """Issue 19.11: not /var/lib; README and PathSettings agree."""
+    from pathlib import Path
+
+    from app.core.config import USER_DATA_DIR, load_settings
+
+    db = load_settings().paths.db
+    assert db == USER_DATA_DIR / "cavewalk.db" and USER_DATA_DIR.name == "cavewalk"
+    assert not str(db).startswith("/var/"), db
+    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
+    assert "/var/lib/cavewalk" not in readme
+    assert "~/.local/share/cavewalk/cavewalk.db" in readme, "the README names the default database"
