@@ -120,6 +120,21 @@ def camera_pose(cam: Camera) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
 class _Person:
     joints: Any
     bones: Any
+    label: Any = None  # "user 3" (+ "navigator") over the head
+
+
+def label_text(user_id: int, navigator: int | None) -> str:
+    return f"user {user_id}" + (" · navigator" if user_id == navigator else "")
+
+
+def label_position(joints: F32) -> NDArray[np.float32] | None:
+    """30 cm over the highest known joint (the head), or None when no joint is known."""
+    known = joints[np.all(np.isfinite(joints), axis=1)]
+    if len(known) == 0:
+        return None
+    top = known[np.argmax(known[:, 2])].copy()
+    top[2] += 0.3
+    return top
 
 
 @dataclass(slots=True)
@@ -163,6 +178,11 @@ class Viewer:
             "/cave/outlines", wall_outlines(self.cave), colors=(70, 90, 140), thickness=0.01
         )
         scene.add_frame("/cave/origin", axes_length=0.3, axes_radius=0.01)
+        for wall in self.cave.walls:  # each wall's name at the middle of its top edge
+            corners = np.asarray(wall.corners_m, dtype=np.float32)
+            top = corners[np.argsort(corners[:, 2])[-2:]].mean(axis=0)
+            scene.add_label(f"/cave/labels/{wall.name}", f"{wall.name} wall", position=top,
+                            anchor="bottom-center")  # fmt: skip
 
     def show_cameras(self, cameras: Sequence[Camera]) -> None:
         """Camera frusta at the calibrated poses (replacing those shown before)."""
@@ -226,12 +246,26 @@ class Viewer:
                     person.joints.colors = np.tile(np.asarray(color, np.uint8), (len(valid), 1))
                     person.bones.points = segs
                     person.bones.colors = np.tile(np.asarray(color, np.uint8), (len(segs), 2, 1))
+                head = label_position(joints)
+                if person.label is None and head is not None:
+                    person.label = scene.add_label(
+                        f"/people/{uid}/label",
+                        label_text(uid, navigator),
+                        position=head,
+                        anchor="bottom-center",
+                    )
+                elif person.label is not None:
+                    person.label.text = label_text(uid, navigator)
+                    if head is not None:
+                        person.label.position = head
                 if uid == navigator:
                     nav_joints = joints
             for uid in set(self.people) - seen:
                 gone = self.people.pop(uid)
                 gone.joints.remove()
                 gone.bones.remove()
+                if gone.label is not None:
+                    gone.label.remove()
             arrow = None
             if nav_joints is not None:
                 yaw = action.get("yaw_deg")  # the recogniser's smoothed yaw, else the body's own

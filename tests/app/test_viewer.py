@@ -96,6 +96,8 @@ def test_scene_updates_in_place_and_port_is_free_after_stop(tmp_path: Path) -> N
         assert set(handles) == {3, 5}
         assert handles[3][0].name == "/people/3/joints" and handles[5][1].name == "/people/5/bones"
         assert viewer.arrow is not None and viewer.arrow.visible
+        assert viewer.people[3].label.text == "user 3 · navigator" and viewer.people[5].label.text == "user 5"
+        assert viewer.people[3].label.position[2] > 1.8, "the label floats over the head"
         moved = standing_person(0.5, 0)
         snap["extra"]["people3d"] = [{"user_id": 3, "joints": moved}]
         viewer.update(snap)
