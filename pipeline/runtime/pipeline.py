@@ -37,7 +37,7 @@ from pipeline.runtime.config import RuntimeConfig
 from pipeline.runtime.messages import FusedFrame, SetNavigator, WorkerEvent, put_latest
 from pipeline.runtime.metrics import RuntimeMetrics
 from pipeline.runtime.shm import FrameRing, RingSpec
-from pipeline.runtime.snapshot import render_snapshot
+from pipeline.runtime.snapshot import person_labels, render_snapshot
 from pipeline.runtime.stages import FusionFactory, PoseStageFactory, fusion_factory_from_settings
 from pipeline.runtime.status import PipelineEvent, PipelineStatus, State
 from pipeline.runtime.supervisor import Supervisor, WorkerDef, drain
@@ -540,7 +540,12 @@ class Pipeline:
             image = slot.image
         elif view is None:
             return None
-        data = render_snapshot(image, view, self.config.snapshot_long_side)
+        labels = None
+        if view is not None and latest is not None:  # track ids, user ids, the navigator's colour
+            result = latest.result
+            tracked = next((t for t in result.views if t.camera == camera), None)
+            labels = person_labels(view, tracked, result.people3d, result.navigator)
+        data = render_snapshot(image, view, self.config.snapshot_long_side, labels=labels)
         self._snapshots[camera] = (now, data)
         return data
 

@@ -1,7 +1,14 @@
 """Dashboard snapshots: a camera's newest frame (or a plain canvas for the simulator's
-virtual cameras) with the detected skeletons drawn over it, as JPEG."""
+virtual cameras) with the detected skeletons drawn over it, as JPEG.
+
+With labels (:class:`PersonLabel`, one per detection) each person carries its track id (and user
+id) and the navigator is drawn in the dashboard's navigator colour, the others in its "others" one.
+"""
 
 from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
 
 import cv2
 import numpy as np
@@ -10,13 +17,29 @@ from numpy.typing import NDArray
 from pipeline.pixels import to_bgr
 from pipeline.pose.types import ViewDetections
 from pipeline.skeleton import BONES
+from pipeline.tracking.types import TrackedView
+from pipeline.triangulation.types import Person3D
 
 CANVAS_BGR = (48, 40, 36)
 COLOURS = ((0, 200, 255), (80, 220, 80), (255, 160, 60), (200, 90, 255), (90, 90, 255))
+#: The dashboard's legend (frontend/css/dashboard.css --nav, --other), as BGR.
+NAVIGATOR_BGR = (0, 140, 255)
+OTHER_BGR = (248, 189, 56)
+UNTRACKED_BGR = (150, 150, 150)
+
+
+@dataclass(frozen=True, slots=True)
+class PersonLabel:
+    """What a detection is drawn as: its text (``"track 4 · user 2"``, "" = not tracked) and
+    whether it is the navigator."""
+
+    text: str
+    navigator: bool = False
 
 
 def render_snapshot(image: NDArray[np.uint8] | None, view: ViewDetections | None, long_side: int = 640,
-                    min_score: float = 0.3, quality: int = 80) -> bytes:
+                    min_score: float = 0.3, quality: int = 80,
+                    labels: list[PersonLabel] | None = None) -> bytes:
     """JPEG bytes of ``image`` (BGR or I420; or a canvas of the view's size) scaled to ``long_side``,
     skeletons drawn."""
     if image is not None:
@@ -32,17 +55,23 @@ def render_snapshot(image: NDArray[np.uint8] | None, view: ViewDetections | None
     size = (max(1, round(w * scale)), max(1, round(h * scale)))
     out = cv2.resize(image, size, interpolation=cv2.INTER_AREA)
     if view is not None:
-        draw_skeletons(out, view, scale, min_score)
+        draw_skeletons(out, view, scale, min_score, labels)
     ok, data = cv2.imencode(".jpg", out, [cv2.IMWRITE_JPEG_QUALITY, quality])
     if not ok:
         raise ValueError("JPEG encoding failed")
     return bytes(data.tobytes())
 
 
-def draw_skeletons(image: NDArray[np.uint8], view: ViewDetections, scale: float, min_score: float) -> None:
-    """Draw every person's bones and joints in place (coordinates scaled by ``scale``)."""
+def draw_skeletons(image: NDArray[np.uint8], view: ViewDetections, scale: float, min_score: float,
+                   labels: list[PersonLabel] | None = None) -> None:
+    """Draw every person's bones and joints in place (coordinates scaled by ``scale``), and with
+    ``labels`` (one per detection) their track ids in the navigator / others colours."""
     for p in range(len(view)):
-        colour = COLOURS[p % len(COLOURS)]
+        label = labels[p] if labels is not None and p < len(labels) else None
+        if label is None:
+            colour = COLOURS[p % len(COLOURS)]
+        else:
+            colour = NAVIGATOR_BGR if label.navigator else OTHER_BGR if label.text else UNTRACKED_BGR
         kp = view.keypoints_xy[p] * scale
         sc = view.keypoint_scores[p]
         ok = (sc >= min_score) & np.all(np.isfinite(kp), axis=1)
@@ -54,3 +83,36 @@ def draw_skeletons(image: NDArray[np.uint8], view: ViewDetections, scale: float,
             cv2.circle(image, (int(kp[j, 0]), int(kp[j, 1])), 3, colour, -1, cv2.LINE_AA)
         x1, y1, x2, y2 = (view.boxes_xyxy[p] * scale).astype(int).tolist()
         cv2.rectangle(image, (x1, y1), (x2, y2), colour, 1)
+        if label is not None and label.text:
+            _tag(image, label.text, (x1, max(0, y1)), colour)
+
+
+def _tag(image: NDArray[np.uint8], text: str, corner: tuple[int, int], colour: tuple[int, int, int]) -> None:
+    """The label on a filled box of the person's colour above the box's top-left corner."""
+    font, size, thick = cv2.FONT_HERSHEY_SIMPLEX, 0.5, 1
+    (w, h), base = cv2.getTextSize(text, font, size, thick)
+    x, y = corner
+    top = max(0, y - h - base - 4)
+    cv2.rectangle(image, (x, top), (x + w + 6, top + h + base + 4), colour, -1)
+    cv2.putText(image, text, (x + 3, top + h + 2), font, size, (20, 20, 20), thick, cv2.LINE_AA)
+
+
+def person_labels(
+    view: ViewDetections, tracked: TrackedView | None, people: Sequence[Person3D], navigator: int | None
+) -> list[PersonLabel]:
+    """One label per detection of ``view``: its track id in this camera (the tracking stage's
+    ``TrackedView`` of the same detections) and its user id (the 3D people's ``views``)."""
+    labels = [PersonLabel("") for _ in range(len(view))]
+    if tracked is None or len(tracked.detections) != len(view):
+        return labels
+    users: dict[int, int] = {}
+    for person in people:
+        for camera, track_id in person.views:
+            if camera == view.camera:
+                users[int(track_id)] = int(person.user_id)
+    for track_id, det in zip(tracked.track_ids.tolist(), tracked.detection_index.tolist(), strict=True):
+        if 0 <= det < len(labels):
+            user = users.get(int(track_id))
+            text = f"track {track_id}" + (f" · user {user}" if user is not None else "")
+            labels[det] = PersonLabel(text, navigator=user is not None and user == navigator)
+    return labels
