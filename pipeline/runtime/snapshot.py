@@ -30,7 +30,7 @@ UNTRACKED_BGR = (150, 150, 150)
 
 @dataclass(frozen=True, slots=True)
 class PersonLabel:
-    """What a detection is drawn as: its text (``"track 4 · user 2"``, "" = not tracked) and
+    """What a detection is drawn as: its text (``"track 4, user 2"``, "" = not tracked) and
     whether it is the navigator."""
 
     text: str
@@ -89,12 +89,14 @@ def draw_skeletons(image: NDArray[np.uint8], view: ViewDetections, scale: float,
 
 def _tag(image: NDArray[np.uint8], text: str, corner: tuple[int, int], colour: tuple[int, int, int]) -> None:
     """The label on a filled box of the person's colour above the box's top-left corner."""
-    font, size, thick = cv2.FONT_HERSHEY_SIMPLEX, 0.5, 1
+    # sized for the dashboard's tiles, which show a 640 px snapshot at about 360 px
+    font, size, thick = cv2.FONT_HERSHEY_SIMPLEX, 0.85, 2
     (w, h), base = cv2.getTextSize(text, font, size, thick)
     x, y = corner
-    top = max(0, y - h - base - 4)
-    cv2.rectangle(image, (x, top), (x + w + 6, top + h + base + 4), colour, -1)
-    cv2.putText(image, text, (x + 3, top + h + 2), font, size, (20, 20, 20), thick, cv2.LINE_AA)
+    x = min(max(0, x), max(0, image.shape[1] - w - 8))
+    top = max(0, y - h - base - 6)
+    cv2.rectangle(image, (x, top), (x + w + 8, top + h + base + 6), colour, -1)
+    cv2.putText(image, text, (x + 4, top + h + 3), font, size, (20, 20, 20), thick, cv2.LINE_AA)
 
 
 def person_labels(
@@ -113,6 +115,6 @@ def person_labels(
     for track_id, det in zip(tracked.track_ids.tolist(), tracked.detection_index.tolist(), strict=True):
         if 0 <= det < len(labels):
             user = users.get(int(track_id))
-            text = f"track {track_id}" + (f" · user {user}" if user is not None else "")
+            text = f"track {track_id}" + (f", user {user}" if user is not None else "")  # ASCII: Hershey fonts
             labels[det] = PersonLabel(text, navigator=user is not None and user == navigator)
     return labels

@@ -27,13 +27,13 @@ def test_labels_name_track_and_user_and_mark_the_navigator() -> None:
     tracked = TrackedView(view, np.array([7, 9]), np.array([1, 0]))
     nav = Person3D(3, np.zeros((17, 3)), np.ones(17, bool), 1.0, views=(("cam01", 7), ("cam02", 2)))
     labels = person_labels(view, tracked, [nav], navigator=3)
-    assert labels == [PersonLabel("track 9"), PersonLabel("track 7 · user 3", navigator=True)]
+    assert labels == [PersonLabel("track 9"), PersonLabel("track 7, user 3", navigator=True)]
     assert person_labels(view, None, [nav], 3) == [PersonLabel(""), PersonLabel("")], "untracked"
 
 
 def test_the_navigator_is_drawn_in_the_legend_colour() -> None:
     view = view_of_two()
-    labels = [PersonLabel("track 9"), PersonLabel("track 7 · user 3", navigator=True)]
+    labels = [PersonLabel("track 9"), PersonLabel("track 7, user 3", navigator=True)]
     img = cv2.imdecode(
         np.frombuffer(render_snapshot(None, view, 640, labels=labels, quality=100), np.uint8), 1
     )
