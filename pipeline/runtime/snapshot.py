@@ -115,6 +115,6 @@ def person_labels(
     for track_id, det in zip(tracked.track_ids.tolist(), tracked.detection_index.tolist(), strict=True):
         if 0 <= det < len(labels):
             user = users.get(int(track_id))
-            text = f"track {track_id}" + (f", user {user}" if user is not None else "")  # ASCII: Hershey fonts
+            text = f"track {track_id}" + (f", user {user}" if user is not None else "")  # ASCII (Hershey)
             labels[det] = PersonLabel(text, navigator=user is not None and user == navigator)
     return labels
