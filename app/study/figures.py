@@ -146,8 +146,9 @@ def bar_figure(
                 linewidth=0.8,
             )
             ax.text(x[i], y + 0.01 * span, mark, ha="center", va="bottom", fontsize=FONT["stars"])
+    crowded = len(labels) > 5 or sum(len(label) for _, label in labels) > 8 * len(labels)
     ax.set_xticks(x, [label for _, label in labels], fontsize=FONT["ticks"],
-                  rotation=30 if len(labels) > 5 else 0, ha="right" if len(labels) > 5 else "center")
+                  rotation=25 if crowded else 0, ha="right" if crowded else "center")
     ax.tick_params(axis="y", labelsize=FONT["ticks"])
     ax.set_ylabel(f"{ylabel} (mean ± SE)", fontsize=FONT["base"])
     ax.set_title(title, fontsize=FONT["title"])
