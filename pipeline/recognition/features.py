@@ -21,6 +21,8 @@ Every function works on any number of leading batch dimensions, so training
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -202,24 +204,28 @@ FEATURES_V1 = "v1"
 FEATURES_V2 = "v2"
 
 
+def _clip(v: float, lo: float, hi: float) -> float:
+    return lo if v < lo else hi if v > hi else float(v)
+
+
 def evidence_vector(frame: StepFrame) -> NDArray[np.float32]:
     """The (16,) evidence channels of one :class:`~pipeline.recognition.steps.StepFrame`."""
     leg = frame.leg_m
-    out = np.zeros(EVIDENCE_CHANNELS, dtype=np.float32)
-    for k, f in enumerate(frame.feet):
-        h = f.height_m / leg if np.isfinite(f.height_m) else 0.0
-        base = 7 * k
-        out[base : base + 7] = (
+    vals: list[float] = []
+    for f in frame.feet:
+        h = f.height_m / leg if math.isfinite(f.height_m) else 0.0
+        vals += (
             float(f.planted),
-            float(np.clip(h, -0.5, 1.0)),
-            float(np.clip(f.lateral_m / leg, -1.0, 1.0)),
-            float(np.clip(f.sagittal_m / leg, -1.0, 1.0)),
-            float(np.clip(f.vertical_m / leg, 0.0, 1.0)),
+            _clip(h, -0.5, 1.0),
+            _clip(f.lateral_m / leg, -1.0, 1.0),
+            _clip(f.sagittal_m / leg, -1.0, 1.0),
+            _clip(f.vertical_m / leg, 0.0, 1.0),
             min(f.swing_s, 1.0),
             f.turn_deg / 180.0,
         )
-    out[14] = float(frame.feet[0].jump and frame.feet[1].jump)
-    out[15] = float(np.clip(frame.pelvis_ratio - 1.0, -1.0, 0.5))
+    vals.append(float(frame.feet[0].jump and frame.feet[1].jump))
+    vals.append(_clip(frame.pelvis_ratio - 1.0, -1.0, 0.5))
+    out = np.asarray(vals, dtype=np.float32)
     return out
 
 
