@@ -112,7 +112,8 @@ def main() -> int:
     def say(msg: str) -> None:
         print(msg, flush=True)
 
-    sources = [SourceSpec.parse(s) for s in (args.source or ["sim"])]
+    specs = [SourceSpec.parse(s) for s in (args.source or ["sim"])]
+    sources = [replace(s, warp=s.name in args.warp) for s in specs]
     items = prepare_corpus(sources, args.cache, args.sequences, args.duration, args.seed, progress=say)
     names = sorted({it.seq.source for it in items})
     held = args.hold_out or names

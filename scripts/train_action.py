@@ -8,8 +8,8 @@
 Sources: ``sim`` (our simulator's random routines, ``--sequences`` of ``--duration`` s) or
 ``NAME=DIR`` (every labelled SPEC NPZ under DIR: the still-behaviour library, the second motion
 model, converted real motion capture...), prepared by :mod:`pipeline.recognition.prepare`
-(30 fps, mirrored, folder sources also at 0.85x / 1.15x, captured through the simulated CAVE
-cameras and our triangulation, step evidence from the run-time tracker; cached in --cache).
+(30 fps, mirrored, ``--warp NAME`` sources also at 0.85x / 1.15x, captured through the simulated
+CAVE cameras and our triangulation, step evidence from the run-time tracker; cached in --cache).
 Windows are drawn with each source weighing (its frames) ** 0.5. Needs the ``train`` extra
 (torch, onnx). Deterministic for a seed.
 """
@@ -39,6 +39,7 @@ _D, _T = DataConfig(), TrainConfig()
 def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--cache", type=Path, default=Path("/tmp/cavewalk-action-cache"))
     ap.add_argument("--source", action="append", help="'sim' or NAME=DIR (repeat); default: sim")
+    ap.add_argument("--warp", action="append", default=[], help="source NAME also played at 0.85x and 1.15x")
     ap.add_argument("--sequences", type=int, default=_D.sequences, help="simulated routines (source sim)")
     ap.add_argument("--duration", type=float, default=_D.duration_s, help="seconds per simulated routine")
     ap.add_argument("--epochs", type=int, default=_T.epochs)
@@ -80,6 +81,7 @@ def main() -> int:
 
     t0 = time.monotonic()
     sources = [SourceSpec.parse(s) for s in (args.source or ["sim"])]
+    sources = [replace(s, warp=s.name in args.warp) for s in sources]
     items = prepare_corpus(sources, args.cache, args.sequences, args.duration, args.seed, progress=say)
     t_data = time.monotonic() - t0
     tr_items, val_items = split_items(items, _T.validation_fraction, args.seed)

@@ -1,9 +1,9 @@
 """The training corpus prepared: every source's sequences augmented, captured and with step evidence.
 
 ``sources`` are ``sim`` (our simulator's random routines) or ``NAME=DIR`` (labelled SPEC NPZ
-files). Each sequence is brought to 30 fps, mirrored, folder sources are also played at 0.85x and
-1.15x (cadences the recordings did not have), then seen by the simulated CAVE cameras and
-triangulated back (:func:`train.capture`), and run through the step tracker (the evidence
+files). Each sequence is brought to 30 fps, mirrored, sources marked ``warp`` (recordings)
+are also played at 0.85x and 1.15x (cadences the recordings did not have), then seen by the
+simulated CAVE cameras and triangulated back (:func:`train.capture`), and run through the step tracker (the evidence
 channels, exactly as at run time). The result is cached (one pickle per configuration).
 
 An :class:`Item` keeps the clip it came from (``group``), so that a validation split or a
@@ -31,7 +31,7 @@ from pipeline.recognition.steps import StepConfig, StepTracker
 from pipeline.recognition.train import Dataset, NoiseConfig, captured
 
 FPS = 30.0
-FOLDER_SPEEDS = (0.85, 1.0, 1.15)
+WARP_SPEEDS = (0.85, 1.0, 1.15)
 
 
 @dataclass(frozen=True, slots=True)
@@ -40,15 +40,16 @@ class SourceSpec:
 
     name: str
     folder: Path | None = None
+    warp: bool = False  # also played at 0.85x and 1.15x (recordings with few cadences)
 
     @classmethod
-    def parse(cls, text: str) -> SourceSpec:
+    def parse(cls, text: str, warp: bool = False) -> SourceSpec:
         if text == "sim":
             return cls("sim")
         name, sep, folder = text.partition("=")
         if not sep or not name or not folder:
             raise InputError(f"a source is 'sim' or NAME=DIR, got {text!r}")
-        return cls(name, Path(folder))
+        return cls(name, Path(folder), warp)
 
     def fingerprint(self) -> str:
         if self.folder is None:
@@ -85,7 +86,7 @@ def clean_sequences(
             speeds: tuple[float, ...] = (1.0,)
         else:
             base = corpus.from_folder(src.folder, source=src.name)
-            speeds = FOLDER_SPEEDS
+            speeds = WARP_SPEEDS if src.warp else (1.0,)
         n0 = len(out)
         for s in base:
             group = f"{src.name}:{s.name}"
@@ -115,7 +116,7 @@ def prepare_corpus(
     """Every source prepared (see the module docstring), from ``cache_dir`` when done before."""
     noise = noise or NoiseConfig()
     key = {
-        "sources": [(s.name, str(s.folder), s.fingerprint()) for s in sources],
+        "sources": [(s.name, str(s.folder), s.fingerprint(), s.warp) for s in sources],
         "sim": (sim_count, sim_duration_s),
         "seed": seed,
         "noise": asdict(noise),

@@ -530,7 +530,7 @@ class StepTracker:
         assert f.floor is not None
         low = f.pos[2] - f.floor < max(c.land_height * self._leg, 0.5 * self._thresholds(f)[0])
         if low or t - f.still_since >= c.hold_s:
-            self._land(f, max(f.still_since - self._lag_s(), f.lift_t + c.min_swing_s))
+            self._land(f, max(f.still_since - 0.5 * self._lag_s(), f.lift_t + c.min_swing_s))
 
     def _update_pelvis(self, j: NDArray[np.float64], dt: float) -> None:
         c = self.config
