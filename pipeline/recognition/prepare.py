@@ -3,8 +3,8 @@
 ``sources`` are ``sim`` (our simulator's random routines) or ``NAME=DIR`` (labelled SPEC NPZ
 files). Each sequence is brought to 30 fps, mirrored, sources marked ``warp`` (recordings)
 are also played at 0.85x and 1.15x (cadences the recordings did not have), then seen by the
-simulated CAVE cameras and triangulated back (:func:`train.capture`), and run through the step tracker (the evidence
-channels, exactly as at run time). The result is cached (one pickle per configuration).
+simulated CAVE cameras and triangulated back (:func:`train.capture`), and run through the step
+tracker (the evidence channels, exactly as at run time). The result is cached (one pickle per configuration).
 
 An :class:`Item` keeps the clip it came from (``group``), so that a validation split or a
 leave-one-source-out fold never has an augmentation of a clip on both sides.
