@@ -66,12 +66,15 @@ def person_record(p: Person3D) -> dict[str, Any]:
 def action_record(a: ActionEstimate | None) -> dict[str, Any] | None:
     if a is None:
         return None
-    return {
+    out: dict[str, Any] = {
         "label": a.label,
         "probs": {k: _num(v, 4) for k, v in a.probs.items()},
         "yaw_deg": _num(a.yaw_deg, 2),
         "speed_mps": _num(a.speed_mps, 3),
     }
+    if a.steps is not None:  # the step evidence and the gate's verdict (the dashboard's step strip)
+        out["steps"] = a.steps.to_dict() | {"gate": None if a.gate is None else a.gate.to_dict()}
+    return out
 
 
 def frame_record(result: FrameResult) -> dict[str, Any]:

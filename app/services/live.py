@@ -152,6 +152,7 @@ def status_snapshot(status: Any) -> dict[str, Any]:
             "probs": {str(k): float(v or 0.0) for k, v in (action.get("probs") or {}).items()},
             "yaw_deg": action.get("yaw_deg"),
             "speed_mps": action.get("speed_mps"),
+            "steps": action.get("steps"),  # step evidence + gate verdict (frontend/js/panels/steps.js)
         }
     people3d = raw.get("people3d")
     if people3d:

@@ -10,6 +10,7 @@ import { mountPeople } from "./panels/people.js";
 import { mountScript } from "./panels/script.js";
 import { mountSession } from "./panels/session.js";
 import { mountStatus } from "./panels/status.js";
+import { mountSteps } from "./panels/steps.js";
 import { mountStudy } from "./panels/study.js";
 import { mountViewer } from "./panels/viewer.js";
 import { mountQuestionnaire } from "./questionnaire.js";
@@ -34,6 +35,7 @@ async function main() {
   mountStatus();
   mountAlarm();
   mountAction();
+  mountSteps(document.getElementById("step-strip-slot"));
   mountPeople();
   mountCameras(info);
   mountViewer(info);

@@ -113,26 +113,44 @@ def prepare_corpus(
     noise: NoiseConfig | None = None,
     progress: Callable[[str], None] | None = None,
 ) -> list[Item]:
-    """Every source prepared (see the module docstring), from ``cache_dir`` when done before."""
+    """Every source prepared (see the module docstring); each source cached on its own in ``cache_dir``
+    (adding a source later prepares only that one)."""
+    items: list[Item] = []
+    for src in sources:
+        items += prepare_source(src, cache_dir, sim_count, sim_duration_s, seed, noise, progress)
+    return items
+
+
+def prepare_source(
+    src: SourceSpec,
+    cache_dir: Path,
+    sim_count: int = 360,
+    sim_duration_s: float = 40.0,
+    seed: int = 0,
+    noise: NoiseConfig | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> list[Item]:
+    """One source prepared, from ``cache_dir`` when done before."""
     noise = noise or NoiseConfig()
     key = {
-        "sources": [(s.name, str(s.folder), s.fingerprint(), s.warp) for s in sources],
-        "sim": (sim_count, sim_duration_s),
+        "source": (src.name, str(src.folder), src.fingerprint(), src.warp),
+        "sim": (sim_count, sim_duration_s) if src.folder is None else None,
         "seed": seed,
         "noise": asdict(noise),
         "steps": asdict(StepConfig()),
-        "v": 3,
+        "v": 4,
     }
     digest = hashlib.sha1(json.dumps(key, sort_keys=True, default=str).encode()).hexdigest()[:12]
-    path = Path(cache_dir) / f"action-corpus-{digest}.pkl"
+    path = Path(cache_dir) / f"action-source-{src.name}-{digest}.pkl"
     if path.is_file():
         with path.open("rb") as fh:
-            items: list[Item] = pickle.load(fh)
+            cached: list[Item] = pickle.load(fh)
         if progress is not None:
-            progress(f"prepared corpus from {path} ({len(items)} sequences)")
-        return items
-    pairs = clean_sequences(sources, sim_count, sim_duration_s, seed, progress)
-    seqs = captured([s for _, s, _ in pairs], noise, seed=seed + 1)
+            progress(f"source {src.name}: {len(cached)} prepared sequences from {path}")
+        return cached
+    pairs = clean_sequences([src], sim_count, sim_duration_s, seed, progress)
+    capture_seed = seed + 1 + int(hashlib.sha1(src.name.encode()).hexdigest()[:6], 16)
+    seqs = captured([s for _, s, _ in pairs], noise, seed=capture_seed)
     items = []
     t0 = time.monotonic()
     for i, ((group, _, original), seq) in enumerate(zip(pairs, seqs, strict=True)):
@@ -140,7 +158,7 @@ def prepare_corpus(
         items.append(Item(group, seq32, evidence_of(seq), original))
         if progress is not None and ((i + 1) % 100 == 0 or i + 1 == len(seqs)):
             progress(
-                f"captured + step evidence {i + 1}/{len(seqs)} sequences ({time.monotonic() - t0:.0f} s)"
+                f"{src.name}: captured + step evidence {i + 1}/{len(seqs)} ({time.monotonic() - t0:.0f} s)"
             )
     path.parent.mkdir(parents=True, exist_ok=True)
     with path.open("wb") as fh:
