@@ -57,6 +57,9 @@ class ActionPublic(BaseModel):
     probs: dict[str, float]
     yaw_deg: float | None = None
     speed_mps: float | None = None
+    # the step evidence and the stepping-bout gate's verdict (pipeline.recognition.steps.StepFrame
+    # .to_dict() + "gate"), for the dashboard's step strip
+    steps: dict[str, Any] | None = None
 
 
 class AlarmPublic(BaseModel):

@@ -1,0 +1,56 @@
+"""The step strip under the command history, in headless Chromium against the real app (simulated
+user, real recogniser with the stepping-bout gate): both feet's contact, the gate's verdict and the
+newest step's displacement in words."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from tests.app.conftest import Served, make_settings
+
+pytestmark = [pytest.mark.e2e, pytest.mark.slow]
+
+CHROMIUM = "/usr/bin/chromium"
+
+
+def test_the_step_strip_shows_feet_gate_and_the_newest_step(tmp_path: Path, artifacts_dir: Path) -> None:
+    from playwright.sync_api import expect, sync_playwright
+
+    if not Path(CHROMIUM).exists():
+        pytest.fail(f"{CHROMIUM} missing: apt-get install -y chromium chromium-driver")
+    s = make_settings(tmp_path)
+    settings = s.model_copy(update={"recognition": s.recognition.model_copy(update={"gate": True})})
+    with Served(settings) as served, sync_playwright() as pw:
+        status = served.wait_status(lambda st: bool(st.get("action") and st["action"].get("steps")))
+        steps = status["action"]["steps"]
+        assert [f["foot"] for f in steps["feet"]] == ["left", "right"] and steps["gate"] is not None
+        browser = pw.chromium.launch(
+            executable_path=CHROMIUM,
+            args=["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"],
+        )
+        page = browser.new_page(viewport={"width": 1400, "height": 1000})
+        errors: list[str] = []
+        page.on("pageerror", lambda exc: errors.append(str(exc)))
+        try:
+            page.goto(served.base)
+            strip = page.locator("#steps-mount")
+            expect(strip.locator("#steps-left .tick.planted").first).to_be_attached(timeout=20_000)
+            expect(strip.locator("#steps-right .tick.planted").first).to_be_attached(timeout=20_000)
+            expect(strip.locator("#steps-gate .tick.gate").first).to_be_attached(timeout=20_000)
+            # the simulated user steps: a swinging foot and a stepping gate show up on the strip
+            expect(strip.locator(".tick.swing").first).to_be_attached(timeout=40_000)
+            expect(strip.locator("#steps-gate .tick.stepping").first).to_be_attached(timeout=40_000)
+            expect(strip.locator("#steps-detail")).to_contain_text("gate:")
+            expect(strip.locator("#steps-detail")).to_contain_text("newest step:")
+            page.wait_for_timeout(3000)  # a few seconds of strip for the screenshot
+            counts = page.evaluate(
+                "() => ['steps-left', 'steps-right', 'steps-gate']"
+                ".map((id) => document.getElementById(id).childElementCount)"
+            )
+            assert len(set(counts)) == 1 and counts[0] > 20, f"the rows share one time axis: {counts}"
+            page.locator("#action-panel").screenshot(path=str(artifacts_dir / "step-strip.png"))
+        finally:
+            browser.close()
+        assert not errors, errors
