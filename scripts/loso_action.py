@@ -20,7 +20,7 @@ import json
 import logging
 import sys
 import time
-from dataclasses import replace
+from dataclasses import asdict, replace
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -29,7 +29,7 @@ sys.path.insert(0, str(ROOT / "scripts"))
 
 from train_action import add_arguments, train_config  # noqa: E402
 
-from pipeline.recognition.evaluation import network_trace, replay, step_frames  # noqa: E402
+from pipeline.recognition.evaluation import network_trace, replay, step_frames, tune_gate  # noqa: E402
 from pipeline.recognition.features import FEATURES_V1, FEATURES_V2  # noqa: E402
 from pipeline.recognition.metrics import Evaluation, ScoredSequence, evaluate  # noqa: E402
 from pipeline.recognition.prepare import SourceSpec, prepare_corpus, split_items, to_dataset  # noqa: E402
@@ -120,6 +120,7 @@ def main() -> int:
     args.out_dir.mkdir(parents=True, exist_ok=True)
     results: dict[str, dict[str, dict[str, object]]] = {}
     timings: dict[str, float] = {}
+    chosen: dict[str, object] = {}
     for src in held:
         train_items = [it for it in items if it.seq.source != src]
         test_items = [it for it in items if it.seq.source == src and it.original]
@@ -148,8 +149,16 @@ def main() -> int:
             ]
             for feat, s in models.items()
         }
+        # the gate's settings: chosen on the training sources' validation clips, never on S
+        tune_items = [it for it in va if it.original]
+        gates = {}
+        for feat, s in models.items():
+            tune_traces = [network_trace(s, it.seq.joints_m, it.seq.fps) for it in tune_items]
+            gates[feat], _ = tune_gate(tune_traces, [it.seq for it in tune_items], RecognizerConfig())
+            chosen[f"{src}/{feat}"] = asdict(gates[feat])
+            say(f"fold {src} {feat}: gate chosen on {len(tune_items)} validation clips: {gates[feat]}")
         for name, feat, gate in VARIANTS:
-            config = replace(RecognizerConfig(), gate=gate)
+            config = replace(RecognizerConfig(), gate=gate, gate_config=gates[feat])
             scored = [
                 ScoredSequence(
                     it.seq.name,
@@ -174,9 +183,8 @@ def main() -> int:
     if args.markdown is not None:
         args.markdown.write_text(table)
     if args.json is not None:
-        args.json.write_text(
-            json.dumps({"results": results, "train_s": timings, "sources": names}, indent=2) + "\n"
-        )
+        out = {"results": results, "train_s": timings, "sources": names, "gate_settings": chosen}
+        args.json.write_text(json.dumps(out, indent=2) + "\n")
     return 0
 
 

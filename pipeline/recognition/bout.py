@@ -16,7 +16,9 @@ What a user expects (MODEL_CARD.md, "Behaviour"):
   as one of the person's pauses when the stepping resumes). If the next lift-off does not come
   by then, the rhythm has broken and the bout ends (``still``) at that moment.
 - **The network can stop a bout**: a whole swing during which the network's probability of
-  moving never reached ``stop_prob`` (a pivot step while turning on the spot, a kick) ends it;
+  moving never reached ``stop_prob`` (a pivot step while turning on the spot, a kick) ends it,
+  and so does a pause (``min_pause_s`` after a touch-down) in which the network is sure, with
+  ``pause_still_prob``, that the person has stopped (it has learnt what a last step looks like);
   a crouch or a jump ends it at once, and so does a pivot (the body turning more than
   ``max_turn_deg`` during one swing: a turn on the spot).
 - **Direction** (forward / left / right): the network's smoothed probabilities among the moving
@@ -60,9 +62,11 @@ class GateConfig:
     evidence_direction: bool = True
     evidence_weight: float = 3.0
     max_turn_deg: float = 30.0
+    pause_still_prob: float = 0.85
+    min_pause_s: float = 0.1
 
     def __post_init__(self) -> None:
-        for name in ("start_prob", "stop_prob"):
+        for name in ("start_prob", "stop_prob", "pause_still_prob"):
             v = getattr(self, name)
             if not 0 <= v <= 1:
                 raise ValueError(f"{name} must be in [0, 1], got {v}")
@@ -252,4 +256,6 @@ class BoutGate:
         deadline = self._bout_land_t + self._allowance()
         if t > deadline + 1e-9:
             return self._end("rhythm-broke", ev_name)
+        if p[_STILL] >= c.pause_still_prob and t - self._bout_land_t >= c.min_pause_s:
+            return self._end("network-still", ev_name)  # the network sees the bout has ended
         return GateVerdict(True, self._label, "pause", ev_name, self._allowance(), deadline)

@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.recognition.bout import BoutGate
+from pipeline.recognition.bout import BoutGate, GateConfig
 from pipeline.recognition.dataset import LabelledSequence
 from pipeline.recognition.features import EVIDENCE_CHANNELS, FEATURES_V2, evidence_vector
 from pipeline.recognition.metrics import Evaluation, ScoredSequence, evaluate
@@ -120,3 +120,55 @@ def replay(trace: NetworkTrace, config: RecognizerConfig) -> NDArray[np.int64]:
             label = gate.update(sf, filt.probs, sf.t).label
         out[i] = label
     return out
+
+
+# ---------------------------------------------------------------- choosing the gate's settings
+
+GATE_GRID: dict[str, tuple[float, ...]] = {
+    "start_prob": (0.4, 0.6),
+    "pause_still_prob": (0.75, 0.9, 1.0),
+    "pause_gain": (1.0, 1.25),
+    "pause_margin_s": (0.1, 0.2),
+    "first_allowance_s": (0.35, 0.5),
+}
+
+
+def objective(ev: Evaluation) -> float:
+    """What the gate's settings are chosen for (issue 14's behaviour): accuracy and macro-F1, with
+    penalties for false movement above 1 %, start and stop (beyond the rhythm's pause) later than
+    300 ms at the median, and flicker."""
+    acc, f1 = ev.accuracy or 0.0, ev.macro_f1 or 0.0
+    fm = ev.overall.false_movement or 0.0
+    start = ev.start.median_s if ev.start.median_s is not None else 1.0
+    stop = ev.stop_beyond_rhythm.median_s if ev.stop_beyond_rhythm.median_s is not None else 1.0
+    flicker = ev.flicker or 1.0
+    return (
+        acc + f1 - 5.0 * max(0.0, fm - 0.01) - 0.5 * max(0.0, start - 0.3) - 0.5 * max(0.0, stop - 0.3)
+        - 0.02 * max(0.0, flicker - 1.0)
+    )  # fmt: skip
+
+
+def tune_gate(
+    traces: Sequence[NetworkTrace],
+    sequences: Sequence[LabelledSequence],
+    base: RecognizerConfig,
+    grid: dict[str, tuple[float, ...]] | None = None,
+) -> tuple[GateConfig, list[tuple[dict[str, float], float]]]:
+    """The grid point of gate settings with the best :func:`objective` on (tuning) sequences."""
+    import itertools
+
+    grid = grid or GATE_GRID
+    keys = list(grid)
+    table: list[tuple[dict[str, float], float]] = []
+    best: tuple[float, GateConfig] | None = None
+    for values in itertools.product(*(grid[k] for k in keys)):
+        point = dict(zip(keys, values, strict=True))
+        gate = replace(base.gate_config, **point)  # type: ignore[arg-type]
+        config = replace(base, gate=True, gate_config=gate)
+        scored_seqs = [scored(s, replay(t, config)) for s, t in zip(sequences, traces, strict=True)]
+        value = objective(evaluate(scored_seqs))
+        table.append((point, value))
+        if best is None or value > best[0]:
+            best = (value, gate)
+    assert best is not None
+    return best[1], table
