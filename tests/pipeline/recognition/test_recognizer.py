@@ -283,3 +283,55 @@ def test_arms_without_legs_is_no_data() -> None:
     j[:, 11:] = np.nan
     est = recognize_sequence(ActionRecognizer.from_config(RecognizerConfig()), j, FPS)
     assert all(e.no_data for e in est)
+
+
+# ------------------------------------------------------------------ what the model says it expects
+
+
+def _tiny_model(path: Path, channels: int, features: str | None) -> Path:
+    """A real ONNX graph (mean over time, a fixed linear map, softmax) with the recogniser's metadata."""
+    import onnx
+    from onnx import TensorProto, helper, numpy_helper
+
+    w = numpy_helper.from_array(np.linspace(-1, 1, channels * 4, dtype=np.float32).reshape(channels, 4), "w")
+    axes = numpy_helper.from_array(np.array([2], dtype=np.int64), "axes")
+    nodes = [
+        helper.make_node("ReduceMean", ["x", "axes"], ["m"], keepdims=0),
+        helper.make_node("MatMul", ["m", "w"], ["z"]),
+        helper.make_node("Softmax", ["z"], ["probs"], axis=1),
+    ]
+    graph = helper.make_graph(
+        nodes, "tiny", [helper.make_tensor_value_info("x", TensorProto.FLOAT, ["batch", channels, 32])],
+        [helper.make_tensor_value_info("probs", TensorProto.FLOAT, ["batch", 4])], initializer=[w, axes],
+    )  # fmt: skip
+    model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 18)])
+    model.ir_version = 9
+    meta = {"window": "32", "fps": "30", "classes": ",".join(ACTIONS)}
+    if features is not None:
+        meta["features"] = features
+    for k, v in meta.items():
+        entry = model.metadata_props.add()
+        entry.key, entry.value = k, v
+    onnx.save(model, str(path))
+    return path
+
+
+def test_the_recogniser_reads_and_checks_the_models_features(tmp_path: Path) -> None:
+    v2 = ActionRecognizer.from_config(
+        RecognizerConfig(model_path=_tiny_model(tmp_path / "v2.onnx", 135, "v2"))
+    )
+    assert v2.info.features == "v2"
+    est = recognize_sequence(v2, np.tile(np.linspace(0, 1, 51).reshape(17, 3), (40, 1, 1)), FPS)
+    assert len(est) == 40 and est[-1].steps is not None, "a v2 model is fed joints and step evidence"
+    old = ActionRecognizer.from_config(
+        RecognizerConfig(model_path=_tiny_model(tmp_path / "v1.onnx", 119, None))
+    )
+    assert old.info.features == "v1", "a model without the key is v1 (joints only)"
+    with pytest.raises(ModelError, match="features 'v3'"):
+        ActionRecognizer.from_config(
+            RecognizerConfig(model_path=_tiny_model(tmp_path / "v3.onnx", 135, "v3"))
+        )
+    with pytest.raises(ModelError, match=r"\(B, 135, 32\) for features v2"):
+        ActionRecognizer.from_config(
+            RecognizerConfig(model_path=_tiny_model(tmp_path / "bad.onnx", 119, "v2"))
+        )
