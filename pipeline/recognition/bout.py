@@ -10,11 +10,12 @@ What a user expects (MODEL_CARD.md, "Behaviour"):
   probability of moving at least ``start_prob`` at some moment of that swing). Both feet planted,
   whatever the knees, hips and upper body do, is ``still``.
 - **One command per bout.** Once started, the bout holds through the pauses between its steps:
-  after each touch-down the next step is due within the pause the person's own rhythm allows
-  (``pause_gain`` x the longest of their last three pauses + ``pause_margin_s``; before two steps
-  are known, ``first_allowance_s``; a pause that broke a bout, up to ``max_allowance_s``, counts
-  as one of the person's pauses when the stepping resumes). If the next lift-off does not come
-  by then, the rhythm has broken and the bout ends (``still``) at that moment.
+  after each touch-down the next lift-off is due when the person's own rhythm says (the newest
+  lift-off + ``pause_gain`` x the longest of their last three lift-off intervals), plus
+  ``pause_margin_s``, within [``min_allowance_s``, ``max_allowance_s``] after the touch-down;
+  before two lift-offs are known, ``first_allowance_s``; an interval that broke a bout, up to
+  ``max_interval_s``, still counts as the person's rhythm when the stepping resumes. If the next
+  lift-off does not come by then, the rhythm has broken and the bout ends (``still``) there.
 - **The network can stop a bout**: a whole swing during which the network's probability of
   moving never reached ``stop_prob`` (a pivot step while turning on the spot, a kick) ends it,
   and so does a pause (``min_pause_s`` after a touch-down) in which the network is sure, with
@@ -55,7 +56,7 @@ class GateConfig:
     stop_prob: float = 0.15
     confirm_s: float = 0.1
     first_allowance_s: float = 0.5
-    pause_gain: float = 1.2
+    pause_gain: float = 1.1
     pause_margin_s: float = 0.15
     min_allowance_s: float = 0.25
     max_allowance_s: float = 1.2
@@ -64,6 +65,8 @@ class GateConfig:
     max_turn_deg: float = 30.0
     pause_still_prob: float = 0.85
     min_pause_s: float = 0.1
+    max_interval_s: float = 2.2
+    min_swing_s: float = 0.1
 
     def __post_init__(self) -> None:
         for name in ("start_prob", "stop_prob", "pause_still_prob"):
@@ -76,6 +79,8 @@ class GateConfig:
             "pause_margin_s",
             "min_allowance_s",
             "max_allowance_s",
+            "max_interval_s",
+            "min_swing_s",
         ):
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
@@ -157,7 +162,8 @@ class BoutGate:
         self._label = _STILL
         self._swing_lift = [math.nan, math.nan]  # lift-off time of each foot's current swing
         self._swing_maxp = [0.0, 0.0]  # highest network p(moving) during it
-        self._pauses: deque[float] = deque(maxlen=3)
+        self._intervals: deque[float] = deque(maxlen=3)  # the person's last lift-off to lift-off times
+        self._last_lift_t = math.nan
         self._bout_land_t = math.nan  # newest touch-down of the bout
         self._bout_steps = 0
 
@@ -172,18 +178,21 @@ class BoutGate:
         return self._swing_lift[1 - k] < self._swing_lift[k] - 0.1
 
     def _allowance(self) -> float:
+        """How long after the newest touch-down the next lift-off may come: when the person's rhythm
+        says it is due (``pause_gain`` x the longest of their last three step intervals after the
+        newest lift-off) + ``pause_margin_s``, within [min_allowance_s, max_allowance_s]."""
         c = self.config
-        if not self._pauses:
+        if not self._intervals or not math.isfinite(self._bout_land_t):
             return c.first_allowance_s
-        a = c.pause_gain * max(self._pauses) + c.pause_margin_s
-        return float(min(max(a, c.min_allowance_s), c.max_allowance_s))
+        due = self._last_lift_t + c.pause_gain * max(self._intervals) - self._bout_land_t
+        return float(min(max(due + c.pause_margin_s, c.min_allowance_s), c.max_allowance_s))
 
     def _end(self, reason: str, evidence: str | None) -> GateVerdict:
         self._active = False
         self._label = _STILL
         if reason != "rhythm-broke":  # a broken rhythm is remembered: the person's own pauses
-            self._pauses.clear()
-            self._bout_land_t = math.nan
+            self._intervals.clear()
+            self._last_lift_t = self._bout_land_t = math.nan
         self._bout_steps = 0
         return GateVerdict(False, _STILL, reason, evidence, self._allowance(), math.nan)
 
@@ -194,15 +203,15 @@ class BoutGate:
         ev = evidence_direction(frame)
         ev_name = ACTIONS[ev] if ev is not None else None
         landed_steps: list[float] = []  # max p(moving) of bout swings that ended now
-        both_down_before = all(math.isnan(x) for x in self._swing_lift)
         for k, f in enumerate(frame.feet):
             if f.lifted:
-                if both_down_before and math.isfinite(self._bout_land_t):
-                    gap = f.event_t - self._bout_land_t
-                    if self._active or gap <= c.max_allowance_s:  # also the pause that broke a bout
-                        self._pauses.append(max(0.0, gap))
-                    elif not self._active:
-                        self._pauses.clear()
+                gap = f.event_t - self._last_lift_t if math.isfinite(self._last_lift_t) else math.inf
+                if gap <= c.max_interval_s:  # also the pause that broke a bout: the person's rhythm
+                    if gap >= c.min_swing_s:
+                        self._intervals.append(gap)
+                elif not self._active:
+                    self._intervals.clear()
+                self._last_lift_t = f.event_t
                 self._swing_lift[k], self._swing_maxp[k] = f.event_t, p_move
             elif not f.planted and math.isfinite(self._swing_lift[k]):
                 self._swing_maxp[k] = max(self._swing_maxp[k], p_move)

@@ -127,7 +127,7 @@ def replay(trace: NetworkTrace, config: RecognizerConfig) -> NDArray[np.int64]:
 GATE_GRID: dict[str, tuple[float, ...]] = {
     "start_prob": (0.4, 0.6),
     "pause_still_prob": (0.75, 0.9, 1.0),
-    "pause_gain": (1.0, 1.25),
+    "pause_gain": (1.0, 1.15),
     "pause_margin_s": (0.1, 0.2),
     "first_allowance_s": (0.35, 0.5),
 }

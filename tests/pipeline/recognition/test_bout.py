@@ -42,7 +42,8 @@ def test_a_slow_bout_is_one_command_through_its_pauses() -> None:
     assert (labels[inside] == F).mean() > 0.95
     assert (labels[t < first_lift] == S).all()
     stop = t[(t > last_land) & (labels == S)][0] - last_land
-    assert stop < 0.6 * 1.2 + 0.15 + 0.1, f"stopped {stop:.2f} s after the last touch-down"
+    # due one interval (1.0 s) x 1.1 after the last lift-off, + 0.15 s: 0.85 s after the touch-down
+    assert stop < 1.0 * 1.1 + 0.15 - 0.4 + 0.1, f"stopped {stop:.2f} s after the last touch-down"
     changes = int(np.sum(labels[1:] != labels[:-1]))
     assert changes <= 4, f"{changes} command changes for one bout"
     assert {v.reason for v in verdicts} >= {"planted", "stepping", "pause", "rhythm-broke"}
