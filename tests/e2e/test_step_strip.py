@@ -35,7 +35,7 @@ def test_the_step_strip_shows_feet_gate_and_the_newest_step(tmp_path: Path, arti
         page.on("pageerror", lambda exc: errors.append(str(exc)))
         try:
             page.goto(served.base)
-            strip = page.locator("#steps-mount")
+            strip = page.locator("#step-strip-slot")
             expect(strip.locator("#steps-left .tick.planted").first).to_be_attached(timeout=20_000)
             expect(strip.locator("#steps-right .tick.planted").first).to_be_attached(timeout=20_000)
             expect(strip.locator("#steps-gate .tick.gate").first).to_be_attached(timeout=20_000)
