@@ -24,7 +24,8 @@ DEFAULT_RANDOM_S = 60.0
 @app.command("simulate")
 def simulate(
     out: Annotated[
-        Path, typer.Option("--out", help="Skeleton sequence NPZ to write (joints, fps, labels).")
+        Path,
+        typer.Option("--out", help="Skeleton sequence NPZ to write (joints, fps, labels, tags, contacts, source)."),
     ],
     script: Annotated[
         Path | None, typer.Option("--script", help="Routine JSON/TOML; default: a random routine.")
@@ -75,7 +76,7 @@ def simulate(
     world = SimWorld.build(settings.cave.geometry(), config, routine)
     n_frames = max(1, round(seconds * config.fps))
 
-    joints, labels = [], []
+    joints, labels, tags, contacts = [], [], [], []
     try:
         writer = ResultsWriter(keypoints) if keypoints is not None else None
     except OSError as exc:
@@ -85,6 +86,8 @@ def simulate(
             for frame in frames:
                 joints.append(frame.navigator_joints)
                 labels.append(frame.label)
+                tags.append(frame.tag)
+                contacts.append(frame.contacts)
                 if writer is not None:
                     writer.write(frame.to_result())
     finally:
@@ -92,7 +95,10 @@ def simulate(
             writer.close()
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
-        save_npz(out, SkeletonSequence(np.asarray(joints), config.fps, tuple(labels)))
+        seq = SkeletonSequence(
+            np.asarray(joints), config.fps, tuple(labels), tuple(tags), np.asarray(contacts, dtype=bool), "sim"
+        )
+        save_npz(out, seq)
     except OSError as exc:
         raise InputError(f"cannot write {out}: {exc}") from exc
     counts = {lb: labels.count(lb) for lb in dict.fromkeys(labels)}

@@ -1,7 +1,17 @@
 """The CAVE simulator: everything after the cameras' pose detector, without hardware.
 
-- :mod:`pipeline.sim.body` / :mod:`pipeline.sim.script` / :mod:`pipeline.sim.motion`:
-  animated users (17 COCO joints in the CAVE frame) with ground-truth action, yaw, speed.
+- :mod:`pipeline.sim.body`: bodies (1.40-2.05 m, varied proportions), personal motion styles,
+  the kinematics that pose them.
+- :mod:`pipeline.sim.script`: routines (segments of still / forward / left / right / turn with
+  a behaviour each), their JSON/TOML format and :func:`~pipeline.sim.script.random_script`.
+- :mod:`pipeline.sim.ranges`: what random routines draw: routine kinds, behaviours, ranges.
+- :mod:`pipeline.sim.routines`: one seed -> a person doing a routine of a kind (training API).
+- :mod:`pipeline.sim.motion`: ``simulate_user``: animated users (17 COCO joints in the CAVE
+  frame) with ground-truth labels, tags, foot contacts, yaw and speed; planned by
+  :mod:`pipeline.sim.stepping` (stepping bouts, turns), :mod:`pipeline.sim.behaviours` (still
+  behaviours) on :mod:`pipeline.sim.feet` (foot moves) and :mod:`pipeline.sim.plan` (channels).
+- :mod:`pipeline.sim.motion_v1`: the first motion model, kept for the committed action model's
+  tests until it is retrained.
 - :mod:`pipeline.sim.scene`: the default virtual cameras (one above each wall).
 - :mod:`pipeline.sim.views`: virtual cameras producing the pose detector's ``ViewDetections``
   with realistic faults.

@@ -2,7 +2,9 @@
 
 Proportions follow Drillis & Contini's segment fractions of body height (ankle 0.039 H,
 knee 0.285 H, hip 0.530 H, shoulder 0.818 H, upper arm 0.186 H, forearm to wrist
-0.146 H), each jittered by a few per cent per person.
+0.146 H), varied per person (:func:`sample_body`): a longer or shorter leg (hip 0.50-0.56 H,
+the knee splitting it 0.47-0.53), the trunk taking up the rest, arms 0.30-0.36 H, shoulders
+0.20-0.25 H and hips 0.09-0.13 H wide.
 
 Local body frame (used before a pose is placed in the CAVE): x to the person's right,
 y forward, z up, origin on the floor under the pelvis.
@@ -20,7 +22,7 @@ from pipeline.errors import InputError
 
 F64 = NDArray[np.float64]
 
-HEIGHT_RANGE = (1.50, 1.95)
+HEIGHT_RANGE = (1.40, 2.05)
 
 
 @dataclass(frozen=True, slots=True)
@@ -108,26 +110,28 @@ def body_from_height(height_m: float) -> BodyParams:
 
 
 def sample_body(rng: np.random.Generator, height_range: tuple[float, float] = HEIGHT_RANGE) -> BodyParams:
-    """A random person: height uniform in ``height_range``, each proportion jittered (about +-3-8%)."""
+    """A random person: height uniform in ``height_range``, proportions varied (module docstring)."""
     lo, hi = (float(v) for v in height_range)
     if not 0.8 <= lo <= hi <= 2.5:
         raise InputError(f"height_range must satisfy 0.8 <= min <= max <= 2.5, got {height_range}")
     h = float(rng.uniform(lo, hi))
-
-    def j(frac: float, rel: float) -> float:
-        return float(frac * h * (1.0 + rng.uniform(-rel, rel)))
-
+    u = rng.uniform
+    ankle = 0.039 * h * float(u(0.85, 1.15))
+    hip = h * float(u(0.50, 0.56))
+    knee = ankle + (hip - ankle) * float(u(0.47, 0.53))
+    arm = h * float(u(0.30, 0.36))
+    upper = arm * float(u(0.53, 0.58))
     return BodyParams(
         height_m=h,
-        ankle_height_m=j(0.039, 0.08),
-        knee_height_m=j(0.285, 0.03),
-        hip_height_m=j(0.530, 0.025),
-        shoulder_height_m=j(0.818, 0.015),
-        ear_height_m=j(0.925, 0.008),
-        shoulder_width_m=j(0.225, 0.08),
-        hip_width_m=j(0.110, 0.10),
-        upper_arm_m=j(0.186, 0.05),
-        forearm_m=j(0.146, 0.05),
+        ankle_height_m=ankle,
+        knee_height_m=knee,
+        hip_height_m=hip,
+        shoulder_height_m=h * float(u(0.805, 0.83)),
+        ear_height_m=h * float(u(0.918, 0.932)),
+        shoulder_width_m=h * float(u(0.20, 0.25)),
+        hip_width_m=h * float(u(0.09, 0.13)),
+        upper_arm_m=upper,
+        forearm_m=arm - upper,
     )
 
 
@@ -139,9 +143,15 @@ class MotionStyle:
     """How one person moves: the per-user randomness of the simulator.
 
     cadence_steps_per_s: preferred stepping cadence. knee_lift_m: preferred peak ankle rise.
-    lift_asymmetry: left-lift multiplier (the right one gets its inverse).
+    lift_asymmetry: left-lift multiplier (the right one gets its inverse; the higher-lifting
+    foot also swings a little longer).
     step_variation: relative random variation of each step's lift.
     swing_fraction: part of each step's time the foot is in the air (rest: double support).
+    step_irregularity: relative random spread of step timing, lift and placement.
+    pause_prob: chance that a step is followed by a pause (both feet down 0.2-1.0 s); 0 in
+    drawn styles: pauses belong to a bout (``Segment.pause_prob``, drawn by the routines).
+    march_slide_m: how far a marching stance foot slides back (negative: forward).
+    weight_shift_frac: how far the pelvis moves over the stance foot during a step.
     arm_swing_deg: peak arm swing while marching. elbow_flex_deg: elbow bend at rest.
     rest_arms: ``hanging`` or ``clasped`` (hands together in front).
     sway_m: standing postural sway. stance_width_m: distance between the ankles standing.
@@ -179,6 +189,10 @@ class MotionStyle:
     cadence_drift: float = 0.03
     forward_ankle_frac: float = 0.4
     knee_flex_deg: float = 8.0
+    step_irregularity: float = 0.01
+    pause_prob: float = 0.0
+    march_slide_m: float = 0.0
+    weight_shift_frac: float = 0.5
 
     def __post_init__(self) -> None:
         if self.rest_arms not in REST_ARMS:
@@ -197,15 +211,19 @@ class MotionStyle:
 
 
 def sample_style(rng: np.random.Generator) -> MotionStyle:
-    """A random personal motion style (ranges chosen to cover how different people step in place)."""
+    """A random personal motion style (ranges chosen to cover how different people step in place).
+
+    A person's own timing irregularity and lift asymmetry are mild; strongly irregular or
+    asymmetric bouts are asked for per segment (``Segment.irregularity`` / ``asymmetry``), as the
+    random routines do."""
     u = rng.uniform
     return MotionStyle(
-        cadence_steps_per_s=float(u(1.3, 2.2)),
-        knee_lift_m=float(u(0.07, 0.2)),
-        lift_asymmetry=float(u(0.85, 1.15)),
-        step_variation=float(u(0.04, 0.18)),
-        swing_fraction=float(u(0.55, 0.85)),
-        arm_swing_deg=float(u(6.0, 35.0)),
+        cadence_steps_per_s=float(u(1.0, 2.3)),
+        knee_lift_m=float(u(0.05, 0.22)),
+        lift_asymmetry=float(np.exp(u(np.log(0.9), np.log(1.1)))),
+        step_variation=float(u(0.04, 0.25)),
+        swing_fraction=float(u(0.55, 0.9)),
+        arm_swing_deg=float(u(0.0, 4.0)) if rng.random() < 0.25 else float(u(8.0, 40.0)),
         elbow_flex_deg=float(u(5.0, 35.0)),
         rest_arms=str(rng.choice(REST_ARMS, p=[0.8, 0.2])),
         sway_m=float(u(0.004, 0.018)),
@@ -214,15 +232,18 @@ def sample_style(rng: np.random.Generator) -> MotionStyle:
         head_forward_m=float(u(0.0, 0.05)),
         gesture_rate_hz=float(u(0.03, 0.25)),
         look_deg=float(u(8.0, 45.0)),
-        side_step_m=float(u(0.12, 0.32)),
+        side_step_m=float(u(0.10, 0.40)),
         side_trail_frac=float(u(0.0, 0.6)),
         side_shift_frac=float(u(0.2, 0.5)),
         march_drift_mps=float(u(0.0, 0.03)),
         toe_out_deg=float(u(0.0, 15.0)),
         blend_s=float(u(0.1, 0.4)),
         cadence_drift=float(u(0.0, 0.06)),
-        forward_ankle_frac=float(u(0.2, 0.7)),
+        forward_ankle_frac=float(u(-0.3, 0.7)),
         knee_flex_deg=float(u(4.0, 14.0)),
+        step_irregularity=float(u(0.0, 0.02)),
+        march_slide_m=float(u(-0.03, 0.07)) if rng.random() < 0.4 else 0.0,
+        weight_shift_frac=float(u(0.3, 0.8)),
     )
 
 

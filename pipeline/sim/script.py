@@ -25,16 +25,37 @@ from typing import Any
 import numpy as np
 
 from pipeline.errors import InputError
+from pipeline.sim import ranges
 
 # Actions a segment can ask for. ``turn`` = turning on the spot; it is labelled ``still``.
 SEGMENT_ACTIONS: tuple[str, ...] = ("still", "forward", "left", "right", "turn")
 # Gestures a still segment can show (the names a script may list).
 GESTURES: tuple[str, ...] = ("point", "wave", "cross_arms", "hands_on_hips", "touch_face", "look_around")
+# What a segment's person does (its frames' tag), per action; the first is the default
+# (forward: ``walk`` / ``run`` by default when the segment travels at walking / running speed).
+FORWARD_BEHAVIOURS: tuple[str, ...] = ("march", "walk", "run")
+SIDE_BEHAVIOURS: tuple[str, ...] = ("side-step-out-back", "step-together", "shuffle")
+STILL_BEHAVIOURS: tuple[str, ...] = ("idle", "look-around", "point", "wave")
+BEHAVIOURS: dict[str, tuple[str, ...]] = {
+    "forward": FORWARD_BEHAVIOURS,
+    "left": SIDE_BEHAVIOURS,
+    "right": SIDE_BEHAVIOURS,
+    "still": STILL_BEHAVIOURS,
+    "turn": ("turn",),
+}
+WALK_MIN_MPS = 0.3  # a forward segment travelling at least this fast walks by default ...
+RUN_MIN_MPS = 1.9  # ... and runs from this speed on
 
-CADENCE_RANGE = (0.5, 3.5)  # steps/s accepted in a script (1.2-2.4 is the realistic range)
+CADENCE_RANGE = (0.5, 3.5)  # steps/s accepted in a script (0.5-2.6 in place, up to 3.2 running)
 KNEE_LIFT_RANGE = (0.0, 0.4)  # m, peak rise of the ankle
 STEP_WIDTH_RANGE = (0.0, 0.6)  # m, lateral step-out distance of side steps
 BLEND_RANGE = (0.0, 1.0)  # s
+TRAVEL_RANGE = (0.0, 4.0)  # m/s, forward only
+PAUSE_RANGE = (0.2, 1.0)  # s, both feet down between two steps of one bout (TEAM.md LABELS)
+ARM_SWING_RANGE = (0.0, 60.0)  # deg
+SLIDE_RANGE = (-0.15, 0.15)  # m, stance slide of a marching foot (+ back, - forward)
+UNIT_RANGE = (0.0, 1.0)  # pause_prob, irregularity, intensity
+ASYMMETRY_RANGE = (0.5, 2.0)  # left lift / right lift
 
 
 def _finite(name: str, value: object) -> float:
@@ -66,10 +87,22 @@ class Segment:
         ``turn`` without a value turns 90 degrees).
     gestures: still segments: gestures to show in order (names from ``GESTURES``);
         None = random gestures at the user's own rate; () = none.
-    blend_s: transition time into this segment's motion and out of it (0.1-0.4 s realistic);
-        None = the user's own.
+    blend_s: transition time of the upper body into this segment's motion (0.1-0.4 s
+        realistic); None = the user's own.
     travel_mps: forward only: real displacement speed along the facing direction (bystanders
-        walking around the CAVE); 0 = marching in place.
+        walking around the CAVE); 0 = marching in place (plus the person's own slight creep).
+    behaviour: what the person does, from ``BEHAVIOURS[action]`` (the frames' tag);
+        None = the action's default (forward: march, or walk / run when travelling).
+    pause_prob: stepping: chance that a step is followed by a pause; None = the user's own.
+    pause_s: stepping: [min, max] length of those pauses (both feet down), within 0.2-1.0 s.
+    arm_swing_deg: stepping: peak arm swing (0 = arms still); None = the user's own.
+    slide_m: marching: the stance foot slides back this far (negative: forward); None = own.
+    irregularity: stepping: random spread of step timing, lift and placement (0-1, 0.1 is
+        noticeable); None = the user's own.
+    asymmetry: stepping: left lift / right lift (0.5-2; the higher-lifting foot also swings a
+        little longer); None = the user's own.
+    intensity: still behaviours: how far it goes (0-1: crouch depth, lean angle, jump height);
+        None = drawn at random.
     """
 
     action: str
@@ -81,10 +114,23 @@ class Segment:
     gestures: tuple[str, ...] | None = None
     blend_s: float | None = None
     travel_mps: float = 0.0
+    behaviour: str | None = None
+    pause_prob: float | None = None
+    pause_s: tuple[float, float] | None = None
+    arm_swing_deg: float | None = None
+    slide_m: float | None = None
+    irregularity: float | None = None
+    asymmetry: float | None = None
+    intensity: float | None = None
 
     def __post_init__(self) -> None:
         if self.action not in SEGMENT_ACTIONS:
             raise InputError(f"action must be one of {', '.join(SEGMENT_ACTIONS)}, got {self.action!r}")
+        if self.behaviour is not None and self.behaviour not in BEHAVIOURS[self.action]:
+            raise InputError(
+                f"behaviour {self.behaviour!r} is not one of {self.action!r}: "
+                f"{', '.join(BEHAVIOURS[self.action])}"
+            )
         d = _finite("duration_s", self.duration_s)
         if d <= 0:
             raise InputError(f"duration_s must be > 0, got {self.duration_s}")
@@ -94,6 +140,12 @@ class Segment:
             ("knee_lift_m", KNEE_LIFT_RANGE),
             ("step_width_m", STEP_WIDTH_RANGE),
             ("blend_s", BLEND_RANGE),
+            ("pause_prob", UNIT_RANGE),
+            ("arm_swing_deg", ARM_SWING_RANGE),
+            ("slide_m", SLIDE_RANGE),
+            ("irregularity", UNIT_RANGE),
+            ("intensity", UNIT_RANGE),
+            ("asymmetry", ASYMMETRY_RANGE),
         ):
             raw = getattr(self, name)
             if raw is not None:
@@ -103,11 +155,22 @@ class Segment:
         if self.turn_deg is not None:
             object.__setattr__(self, "turn_deg", _finite("turn_deg", self.turn_deg))
         travel = _finite("travel_mps", self.travel_mps)
-        if not 0.0 <= travel <= 2.0:
-            raise InputError(f"travel_mps must be in [0, 2], got {travel}")
+        _in_range("travel_mps", travel, *TRAVEL_RANGE)
         if travel > 0 and self.action != "forward":
             raise InputError(f"travel_mps is only for forward segments, not {self.action!r}")
         object.__setattr__(self, "travel_mps", travel)
+        if self.behaviour in ("walk", "run") and travel <= 0:
+            raise InputError(f"a {self.behaviour} segment needs travel_mps > 0")
+        if self.pause_s is not None:
+            ps = self.pause_s
+            if isinstance(ps, str) or not isinstance(ps, list | tuple) or len(ps) != 2:
+                raise InputError(f"pause_s must be [min, max] seconds, got {ps!r}")
+            lo, hi = _finite("pause_s[0]", ps[0]), _finite("pause_s[1]", ps[1])
+            if not PAUSE_RANGE[0] <= lo <= hi <= PAUSE_RANGE[1]:
+                raise InputError(
+                    f"pause_s must satisfy {PAUSE_RANGE[0]} <= min <= max <= {PAUSE_RANGE[1]}, got {ps}"
+                )
+            object.__setattr__(self, "pause_s", (lo, hi))
         if self.gestures is not None:
             if isinstance(self.gestures, str) or not isinstance(self.gestures, list | tuple):
                 raise InputError(f"gestures must be a list of names, got {self.gestures!r}")
@@ -124,6 +187,17 @@ class Segment:
         return "still" if self.action == "turn" else self.action
 
     @property
+    def behaviour_name(self) -> str:
+        """The behaviour this segment shows (its tag), with the action's default filled in."""
+        if self.behaviour is not None:
+            return self.behaviour
+        if self.action == "forward":
+            if self.travel_mps >= RUN_MIN_MPS:
+                return "run"
+            return "walk" if self.travel_mps >= WALK_MIN_MPS else "march"
+        return BEHAVIOURS[self.action][0]
+
+    @property
     def yaw_change_deg(self) -> float:
         if self.turn_deg is not None:
             return float(self.turn_deg)
@@ -135,6 +209,8 @@ class Segment:
             del d["travel_mps"]
         if "gestures" in d:
             d["gestures"] = list(d["gestures"])
+        if "pause_s" in d:
+            d["pause_s"] = list(d["pause_s"])
         return d
 
 
@@ -239,74 +315,161 @@ def save_script(path: str | Path, script: MotionScript) -> None:
     Path(path).write_text(json.dumps(script.to_dict(), indent=2) + "\n", encoding="utf-8")
 
 
-DEFAULT_ACTION_WEIGHTS: dict[str, float] = {
-    "still": 0.3,
-    "forward": 0.3,
-    "left": 0.15,
-    "right": 0.15,
-    "turn": 0.1,
-}
+DEFAULT_ACTION_WEIGHTS: dict[str, float] = ranges.ACTION_WEIGHTS["mixed"]
+TRAVEL_RADIUS_M = 0.9  # walks, runs and step-together stay within this of the routine's start
+
+
+class _Floor:
+    """Where a routine being drawn has taken the person: floor position and facing."""
+
+    def __init__(self, start_xy: tuple[float, float], yaw_deg: float, radius_m: float) -> None:
+        self.start = np.asarray(start_xy, dtype=np.float64)
+        self.xy = self.start.copy()
+        self.yaw = yaw_deg
+        self.radius = radius_m
+
+    def direction(self, deg_from_facing: float = 0.0) -> np.ndarray:
+        a = math.radians(self.yaw + deg_from_facing)
+        return np.array([-math.sin(a), math.cos(a)])
+
+    def room(self, deg_from_facing: float = 0.0) -> float:
+        """How far the person can go that way before leaving the circle around the start."""
+        u = self.direction(deg_from_facing)
+        d = self.xy - self.start
+        b = float(d @ u)
+        c = float(d @ d) - self.radius**2
+        return max(0.0, -b + math.sqrt(max(b * b - c, 0.0)))
+
+    def towards_start_deg(self) -> float:
+        d = self.start - self.xy
+        want = math.degrees(math.atan2(-d[0], d[1]))
+        return float((want - self.yaw + 180.0) % 360.0 - 180.0)
 
 
 def random_script(
     rng: np.random.Generator,
     duration_s: float,
     *,
+    kind: str = "mixed",
     action_weights: dict[str, float] | None = None,
-    segment_s: tuple[float, float] = (0.4, 5.0),
+    segment_s: tuple[float, float] | None = None,
     start_xy_m: tuple[float, float] = (0.0, 0.0),
     start_yaw_deg: float | None = None,
     repeat_prob: float = 0.0,
+    travel_radius_m: float = TRAVEL_RADIUS_M,
 ) -> MotionScript:
-    """A random routine of ``duration_s`` seconds: random actions switching at any moment.
+    """A random routine of ``duration_s`` seconds: random behaviours switching at any moment.
 
-    Segment lengths are uniform in ``segment_s``; consecutive segments differ in action
-    unless ``repeat_prob`` allows a repeat (useful to change cadence mid-walk). Cadence,
-    knee lift and turning are drawn per segment; gestures follow the user's own rate.
-    ``start_yaw_deg`` None = uniform in [-180, 180).
+    kind: one of ``ranges.ROUTINE_KINDS`` (``mixed``, ``stepping``, ``still``, ``still-heavy``;
+    see :mod:`pipeline.sim.ranges` for what each draws and every parameter range).
+    action_weights: override the kind's action weights. segment_s: override the kind's segment
+    lengths (still behaviours keep their own). Consecutive segments differ in action unless
+    ``repeat_prob`` allows a repeat (a change of cadence or style mid-bout). Walks, runs and
+    step-together travel for real but stay within ``travel_radius_m`` of the start (the routine
+    turns back towards it when it runs out of room). ``start_yaw_deg`` None = uniform in
+    [-180, 180).
     """
     d = _finite("duration_s", duration_s)
     if d <= 0:
         raise InputError(f"duration_s must be > 0, got {duration_s}")
-    lo, hi = segment_s
+    if kind not in ranges.ROUTINE_KINDS:
+        raise InputError(f"kind must be one of {', '.join(ranges.ROUTINE_KINDS)}, got {kind!r}")
+    lo, hi = segment_s if segment_s is not None else ranges.SEGMENT_S[kind]
     if not 0 < lo <= hi:
         raise InputError(f"segment_s must be 0 < min <= max, got {segment_s}")
-    weights = dict(action_weights or DEFAULT_ACTION_WEIGHTS)
+    weights = dict(action_weights or ranges.ACTION_WEIGHTS[kind])
     bad = [a for a in weights if a not in SEGMENT_ACTIONS]
     if bad or not weights or min(weights.values()) < 0 or sum(weights.values()) <= 0:
         raise InputError(
             f"action_weights must map actions of {SEGMENT_ACTIONS} to weights >= 0, got {weights}"
         )
     actions = list(weights)
-    probs = np.array([weights[a] for a in actions], dtype=np.float64)
-    probs /= probs.sum()
+    yaw = float(rng.uniform(-180.0, 180.0)) if start_yaw_deg is None else float(start_yaw_deg)
+    floor = _Floor(start_xy_m, yaw, travel_radius_m)
     segments: list[Segment] = []
-    total = 0.0
     prev: str | None = None
-    while total < d - 1e-9:
+    while sum(s.duration_s for s in segments) < d - 1e-3:
         for _ in range(20):
-            action = str(rng.choice(actions, p=probs))
+            action = ranges.pick(rng, weights)
             if action != prev or len(actions) == 1 or rng.random() < repeat_prob:
                 break
-        dur = min(float(rng.uniform(lo, hi)), d - total)
-        if dur < 1e-3:
-            break
-        seg_kwargs: dict[str, Any] = {}
-        if action in ("forward", "left", "right", "turn"):
-            seg_kwargs["cadence_steps_per_s"] = float(rng.uniform(1.2, 2.4))
-        if action == "forward":
-            seg_kwargs["knee_lift_m"] = float(rng.uniform(0.05, 0.25))
-        if action in ("left", "right"):
-            seg_kwargs["knee_lift_m"] = float(rng.uniform(0.04, 0.18))
-            seg_kwargs["step_width_m"] = float(rng.uniform(0.12, 0.35))
-        if action == "turn":  # people turn on the spot at up to ~150 deg/s
-            max_turn = float(np.clip(150.0 * dur, 20.0, 180.0))
-            seg_kwargs["turn_deg"] = float(rng.choice([-1.0, 1.0]) * rng.uniform(20.0, max_turn))
-        elif action == "forward" and rng.random() < 0.2:
-            seg_kwargs["turn_deg"] = float(rng.uniform(-45.0, 45.0))  # steering while marching
-        seg_kwargs["blend_s"] = float(rng.uniform(0.1, 0.4))
-        segments.append(Segment(action, dur, **seg_kwargs))
-        total += dur
+        after_turn = bool(segments) and segments[-1].action == "turn"
+        for seg in _draw(rng, kind, action, (lo, hi), floor, after_turn):
+            left = d - sum(s.duration_s for s in segments)
+            if left < 1e-3:
+                break
+            if seg.duration_s > left:
+                seg = _shortened(seg, left)
+            segments.append(seg)
+            floor.yaw += seg.yaw_change_deg
         prev = action
-    yaw = float(rng.uniform(-180.0, 180.0)) if start_yaw_deg is None else float(start_yaw_deg)
     return MotionScript(tuple(segments), start_xy_m=start_xy_m, start_yaw_deg=yaw)
+
+
+def _shortened(seg: Segment, duration_s: float) -> Segment:
+    """``seg`` cut to ``duration_s`` (its turn scaled with it)."""
+    kw = {f.name: getattr(seg, f.name) for f in fields(Segment)}
+    if seg.turn_deg is not None:
+        kw["turn_deg"] = seg.turn_deg * duration_s / seg.duration_s
+    elif seg.action == "turn":
+        kw["turn_deg"] = seg.yaw_change_deg * duration_s / seg.duration_s
+    kw["duration_s"] = duration_s
+    if seg.behaviour in ("walk", "run") and seg.travel_mps * duration_s < 0.05:
+        kw["behaviour"], kw["travel_mps"] = "march", 0.0
+    if seg.action == "still" and seg.behaviour is not None and duration_s < ranges.MIN_BEHAVIOUR_S:
+        kw["behaviour"], kw["intensity"] = None, None  # too short to show it: just standing
+    return Segment(**kw)
+
+
+def _draw(
+    rng: np.random.Generator,
+    kind: str,
+    action: str,
+    seg_s: tuple[float, float],
+    floor: _Floor,
+    after_turn: bool,
+) -> list[Segment]:
+    """One drawn part of a routine: usually one segment, a turn back first when a walk has no room
+    (unless the routine has just turned: then it marches instead)."""
+    if action == "still":
+        behaviour = ranges.pick(rng, ranges.STILL_WEIGHTS[kind])
+        dur = float(rng.uniform(*ranges.BEHAVIOUR_S.get(behaviour, seg_s)))
+        return [Segment("still", dur, **ranges.still_kwargs(rng, behaviour))]
+    if action == "turn":
+        dur = float(rng.uniform(*seg_s))
+        return [
+            Segment("turn", dur, turn_deg=ranges.turn_deg(rng, dur), blend_s=float(rng.uniform(0.1, 0.4)))
+        ]
+    bout_s = ranges.STILL_HEAVY_BOUT_S if kind == "still-heavy" else seg_s
+    dur = float(rng.uniform(*bout_s))
+    if action == "forward":
+        behaviour = ranges.pick(rng, ranges.FORWARD_WEIGHTS)
+    else:
+        behaviour = ranges.pick(rng, ranges.SIDE_WEIGHTS)
+    kw = ranges.stepping_kwargs(rng, action, behaviour)
+    out: list[Segment] = []
+    if behaviour in ("walk", "run"):
+        if floor.room() < 0.6 and not after_turn:  # turn back towards the start first
+            turn = floor.towards_start_deg() + float(rng.uniform(-20.0, 20.0))
+            t_dur = max(0.5, abs(turn) / float(rng.uniform(90.0, ranges.TURN_RATE_DPS)))
+            out.append(Segment("turn", t_dur, turn_deg=turn))
+            floor.yaw += turn
+        dist = min(float(rng.uniform(*ranges.WALK_M)), floor.room())
+        dur = dist / kw["travel_mps"]
+        if dist < 0.4 or dur < 0.4:  # no room to walk: march instead
+            kw = ranges.stepping_kwargs(rng, action, "march")
+            dur = float(rng.uniform(*bout_s))
+        else:
+            floor.xy = floor.xy + dist * floor.direction()
+    elif behaviour in ("step-together", "shuffle"):
+        side = -90.0 if action == "left" else 90.0
+        reach = kw["step_width_m"] * max(1.0, kw["cadence_steps_per_s"] * dur / 2.0)
+        if reach > floor.room(side):
+            kw = ranges.stepping_kwargs(rng, action, "side-step-out-back")
+        else:
+            floor.xy = floor.xy + reach * floor.direction(side)
+    elif behaviour == "march" and "travel_mps" in kw:
+        kw["travel_mps"] = min(kw["travel_mps"], 0.3 / dur)
+        floor.xy = floor.xy + kw["travel_mps"] * dur * floor.direction()
+    out.append(Segment(action, dur, **kw))
+    return out

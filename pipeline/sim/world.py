@@ -39,6 +39,7 @@ I64 = NDArray[np.int64]
 
 NAVIGATOR = "navigator"
 _CROSSFADE_S = 0.3
+WALL_CLEARANCE_M = 0.45  # bystanders keep about half a metre from the screens
 
 
 @dataclass(frozen=True, slots=True)
@@ -49,7 +50,7 @@ class SimConfig:
     camera_preset / camera_count: the virtual cameras (see :mod:`pipeline.sim.scene`).
     chunk_s: length of each random routine generated on the fly.
     faults: what goes wrong in the cameras.
-    navigator_height_m: None = a random height in 1.50-1.95 m.
+    navigator_height_m: None = a random height in 1.40-2.05 m.
     repeat_script: after the navigator's script ends, play it again (else random routines).
     observe: run the virtual cameras (False: ground truth only, ``views`` stay empty; faster).
     """
@@ -87,7 +88,8 @@ class SimFrame:
     """One multi-view frame of the simulated world.
 
     truth: (name, (17, 3) joints in metres) per person; the navigator first.
-    label / yaw_deg / speed_mps: the navigator's ground truth.
+    label / yaw_deg / speed_mps / tag / contacts: the navigator's ground truth (tag: what the
+    navigator does, "" for nothing special; contacts: feet planted [left, right]).
     views: what each camera's pose detector reports.
     view_people: per view, for each detection, the index into ``truth`` (-1 = false detection).
     """
@@ -100,6 +102,8 @@ class SimFrame:
     speed_mps: float
     views: tuple[ViewDetections, ...]
     view_people: tuple[I64, ...]
+    tag: str = ""
+    contacts: tuple[bool, bool] = (True, True)
 
     @property
     def navigator_joints(self) -> F64:
@@ -153,7 +157,7 @@ class _Actor:
         xy = self.motion.root_xy_m[-1]
         return (float(xy[0]), float(xy[1])), float(self.motion.yaw_deg[-1])
 
-    def step(self) -> tuple[F64, str, float, float]:
+    def step(self) -> tuple[F64, str, float, float, str, tuple[bool, bool]]:
         if self.motion is None or self.cursor >= len(self.motion):
             self._load()
         m = self.motion
@@ -165,7 +169,8 @@ class _Actor:
         if self.previous is not None and i < n_fade:
             w = float(smoothstep(np.array((i + 1) / n_fade)))
             joints = (1.0 - w) * self.previous + w * joints
-        return joints, m.labels[i], float(m.yaw_deg[i]), float(m.speed_mps[i])
+        feet = (bool(m.contacts[i, 0]), bool(m.contacts[i, 1]))
+        return joints, m.labels[i], float(m.yaw_deg[i]), float(m.speed_mps[i]), m.tags[i], feet
 
 
 class _Navigator(_Actor):
@@ -217,7 +222,7 @@ class _Bystander(_Actor):
         keep_clear: F64,
     ) -> None:
         super().__init__(name, body, style, fps, rng)
-        self.half = np.asarray(floor_half, dtype=np.float64) - 0.3
+        self.half = np.asarray(floor_half, dtype=np.float64) - WALL_CLEARANCE_M
         self.keep_clear = keep_clear
         self.start = self._spot()
 
@@ -271,20 +276,9 @@ def _walk_to(
     want = math.degrees(math.atan2(-d[0], d[1]))
     turn = float(wrap_deg(np.array(want - yaw)))
     speed = float(rng.uniform(0.5, 0.9))
-    cadence = float(np.clip(speed / 0.55 * 1.8, 1.4, 2.4))
-    segs = [Segment("turn", max(0.4, abs(turn) / 150.0), turn_deg=turn, cadence_steps_per_s=1.6)]
-    if dist > 0.05:
-        # the 0.2 s ramp-in loses 0.1 s of travel, the 0.3 s fade-out gains 0.15 s
-        segs.append(
-            Segment(
-                "forward",
-                max(0.3, dist / speed - 0.05),
-                cadence_steps_per_s=cadence,
-                knee_lift_m=0.06,
-                travel_mps=speed,
-                blend_s=0.2,
-            )
-        )
+    segs = [Segment("turn", max(0.4, abs(turn) / 150.0), turn_deg=turn)]
+    if dist > 0.05:  # a walk covers travel_mps x its duration, first lift-off to last touch-down
+        segs.append(Segment("forward", max(0.3, dist / speed), travel_mps=dist / max(0.3, dist / speed)))
     return MotionScript(tuple(segs) + tuple(then), start_xy_m=xy, start_yaw_deg=yaw)
 
 
@@ -356,7 +350,7 @@ class SimWorld:
             if self.config.observe
             else []
         )
-        _, label, yaw, speed = states[0]
+        _, label, yaw, speed, tag, contacts = states[0]
         self.frame_index += 1
         return SimFrame(
             frame_index=i,
@@ -367,6 +361,8 @@ class SimWorld:
             speed_mps=speed,
             views=tuple(v for v, _ in observed),
             view_people=tuple(ids for _, ids in observed),
+            tag=tag,
+            contacts=contacts,
         )
 
     def run(self, n_frames: int | None = None, realtime: bool = False) -> Iterator[SimFrame]:

@@ -62,6 +62,11 @@ def test_simulate_writes_the_npz_and_the_per_frame_views(tmp_path: Path) -> None
     assert len(seq) == 80 and seq.fps == 20.0
     assert seq.labels == ("still",) * 20 + ("forward",) * 30 + ("still",) * 10 + ("left",) * 20
     assert np.all(np.isfinite(seq.joints_m))
+    assert seq.source == "sim" and seq.tags is not None and seq.contacts is not None
+    assert seq.tags[20:50] == ("march",) * 30 and seq.tags[50:60] == ("turn",) * 10
+    assert seq.tags[60:] == ("side-step-out-back",) * 20
+    assert seq.contacts.shape == (80, 2) and not seq.contacts[20].all(), "a foot lifts as the bout starts"
+    assert seq.contacts[:20].all(), "both feet planted while standing still"
     lines = [json.loads(line) for line in kp.read_text().splitlines()]
     assert [r["frame"] for r in lines] == list(range(80))
     for rec, label in zip(lines, seq.labels, strict=True):

@@ -80,7 +80,7 @@ def test_side_steps_go_towards_the_side_relative_to_yaw(yaw: float, direction: s
     assert lead_out.max() > 0.08, f"the {direction} foot never stepped out ({lead_out.max():.3f} m)"
     assert lead_out.min() > -0.05, "the leading foot crossed to the other side"
     assert abs(trail_out).max() < 0.1, "the trailing foot should stay roughly in place"
-    assert (hips * sign).mean() > 0.01, "the pelvis does not follow the side step"
+    assert np.percentile(hips * sign, 90) > 0.03, "the pelvis does not follow the side step"
     assert set(m.labels[int(1.0 * FPS) :]) == {direction}
 
 
@@ -109,8 +109,10 @@ def test_labels_yaw_and_speed_follow_the_script() -> None:
     assert np.all((m.yaw_deg > -180.0) & (m.yaw_deg <= 180.0))
     still = np.array(m.labels) == "still"
     assert np.all(m.speed_mps[still] == 0.0)
-    assert np.allclose(m.speed_mps[60:150], 2.0 * STEP_LENGTH_M["forward"])
-    assert np.allclose(m.speed_mps[195:255], 1.5 * STEP_LENGTH_M["left"])
+    # intended speed: the bout's realised cadence x the step length, constant over the bout
+    assert np.ptp(m.speed_mps[60:150]) == 0.0 and np.ptp(m.speed_mps[195:255]) == 0.0
+    assert m.speed_mps[60] == pytest.approx(2.0 * STEP_LENGTH_M["forward"], rel=0.05)
+    assert m.speed_mps[195] == pytest.approx(1.5 * STEP_LENGTH_M["left"], rel=0.05)
 
 
 def test_the_body_is_rigid_and_stands_on_the_floor() -> None:
@@ -156,11 +158,17 @@ def test_random_script_covers_the_duration_with_varied_actions() -> None:
     assert {s.action for s in only.segments} == {"forward"}
 
 
-def test_sample_body_respects_the_height_range() -> None:
+def test_sample_body_respects_the_height_range_and_varies_proportions() -> None:
     rng = np.random.default_rng(0)
-    heights = [sample_body(rng).height_m for _ in range(200)]
-    assert min(heights) >= 1.50 and max(heights) <= 1.95
-    assert max(heights) - min(heights) > 0.3
+    bodies = [sample_body(rng) for _ in range(300)]
+    heights = np.array([b.height_m for b in bodies])
+    assert heights.min() >= 1.40 and heights.max() <= 2.05
+    assert heights.min() < 1.45 and heights.max() > 2.0, "the whole 1.40-2.05 m range is drawn"
+    legs = np.array([b.hip_height_m / b.height_m for b in bodies])
+    arms = np.array([(b.upper_arm_m + b.forearm_m) / b.height_m for b in bodies])
+    shoulders = np.array([b.shoulder_width_m / b.height_m for b in bodies])
+    for name, ratio, spread in (("leg", legs, 0.04), ("arm", arms, 0.04), ("shoulder", shoulders, 0.03)):
+        assert np.ptp(ratio) > spread, f"{name} proportions hardly vary: {ratio.min():.3f}..{ratio.max():.3f}"
     with pytest.raises(InputError, match="height_range"):
         sample_body(rng, (1.9, 1.5))
 
@@ -202,6 +210,12 @@ GOOD = {
         ('{"segments": [{"action": "forward", "duration_s": 1, "gestures": ["wave"]}]}', "only for still"),
         ('{"segments": [{"action": "still", "duration_s": 1, "gestures": ["dance"]}]}', "unknown gesture"),
         ('{"segments": [{"action": "still", "duration_s": 1}], "start_xy_m": [1]}', "start_xy_m"),
+        ('{"segments": [{"action": "left", "duration_s": 1, "behaviour": "march"}]}', "is not one of 'left'"),
+        ('{"segments": [{"action": "forward", "duration_s": 1, "behaviour": "walk"}]}', "needs travel_mps"),
+        ('{"segments": [{"action": "forward", "duration_s": 1, "pause_s": [0.1, 0.5]}]}', "pause_s must sat"),
+        ('{"segments": [{"action": "forward", "duration_s": 1, "pause_s": 0.5}]}', r"pause_s must be \[min"),
+        ('{"segments": [{"action": "forward", "duration_s": 1, "asymmetry": 3}]}', "asymmetry must be in"),
+        ('{"segments": [{"action": "forward", "duration_s": 1, "travel_mps": 5}]}', "travel_mps must be in"),
     ],
 )
 def test_bad_scripts_are_rejected_with_a_clear_message(tmp_path: Path, text: str, match: str) -> None:
