@@ -25,7 +25,9 @@ DEFAULT_RANDOM_S = 60.0
 def simulate(
     out: Annotated[
         Path,
-        typer.Option("--out", help="Skeleton sequence NPZ to write (joints, fps, labels, tags, contacts, source)."),
+        typer.Option(
+            "--out", help="Skeleton sequence NPZ to write (joints, fps, labels, tags, contacts, source)."
+        ),
     ],
     script: Annotated[
         Path | None, typer.Option("--script", help="Routine JSON/TOML; default: a random routine.")
@@ -95,9 +97,8 @@ def simulate(
             writer.close()
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
-        seq = SkeletonSequence(
-            np.asarray(joints), config.fps, tuple(labels), tuple(tags), np.asarray(contacts, dtype=bool), "sim"
-        )
+        feet = np.asarray(contacts, dtype=bool)
+        seq = SkeletonSequence(np.asarray(joints), config.fps, tuple(labels), tuple(tags), feet, "sim")
         save_npz(out, seq)
     except OSError as exc:
         raise InputError(f"cannot write {out}: {exc}") from exc
