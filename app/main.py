@@ -33,7 +33,7 @@ from app.db.repositories import (
     running_session,
 )
 from app.services.calibration import CalibrationService
-from app.services.event_log import EventWriter, EventWriterConfig
+from app.services.event_log import EventWriter
 from app.services.live import PipelineFacade, PipelineService, SourceName
 from app.services.locomotion_watch import LocomotionWatch
 from app.services.pipeline_factory import runtime_factory
@@ -91,7 +91,7 @@ def create_app(
             if n:
                 log.warning("%d calibration run(s) left unfinished by the last server were marked failed", n)
             running = running_session(db)
-        events = EventWriter(factory, EventWriterConfig.from_settings(settings.server))
+        events = EventWriter(factory, settings.event_log)
         events.start()
         if running is not None:  # a session left running by the last server keeps its log
             events.set_session(

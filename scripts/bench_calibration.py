@@ -55,7 +55,7 @@ def errors(truth: Camera, solved: Camera) -> dict[str, float]:
 def bench_sim(seeds: int, preset: str) -> dict[str, Any]:
     settings = load_settings()
     cave = settings.cave.geometry()
-    config = settings.calibration.to_config()
+    config = settings.calibration
     layout = make_layout(cave, config)
     truth = {c.name: c for c in default_cameras(cave, preset)}
     rows: dict[str, list[dict[str, float]]] = {name: [] for name in truth}

@@ -17,6 +17,7 @@ import argparse
 import json
 import os
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
@@ -33,7 +34,7 @@ def bench(frames: int = 100, repeat: int = 1, threads: int | None = None,
 
     s = get_settings()
     if precision is not None:
-        s = s.model_copy(update={"pose": s.pose.model_copy(update={"precision": precision})})
+        s = s.model_copy(update={"pose": replace(s.pose, precision=precision)})
     return bench_demo(s.pose, s.tracking, s.pose_model_path, s.paths.cache_dir,
                       frames, repeat, threads, modes, spinning, parallel)
 

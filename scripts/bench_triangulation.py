@@ -179,7 +179,8 @@ def _detect_demo(cache: Path, input_long_side: int) -> dict[str, Any]:
 
     from app.core.config import load_settings
     from pipeline.demo_data import fetch_demo
-    from pipeline.pose.detector import PoseDetector, PoseDetectorConfig
+    from pipeline.pose.config import PoseConfig
+    from pipeline.pose.detector import PoseDetector
     from pipeline.pose.prepare import prepare_pose_model
 
     settings = load_settings()
@@ -190,7 +191,7 @@ def _detect_demo(cache: Path, input_long_side: int) -> dict[str, Any]:
         data["demo_root"] = str(demo.root)
         return data
     model = prepare_pose_model(settings.paths.models_dir).path
-    det = PoseDetector.load(PoseDetectorConfig(model_path=model, input_long_side=input_long_side))
+    det = PoseDetector.load(PoseConfig(input_long_side=input_long_side, parallel=1), model)
     names = sorted(demo.videos)
     caps = [cv2.VideoCapture(str(demo.videos[n])) for n in names]
     fps = caps[0].get(cv2.CAP_PROP_FPS) or 60.0

@@ -51,13 +51,13 @@ def main(argv: list[str] | None = None) -> int:
 
     from app.core.config import load_settings
     from app.core.logging import configure_logging
-    from pipeline.runtime import Pipeline, RuntimeConfig, SimWorldFactory
+    from app.services.pipeline_factory import build_pipeline, simulator_factory
     from pipeline.runtime.bench import ProcessSampler
 
     configure_logging(logging.WARNING)
     signal.signal(signal.SIGTERM, signal.default_int_handler)
     settings = load_settings()
-    base = RuntimeConfig.from_settings(settings.runtime)
+    base = settings.runtime
     videos = None
     if args.source == "demo":
         from pipeline.calibration.io import load_calibration
@@ -66,12 +66,12 @@ def main(argv: list[str] | None = None) -> int:
         fps = args.fps or 30.0
         demo = fetch_demo(settings.paths.cache_dir, progress=lambda m: print(m, file=sys.stderr))
         config = replace(base, video_pace_fps=fps, video_loop=True, target_fps=fps)
-        pipeline = Pipeline.from_settings(settings, load_calibration(demo.calibration), config=config)
+        pipeline = build_pipeline(settings, load_calibration(demo.calibration), runtime=config)
         videos = dict(demo.videos)
     else:
         fps = args.fps or 60.0
-        sim = SimWorldFactory.from_settings(settings.sim, settings.cave.geometry(), fps=fps)
-        pipeline = Pipeline.from_settings(settings, None, sim, config=replace(base, target_fps=fps))
+        sim = simulator_factory(settings, replace(settings.sim, fps=fps))
+        pipeline = build_pipeline(settings, None, sim, runtime=replace(base, target_fps=fps))
     pipeline.set_workstations([("127.0.0.1", 9)])  # the discard port: the stream is built and sent
     sampler = ProcessSampler()
     times: list[float] = []

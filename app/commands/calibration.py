@@ -86,7 +86,7 @@ def _layout(layout_path: Path | None) -> MarkerLayout:
     if layout_path is not None:
         return load_layout(layout_path)
     settings = get_settings()
-    return make_layout(settings.cave.geometry(), settings.calibration.to_config())
+    return make_layout(settings.cave.geometry(), settings.calibration)
 
 
 def _write_image(path: Path, image: NDArray[np.uint8]) -> None:
@@ -176,7 +176,7 @@ def calibrate(
         name: [img for p in paths for img in read_images(name, p, max_frames)]
         for name, paths in named.items()
     }
-    config = settings.calibration.to_config()
+    config = settings.calibration
     cave = settings.cave.geometry()
     results, failures = {}, []
     t0 = time.perf_counter()

@@ -17,7 +17,7 @@ def show(
     as_json: bool = typer.Option(False, "--json", help="JSON instead of TOML."),
 ) -> None:
     """Print the effective settings (defaults + cavewalk.toml + CAVEWALK_* variables)."""
-    data = get_settings().model_dump(mode="json", exclude_none=True)
+    data = get_settings().dump()
     if as_json:
         typer.echo(json.dumps(data, indent=2))
     else:

@@ -67,7 +67,7 @@ def evaluate(
     if json_out is not None and json_out.is_dir():
         raise InputError(f"--json {json_out} is a directory; give a file name")
     sequences = [load_labelled(p) for p in paths]  # every file checked before any work
-    config = get_settings().recognition.to_config()
+    config = get_settings().recognition
     if model is not None:
         config = replace(config, model_path=model)
     recognizer = ActionRecognizer.from_config(config)

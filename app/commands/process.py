@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+from dataclasses import replace
 from pathlib import Path
 from typing import Annotated
 
@@ -17,6 +18,7 @@ from pipeline.results import ResultsWriter
 from pipeline.runtime.offline import FusionStage, OfflinePipeline, RunSummary, SyncedVideos, parse_named_paths
 from pipeline.runtime.stages import Fusion
 from pipeline.tracking.stage import DetectAndTrack
+from pipeline.triangulation.config import ReconstructionConfig
 from pipeline.triangulation.navigator import NavigatorSelector
 from pipeline.triangulation.reconstructor import Reconstructor
 
@@ -41,9 +43,11 @@ def _fusion_stage(settings: Settings, cameras: list[Camera]) -> FusionStage:
     """Triangulation, navigator choice and action recognition over the tracked views."""
     return FusionStage(Fusion(
         tracker=None,
-        reconstructor=Reconstructor.from_settings(cameras, settings.triangulation),
-        selector=NavigatorSelector.from_settings(settings.navigator),
-        recognizer=ActionRecognizer.from_config(settings.recognition.to_config()),
+        reconstructor=Reconstructor(
+            cameras, ReconstructionConfig(settings.triangulation, settings.association, settings.tracks3d)
+        ),
+        selector=NavigatorSelector(settings.navigator),
+        recognizer=ActionRecognizer.from_config(settings.recognition),
     ))
 
 
@@ -78,10 +82,9 @@ def process(
     named = parse_named_paths(video, "video")
     cameras = _calibrated_cameras(calibration, list(named))
     _check_out(out)
-    pose = settings.pose if roi is None else settings.pose.model_copy(update={"roi": roi})
+    pose = settings.pose if roi is None else replace(settings.pose, roi=roi)
     with SyncedVideos(named) as videos:
-        stage = DetectAndTrack.from_settings(pose, settings.tracking, settings.pose_model_path,
-                                             list(videos.cameras))
+        stage = DetectAndTrack.load(pose, settings.tracking, settings.pose_model_path, list(videos.cameras))
         pipeline = OfflinePipeline(stage, stages=[_fusion_stage(settings, cameras)])
         total = videos.frame_count if frames is None else min(frames, videos.frame_count or frames)
         typer.echo(f"processing {len(named)} videos, {total or '?'} frames at {videos.fps:g} fps "

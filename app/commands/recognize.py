@@ -36,7 +36,7 @@ def recognize(
         raise InputError(f"{skeletons}: the sequence has no frames")
     if out.is_dir():
         raise InputError(f"--out {out} is a directory; give a file name")
-    config = get_settings().recognition.to_config()
+    config = get_settings().recognition
     if model is not None:
         config = replace(config, model_path=model)
     recognizer = ActionRecognizer.from_config(config)

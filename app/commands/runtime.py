@@ -6,6 +6,7 @@ import json
 import signal
 import sys
 import threading
+from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 from typing import Annotated, Any
@@ -13,12 +14,13 @@ from typing import Annotated, Any
 import typer
 
 from app.core.config import get_settings
+from app.services.pipeline_factory import build_pipeline, simulator_factory
 from pipeline.calibration.io import load_calibration
 from pipeline.demo_data import fetch_demo
 from pipeline.emitter.receiver import open_receiver_socket, receive
 from pipeline.errors import InputError
-from pipeline.runtime import Pipeline, RuntimeConfig, SimWorldFactory
 from pipeline.runtime.bench import Scenario, machine_info, run_scenario
+from pipeline.runtime.pipeline import Pipeline
 
 app = typer.Typer()
 
@@ -135,15 +137,15 @@ def _nan_none(obj: Any) -> Any:
 
 def _scenarios(source: str, flat_out: bool) -> list[Scenario]:
     settings = get_settings()
-    base = replace(RuntimeConfig.from_settings(settings.runtime), latency_window=1_000_000)
+    base = replace(settings.runtime, latency_window=1_000_000)
     out = []
     if source in ("demo", "both"):
         demo = fetch_demo(settings.paths.cache_dir, progress=lambda m: typer.echo(m, err=True))
         cameras = load_calibration(demo.calibration)
 
-        def demo_pipeline(pace: float) -> Any:
+        def demo_pipeline(pace: float) -> Callable[[], Pipeline]:
             config = replace(base, video_pace_fps=pace, video_loop=True, target_fps=30.0)
-            return lambda: Pipeline.from_settings(settings, cameras, config=config)
+            return lambda: build_pipeline(settings, cameras, runtime=config)
 
         out.append(Scenario("demo_paced_30fps", demo_pipeline(30.0), "videos", demo.videos,
                             "4 real views (Pose2Sim demo), paced at 30 fps, ROI detection "
@@ -152,9 +154,9 @@ def _scenarios(source: str, flat_out: bool) -> list[Scenario]:
             out.append(Scenario("demo_flat_out", demo_pipeline(0.0), "videos", demo.videos,
                                 "4 real views read as fast as they decode"))
     if source in ("sim", "both"):
-        sim = SimWorldFactory.from_settings(settings.sim, settings.cave.geometry(), fps=60.0)
+        sim = simulator_factory(settings, replace(settings.sim, fps=60.0))
         config = replace(base, target_fps=60.0)
-        out.append(Scenario("sim_60fps", lambda: Pipeline.from_settings(settings, None, sim, config=config),
+        out.append(Scenario("sim_60fps", lambda: build_pipeline(settings, None, sim, runtime=config),
                             "simulator", None, "simulator at 60 fps (detections, no pose model)"))
     return out
 

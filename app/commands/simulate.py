@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from pathlib import Path
 from typing import Annotated
 
@@ -71,7 +72,7 @@ def simulate(
     ):
         if value is not None:
             overrides[key] = value
-    config = settings.sim.to_config(**overrides)
+    config = replace(settings.sim, **overrides)  # type: ignore[arg-type]
     for path in (out, keypoints):
         if path is not None and path.is_dir():
             raise InputError(f"{path} is a folder; give a file name")

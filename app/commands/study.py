@@ -11,9 +11,7 @@ import typer
 from app.core.config import get_settings
 from app.db.engine import make_engine, make_session_factory
 from app.db.migrate import upgrade
-from app.study.analysis import AnalysisConfig
 from app.study.data import load_study
-from app.study.design import DesignConfig
 from app.study.report import write_report
 from pipeline.errors import InputError
 
@@ -61,8 +59,8 @@ def report(
     written = write_report(
         data,
         out,
-        AnalysisConfig.from_settings(settings),
-        DesignConfig.from_settings(settings),
+        settings.study.analysis,
+        settings.study.design,
         progress=typer.echo,
     )
     typer.echo(f"report: {out / 'report.md'} ({len(written)} files)")

@@ -28,7 +28,6 @@ from app.db import repositories as repo
 from app.db.models import CalibrationRun
 from app.services.event_log import EventWriter
 from app.services.live import PipelineService
-from pipeline.calibration.config import CalibrationConfig
 from pipeline.calibration.overlay import calibration_overlay, encode_png
 from pipeline.calibration.patterns import make_layout, render_wall_pattern
 from pipeline.calibration.pnp import calibrate_cameras
@@ -41,13 +40,6 @@ from pipeline.sources import open_source
 log = logging.getLogger(__name__)
 
 U8 = NDArray[np.uint8]
-
-
-def calibration_config(settings: Settings) -> Any:
-    """The calibration stage's config from the settings (its own section when there is one)."""
-    section = getattr(settings, "calibration", None)
-    to_config = getattr(section, "to_config", None)
-    return to_config() if callable(to_config) else CalibrationConfig()
 
 
 def camera_record(cam: Camera, extra: dict[str, Any]) -> dict[str, Any]:
@@ -98,7 +90,7 @@ class CalibrationService:
     def layout(self) -> Any:
         with self._lock:
             if self._layout is None:
-                self._layout = make_layout(self._cave, calibration_config(self._settings))
+                self._layout = make_layout(self._cave, self._settings.calibration)
             return self._layout
 
     def pattern_png(self, wall: str) -> bytes:
@@ -251,7 +243,7 @@ class CalibrationService:
     def _solve(self, run_id: int, images: dict[str, U8]) -> dict[str, Any]:
         layout = self.layout()
         results = calibrate_cameras(
-            {k: [v] for k, v in images.items()}, layout, calibration_config(self._settings)
+            {k: [v] for k, v in images.items()}, layout, self._settings.calibration
         )
         out_dir = self.runs_dir / str(run_id)
         out_dir.mkdir(parents=True, exist_ok=True)

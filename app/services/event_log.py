@@ -26,13 +26,11 @@ log = logging.getLogger(__name__)
 
 @dataclass(frozen=True, slots=True)
 class EventWriterConfig:
+    """The settings' ``[event_log]``: a batch is written every ``flush_interval_s`` (at most 1 s:
+    the most a crash can lose) or when ``max_batch`` events have gathered."""
+
     flush_interval_s: float = 0.5
     max_batch: int = 2000
-
-    @classmethod
-    def from_settings(cls, server: Any) -> EventWriterConfig:
-        """From ``settings.server`` (its ``event_flush_s``)."""
-        return cls(flush_interval_s=float(server.event_flush_s))
 
     def __post_init__(self) -> None:
         if not 0 < self.flush_interval_s <= 1.0:

@@ -1,4 +1,8 @@
-"""Building the runtime's ``Pipeline`` from the settings (pipeline/ never imports app/)."""
+"""Building the runtime's ``Pipeline`` from the settings (pipeline/ never imports app/).
+
+The settings' sections are the stages' own configs; this module only hands each stage its
+section (and the active calibration's cameras).
+"""
 
 from __future__ import annotations
 
@@ -9,20 +13,41 @@ from sqlalchemy.orm import Session
 
 from app.core.config import Settings
 from app.db.repositories import active_calibration_run
+from app.services.calibration import cameras_from_result
 from app.services.live import PipelineFacade
+from pipeline.camera import Camera
+from pipeline.runtime.config import RuntimeConfig
+from pipeline.runtime.pipeline import Pipeline
+from pipeline.runtime.stages import FusionFactory, PoseStageFactory, SimWorldFactory
+from pipeline.sim.world import SimConfig
+from pipeline.triangulation.config import ReconstructionConfig
 
 log = logging.getLogger(__name__)
 
 
-def simulator_factory(settings: Settings) -> object | None:
-    """The simulator source of the settings (None when the simulator is not installed)."""
-    try:
-        from pipeline.runtime import SimWorldFactory
+def simulator_factory(settings: Settings, sim: SimConfig | None = None) -> SimWorldFactory:
+    """The simulator source of the settings (``sim`` in place of ``settings.sim``)."""
+    return SimWorldFactory.build(sim or settings.sim, settings.cave.geometry())
 
-        return SimWorldFactory.from_settings(settings.sim, settings.cave.geometry())
-    except ImportError as exc:
-        log.warning("no simulator source: %s", exc)
-        return None
+
+def fusion_factory(settings: Settings, cameras: list[Camera] | None) -> FusionFactory:
+    """Tracking, triangulation, navigator and recognition from their sections."""
+    reconstruction = ReconstructionConfig(settings.triangulation, settings.association, settings.tracks3d)
+    return FusionFactory(cameras=tuple(cameras) if cameras else None, camera_names=(),
+                         tracking=settings.tracking, reconstruction=reconstruction,
+                         navigator=settings.navigator, recognition=settings.recognition)
+
+
+def build_pipeline(settings: Settings, cameras: list[Camera] | None = None,
+                   sim: SimWorldFactory | None = None, runtime: RuntimeConfig | None = None) -> Pipeline:
+    """The live pipeline of the settings; ``runtime`` replaces ``settings.runtime`` (benchmarks)."""
+    return Pipeline(
+        runtime or settings.runtime, cameras,
+        camera_sources={c.name: c.source for c in settings.cameras},
+        pose_factory=PoseStageFactory(settings.pose, settings.pose_model_path, settings.tracking),
+        fusion=fusion_factory(settings, cameras), sim_factory=sim,
+        workstations=settings.endpoints, emitter=settings.emitter,
+    )
 
 
 def runtime_factory(
@@ -33,19 +58,12 @@ def runtime_factory(
     The pipeline gets the active calibration's cameras (for the real cameras and videos)
     and the simulator's own cameras for the simulator source.
     """
-    try:
-        from pipeline.runtime import Pipeline
-    except ImportError as exc:
-        return None, f"pipeline.runtime cannot be imported: {exc}"
 
     def build() -> PipelineFacade:
-        from app.services.calibration import cameras_from_result
-
         with session_factory() as db:
             run = active_calibration_run(db)
             cameras = cameras_from_result(run.result) if run is not None and run.result else None
-        sim = simulator_factory(settings)
-        pipeline: PipelineFacade = Pipeline.from_settings(settings, cameras, sim_factory=sim)  # type: ignore[arg-type]
+        pipeline: PipelineFacade = build_pipeline(settings, cameras, simulator_factory(settings))  # type: ignore[assignment]
         return pipeline
 
     return build, ""

@@ -14,7 +14,7 @@ import threading
 import time
 from collections import OrderedDict
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from typing import Any, Literal
 
@@ -22,6 +22,7 @@ from app.core.config import Settings
 from pipeline.calibration.io import cameras_from_dict
 from pipeline.camera import Camera
 from pipeline.errors import CavewalkError, InputError
+from pipeline.planner.config import PlannerConfig, SearchConfig
 from pipeline.planner.figures import figure_files, render
 from pipeline.planner.plan import make_plan
 from pipeline.planner.room import check_cameras, floor_polygon
@@ -39,9 +40,15 @@ def default_layout(settings: Settings, count: int | None = None) -> list[Camera]
     return list(default_cameras(settings.cave.geometry(), settings.sim.camera_preset, count or 4))
 
 
-def planner_config(settings: Settings, **overrides: Any) -> Any:
+def planner_config(settings: Settings, **overrides: Any) -> PlannerConfig:
     """The planner's config from the settings, with overrides (None = keep the setting)."""
-    return settings.planner.to_config(settings.sim, settings.triangulation, **overrides)
+    return replace(settings.planner, **{k: v for k, v in overrides.items() if v is not None})
+
+
+def mount_search(settings: Settings, count: int, preset: str, **overrides: Any) -> SearchConfig:
+    """The mount search's config for ``count`` cameras of the ``preset`` model (None = keep the setting)."""
+    changes = {k: v for k, v in overrides.items() if v is not None}
+    return replace(settings.planner.search, count=count, preset=preset, **changes)
 
 
 def run_plan(
@@ -60,7 +67,7 @@ def run_plan(
     cfg = planner_config(settings, **o)
     cave = settings.cave.geometry()
     if count is not None:
-        search = settings.planner.search_config(count, preset, top_k=top_k)
+        search = mount_search(settings, count, preset, top_k=top_k)
         reference = default_layout(settings, count) if count <= 8 else None
         return make_plan(
             cave,
@@ -116,7 +123,8 @@ class PlannerService:
         else:
             check_search(
                 room,
-                self._settings.planner.search_config(
+                mount_search(
+                    self._settings,
                     count if count is not None else 0,
                     overrides.get("preset") or self._settings.sim.camera_preset,
                 ),

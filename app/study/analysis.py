@@ -27,15 +27,12 @@ import math
 import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from app.study.data import CONDITIONS, ResponseRecord, StudyData
-
-if TYPE_CHECKING:
-    from app.core.config import Settings
 
 log = logging.getLogger(__name__)
 
@@ -96,10 +93,6 @@ class AnalysisConfig:
             raise ValueError(f"correction must be one of {CORRECTIONS}, got {self.correction!r}")
         if self.normality_min_n < 3:
             raise ValueError(f"normality_min_n must be >= 3, got {self.normality_min_n}")
-
-    @classmethod
-    def from_settings(cls, settings: Settings, correction: str | None = None) -> AnalysisConfig:
-        return cls(alpha=settings.study.alpha, correction=correction or settings.study.correction)
 
 
 def adjust_p(p_values: Sequence[float], method: str) -> list[float]:

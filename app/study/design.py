@@ -11,12 +11,9 @@ from collections import Counter
 from collections.abc import Iterable
 from dataclasses import dataclass
 from itertools import pairwise
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from app.study.data import CONDITIONS, StudyData
-
-if TYPE_CHECKING:
-    from app.core.config import Settings
 
 #: The questionnaires every session needs: (instrument, phase); phase None = any phase.
 PER_SESSION: tuple[tuple[str, str | None], ...] = (
@@ -35,9 +32,6 @@ class DesignConfig:
         if self.min_gap_days < 0:
             raise ValueError(f"min_gap_days must be >= 0, got {self.min_gap_days}")
 
-    @classmethod
-    def from_settings(cls, settings: Settings) -> DesignConfig:
-        return cls(min_gap_days=settings.study.min_gap_days)
 
 
 def order_for(first: str) -> tuple[str, str]:

@@ -13,21 +13,20 @@ operator when one of them is pre-empted.
 from __future__ import annotations
 
 import logging
-import os
 import time
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.errors import InputError, ModelError
 from pipeline.pixels import image_size
+from pipeline.pose.config import PROVIDERS, PoseConfig
 from pipeline.pose.decode import OUTPUT_CHANNELS, RawPoses, decode, iou_matrix, nms
-from pipeline.pose.model_files import crop_model_path
 from pipeline.pose.preprocess import Letterbox, fit_region, letterbox_into, net_size_for
 from pipeline.pose.types import Job, Region, ViewDetections
 from pipeline.skeleton import NUM_JOINTS
@@ -35,99 +34,7 @@ from pipeline.skeleton import NUM_JOINTS
 log = logging.getLogger(__name__)
 
 U8 = NDArray[np.uint8]
-PROVIDERS = {"cpu": "CPUExecutionProvider", "cuda": "CUDAExecutionProvider"}
 EDGE_PX = 2.0  # a box this close to a crop edge inside the image is cut by the crop
-
-
-class PoseSettingsLike(Protocol):
-    """The fields of ``app.core.config.PoseSettings`` the detector reads (pipeline never imports app)."""
-
-    @property
-    def input_long_side(self) -> int: ...
-    @property
-    def score_threshold(self) -> float: ...
-    @property
-    def nms_iou(self) -> float: ...
-    @property
-    def providers(self) -> Sequence[str]: ...
-    @property
-    def threads(self) -> int: ...
-    @property
-    def parallel(self) -> int: ...
-    @property
-    def crop_model(self) -> bool: ...
-
-
-@dataclass(frozen=True, slots=True)
-class PoseDetectorConfig:
-    """How to run the pose model.
-
-    model_path: a YOLO-pose ONNX file with output (B, 56, N).
-    crop_model_path: the model for ROI crops (the same weights without the stride-8 head
-        level, see :mod:`pipeline.pose.prepare`); None: crops run on ``model_path`` too.
-    input_long_side: long side of the full-frame network input, px (multiple of 32); the
-        short side follows the images' aspect (1088x1920 portrait -> 384x640).
-    score_threshold: minimum person score. nms_iou: IoU above which NMS drops a box.
-    providers: ``"cpu"`` and/or ``"cuda"``, in order of preference.
-    threads: onnxruntime intra-op threads per model call (0 = its own choice; 1 when
-        ``parallel`` > 1).
-    parallel: model calls run side by side, each on its own thread (0 = one per CPU core).
-    max_people: at most this many people per image.
-    spinning: let onnxruntime's idle threads spin-wait between runs (faster alone on a
-        machine, but it takes CPU from video decoders and other processes on few cores).
-    """
-
-    model_path: Path
-    input_long_side: int = 640
-    score_threshold: float = 0.35
-    nms_iou: float = 0.6
-    providers: tuple[str, ...] = ("cpu",)
-    threads: int = 0
-    max_people: int = 16
-    spinning: bool = False
-    parallel: int = 1
-    crop_model_path: Path | None = None
-
-    def __post_init__(self) -> None:
-        if self.input_long_side <= 0 or self.input_long_side % 32:
-            raise ValueError(f"input_long_side must be a positive multiple of 32, got {self.input_long_side}")
-        for name in ("score_threshold", "nms_iou"):
-            v = getattr(self, name)
-            if not 0.0 <= v <= 1.0:
-                raise ValueError(f"{name} must be in [0, 1], got {v}")
-        unknown = [p for p in self.providers if p not in PROVIDERS]
-        if unknown or not self.providers:
-            raise ValueError(
-                f"providers must be a non-empty subset of {sorted(PROVIDERS)}, got {self.providers}")
-        if self.threads < 0 or self.max_people <= 0 or self.parallel < 0:
-            raise ValueError(f"threads and parallel must be >= 0 and max_people > 0, got {self.threads}, "
-                             f"{self.parallel}, {self.max_people}")
-
-    @property
-    def runs(self) -> int:
-        """How many model calls run side by side (``parallel``, 0 resolved to the CPU count)."""
-        return self.parallel or min(os.cpu_count() or 1, 4)
-
-    @property
-    def intra_op_threads(self) -> int:
-        """onnxruntime intra-op threads per call (0 = its choice)."""
-        return self.threads or (1 if self.runs > 1 else 0)
-
-    @classmethod
-    def from_settings(cls, pose: PoseSettingsLike, model_path: Path) -> PoseDetectorConfig:
-        """From the ``pose`` settings; crops use the crop model beside ``model_path`` when
-        ``pose.crop_model`` is on and ``cavewalk models prepare`` made it."""
-        crop = crop_model_path(Path(model_path))
-        return cls(
-            model_path=Path(model_path),
-            crop_model_path=crop if pose.crop_model and crop.is_file() else None,
-            input_long_side=int(pose.input_long_side),
-            score_threshold=float(pose.score_threshold),
-            nms_iou=float(pose.nms_iou),
-            providers=tuple(pose.providers),
-            threads=int(pose.threads),
-            parallel=int(pose.parallel),
-        )
 
 
 @dataclass(frozen=True, slots=True)
@@ -141,12 +48,10 @@ class PoseBatch:
     decode_s: float
 
 
-def load_session(config: PoseDetectorConfig, path: Path | None = None) -> Any:
-    """An onnxruntime session for the model (``path``, default ``config.model_path``); ModelError
-    with the fix when it cannot load."""
+def load_session(config: PoseConfig, path: Path) -> Any:
+    """An onnxruntime session for the model file ``path``; ModelError with the fix when it cannot load."""
     import onnxruntime as ort
 
-    path = path or config.model_path
     if not path.is_file():
         raise ModelError(f"pose model not found: {path} (run  cavewalk models prepare)")
     opts = ort.SessionOptions()
@@ -183,7 +88,7 @@ def load_session(config: PoseDetectorConfig, path: Path | None = None) -> Any:
 class PoseDetector:
     """Runs the pose model over all views of a multi-view frame, batched by network size."""
 
-    def __init__(self, session: Any, config: PoseDetectorConfig, crop_session: Any = None) -> None:
+    def __init__(self, session: Any, config: PoseConfig, crop_session: Any = None) -> None:
         self._session = session
         self._crop_session = crop_session  # None: crops run on the full model
         self.config = config
@@ -201,13 +106,10 @@ class PoseDetector:
             ThreadPoolExecutor(config.runs, thread_name_prefix="pose") if config.runs > 1 else None)
 
     @classmethod
-    def load(cls, config: PoseDetectorConfig) -> PoseDetector:
-        crop = load_session(config, config.crop_model_path) if config.crop_model_path is not None else None
-        return cls(load_session(config), config, crop)
-
-    @classmethod
-    def from_settings(cls, pose: PoseSettingsLike, model_path: Path) -> PoseDetector:
-        return cls.load(PoseDetectorConfig.from_settings(pose, model_path))
+    def load(cls, config: PoseConfig, model_path: Path, crop_model_path: Path | None = None) -> PoseDetector:
+        """Load ``model_path`` (and the crop model for ROI crops; None: crops run on ``model_path``)."""
+        crop = load_session(config, crop_model_path) if crop_model_path is not None else None
+        return cls(load_session(config, Path(model_path)), config, crop)
 
     def close(self) -> None:
         """Stop the threads of parallel runs (also done when the detector is collected)."""

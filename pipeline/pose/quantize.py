@@ -25,7 +25,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.errors import ModelError
-from pipeline.pose.detector import PoseDetector, PoseDetectorConfig
+from pipeline.pose.config import PoseConfig
+from pipeline.pose.detector import PoseDetector
 from pipeline.pose.preprocess import expand_to_aspect, fit_region, letterbox_into, net_size_for
 
 log = logging.getLogger(__name__)
@@ -70,7 +71,7 @@ def calibration_inputs(
     """Network inputs (1, 3, h, w) as the detector makes them, from every ``every``-th frame
     of each video: the whole frame at ``full_long_side`` and at ``crop_long_side``, and crops
     around the people the float32 model finds, at ``crop_long_side``."""
-    detector = PoseDetector.load(PoseDetectorConfig(fp32_model))
+    detector = PoseDetector.load(PoseConfig(parallel=1), fp32_model)  # one lane: a reproducible order
     crop_net = net_size_for(CROP_ASPECT, crop_long_side)
     inputs: list[F32] = []
 

@@ -20,90 +20,25 @@ from __future__ import annotations
 
 from collections.abc import Collection, Hashable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
+from pipeline.pose.config import PoseConfig
 from pipeline.pose.preprocess import STRIDE, expand_to_aspect, net_size_for, round_up
 from pipeline.pose.types import Job, Region
 
-MIN_CROP_SIDE = 128  # the shortest crop network height, px
 
-
-class RoiSettingsLike(Protocol):
-    """The fields of ``app.core.config.PoseSettings`` read here."""
-
-    @property
-    def roi(self) -> bool: ...
-    @property
-    def roi_long_side(self) -> int: ...
-    @property
-    def roi_margin(self) -> float: ...
-    @property
-    def roi_full_every(self) -> int: ...
-    @property
-    def input_long_side(self) -> int: ...
-
-
-@dataclass(frozen=True, slots=True)
-class RoiConfig:
-    """enabled: use crops at all. long_side: the tallest crop network, px (multiple of 32).
-    min_side: the shortest crop network height, px (multiple of 32).
-    full_long_side: long side of the full-frame network input; a crop is not sampled
-    more finely than that pass samples the image (small people get small crops).
-    margin: crop margin on each side, as a fraction of the expected box's larger side.
-    full_every: each view is looked at whole (at the crop size) at least every this many
-    frames, to find people who walk in.
-    max_crops: more crops than this in a frame -> full frame instead.
-    min_aspect, max_aspect: bounds of a crop's aspect w / h (a person with arms out
-    widens the crop, not shrinks the person).
-    merge_growth: two people of a view share one crop when their union is at most this
-    many times the larger one's area."""
-
-    enabled: bool = True
-    long_side: int = 320
-    min_side: int = MIN_CROP_SIDE
-    full_long_side: int = 640
-    margin: float = 0.15
-    full_every: int = 30
-    max_crops: int = 12
-    min_aspect: float = 0.4
-    max_aspect: float = 1.0
-    merge_growth: float = 1.1
-
-    def __post_init__(self) -> None:
-        for name in ("long_side", "min_side", "full_long_side"):
-            value = getattr(self, name)
-            if value <= 0 or value % STRIDE:
-                raise ValueError(f"{name} must be a positive multiple of {STRIDE}, got {value}")
-        if self.min_side > self.long_side:
-            raise ValueError(f"min_side {self.min_side} must not exceed long_side {self.long_side}")
-        if self.margin < 0 or self.full_every < 1 or self.max_crops < 1:
-            raise ValueError(
-                f"need margin >= 0, full_every >= 1, max_crops >= 1; got {self.margin}, "
-                f"{self.full_every}, {self.max_crops}")
-        if self.merge_growth < 1:
-            raise ValueError(f"merge_growth must be >= 1, got {self.merge_growth}")
-        if not 0 < self.min_aspect <= self.max_aspect:
-            raise ValueError(f"need 0 < min_aspect <= max_aspect, got {self.min_aspect}, {self.max_aspect}")
-
-    @classmethod
-    def from_settings(cls, pose: RoiSettingsLike) -> RoiConfig:
-        return cls(enabled=bool(pose.roi), long_side=int(pose.roi_long_side), margin=float(pose.roi_margin),
-                   full_every=int(pose.roi_full_every), full_long_side=int(pose.input_long_side),
-                   min_side=min(MIN_CROP_SIDE, int(pose.roi_long_side)))
-
-    def net_size(self, region: Region, image_size: tuple[int, int]) -> tuple[int, int]:
-        """Network (w, h) for a crop of ``region`` (margins included) of an image of ``image_size``:
-        height for the full pass's sampling (within ``min_side``..``long_side``), width for the
-        region's aspect (within the aspect bounds)."""
-        x1, y1, x2, y2 = region
-        w, h = max(x2 - x1, 1.0), max(y2 - y1, 1.0)
-        full_scale = self.full_long_side / max(image_size)
-        net_h = min(max(round_up(h * full_scale), self.min_side), self.long_side)
-        aspect = min(max(w / h, self.min_aspect), self.max_aspect)
-        return net_size_for(aspect, net_h)
+def roi_net_size(config: PoseConfig, region: Region, image_size: tuple[int, int]) -> tuple[int, int]:
+    """Network (w, h) for a crop of ``region`` (margins included) of an image of ``image_size``:
+    height for the whole-view pass's sampling (within ``crop_min_side``..``roi_long_side``; a
+    small person gets a small crop), width for the region's aspect (within the aspect bounds)."""
+    x1, y1, x2, y2 = region
+    w, h = max(x2 - x1, 1.0), max(y2 - y1, 1.0)
+    full_scale = config.input_long_side / max(image_size)
+    net_h = min(max(round_up(h * full_scale), config.crop_min_side), config.roi_long_side)
+    aspect = min(max(w / h, config.roi_min_aspect), config.roi_max_aspect)
+    return net_size_for(aspect, net_h)
 
 
 def with_margin(box_xyxy: NDArray[np.float64] | Region, margin: float) -> Region:
@@ -186,7 +121,7 @@ class RoiScheduler:
     differently each time, which shows as keypoint jitter).
     """
 
-    def __init__(self, config: RoiConfig) -> None:
+    def __init__(self, config: PoseConfig) -> None:
         self.config = config
         self._since_full: dict[Hashable, int] = {}  # view -> frames since it was last seen whole
         self._lost: set[Hashable] = set()
@@ -203,7 +138,7 @@ class RoiScheduler:
         for rank, key in enumerate(keys):
             if rank in full_views:
                 # after a pass of every view at once, stagger their next periodic looks
-                self._since_full[key] = (rank * self.config.full_every) // len(keys) if everything else 0
+                self._since_full[key] = (rank * self.config.roi_full_every) // len(keys) if everything else 0
                 self._crops.pop(key, None)
             elif rank in looked:
                 self._since_full[key] = 0
@@ -213,7 +148,7 @@ class RoiScheduler:
 
     def _stable_crop(self, key: Hashable, region: Region, image_size: tuple[int, int]
                      ) -> tuple[Region, tuple[int, int]]:
-        net = self.config.net_size(region, image_size)
+        net = roi_net_size(self.config, region, image_size)
         fresh = crop_region(region, image_size, net)
         for old, old_net in self._crops.get(key, ()):
             if (_contains(old, region) and old_net[1] == net[1] and old_net[0] < net[0] + 2 * STRIDE
@@ -236,7 +171,7 @@ class RoiScheduler:
             self._planned = (keys, everything, everything)
             return RoiPlan(tuple(Job(i) for i in range(len(keys))), everything, reason)
 
-        if not cfg.enabled:
+        if not cfg.roi:
             return whole("roi off")
         if all(k not in self._since_full for k in keys):
             return whole("first frame")
@@ -250,7 +185,7 @@ class RoiScheduler:
             elif key in self._lost:  # a look at the whole view beside the crops finds them again
                 looks[i] = "track lost"
         due = [(self._since_full[k], i) for i, k in enumerate(keys)
-               if i not in full and i not in looks and self._since_full[k] + 1 >= cfg.full_every]
+               if i not in full and i not in looks and self._since_full[k] + 1 >= cfg.roi_full_every]
         if due:
             looks[max(due)[1]] = "look for newcomers"  # the most overdue view; the others wait a frame
         jobs: list[Job] = []
@@ -260,17 +195,17 @@ class RoiScheduler:
                 jobs.append(Job(i))
                 continue
             size = image_sizes[i]
-            coarse = Job(i, None, net_size_for(size[0] / size[1], cfg.long_side))
+            coarse = Job(i, None, net_size_for(size[0] / size[1], cfg.roi_long_side))
             if not boxes:  # nobody here while others have people: whole, at the crop size
                 jobs.append(coarse)
                 continue
             if i in looks:
                 jobs.append(coarse)
-            regions = merge_regions([with_margin(boxes[t], cfg.margin) for t in sorted(boxes)],
-                                    cfg.merge_growth)
+            regions = merge_regions([with_margin(boxes[t], cfg.roi_margin) for t in sorted(boxes)],
+                                    cfg.roi_merge_growth)
             crops[key] = [self._stable_crop(key, r, size) for r in regions]
             jobs.extend(Job(i, crop, net) for crop, net in crops[key])
-        if len(jobs) > cfg.max_crops:
+        if len(jobs) > cfg.roi_max_crops:
             return whole("too many crops")
         self._crops.update(crops)
         self._planned = (keys, frozenset(full), frozenset(full) | frozenset(looks))

@@ -27,7 +27,7 @@ from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -57,38 +57,9 @@ _STILL = ACTIONS.index("still")
 _LEG_JOINTS = [J[n] for n in ("l_hip", "r_hip", "l_knee", "r_knee", "l_ankle", "r_ankle")]
 
 
-class RecognitionSection(Protocol):
-    """What :meth:`RecognizerConfig.from_settings` reads (``settings.recognition``)."""
-
-    @property
-    def model(self) -> Path | None: ...
-    @property
-    def ema_alpha(self) -> float: ...
-    @property
-    def min_dwell_s(self) -> float: ...
-    @property
-    def stop_dwell_s(self) -> float: ...
-    @property
-    def switch_prob(self) -> float: ...
-    @property
-    def yaw_alpha(self) -> float: ...
-    @property
-    def max_gap_s(self) -> float: ...
-    @property
-    def speed_alpha(self) -> float: ...
-    @property
-    def forward_step_m(self) -> float: ...
-    @property
-    def side_step_m(self) -> float: ...
-    @property
-    def threads(self) -> int: ...
-    @property
-    def gate(self) -> bool: ...
-
-
 @dataclass(frozen=True, slots=True)
 class RecognizerConfig:
-    """Parameters of the streaming recogniser (built from ``settings.recognition``).
+    """Parameters of the streaming recogniser (the settings' ``[recognition]``).
 
     ema_alpha: weight of a new model output in the probability EMA, per model frame.
     min_dwell_s: how long a new class must lead (with probability >= switch_prob) before the
@@ -96,6 +67,10 @@ class RecognizerConfig:
     yaw_alpha: weight of a new frame in the facing-direction EMA, per model frame.
     max_gap_s: a longer gap between frames starts afresh (reset).
     speed_alpha: weight of a new estimate in the speed EMA, per model frame.
+    model_path: the action model ONNX (default: the committed one).
+    threads: onnxruntime intra-op threads (0 = its choice).
+    gate: the stepping-bout gate on the step evidence (no movement without a step; one command
+        per bout); off = the network's EMA + hysteresis alone (MODEL_CARD.md).
     """
 
     model_path: Path = DEFAULT_MODEL_PATH
@@ -127,22 +102,6 @@ class RecognizerConfig:
             raise ValueError(f"max_gap_s must be positive, got {self.max_gap_s}")
         if self.threads < 0:
             raise ValueError(f"threads must be >= 0, got {self.threads}")
-
-    @classmethod
-    def from_settings(cls, section: RecognitionSection) -> RecognizerConfig:
-        return cls(
-            model_path=Path(section.model) if section.model is not None else DEFAULT_MODEL_PATH,
-            ema_alpha=section.ema_alpha,
-            min_dwell_s=section.min_dwell_s,
-            stop_dwell_s=section.stop_dwell_s,
-            switch_prob=section.switch_prob,
-            yaw_alpha=section.yaw_alpha,
-            max_gap_s=section.max_gap_s,
-            speed_alpha=section.speed_alpha,
-            speed=SpeedConfig(forward_step_m=section.forward_step_m, side_step_m=section.side_step_m),
-            threads=section.threads,
-            gate=section.gate,
-        )
 
 
 # What each features version gives the network, and how many input channels that is.

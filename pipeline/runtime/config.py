@@ -1,9 +1,9 @@
-"""The runtime's own configuration, built from ``settings.runtime`` by ``RuntimeConfig.from_settings``."""
+"""The live runtime's one frozen config: the settings' ``[runtime]`` section."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import Literal
 
 from pipeline.sources.grouper import GrouperConfig
 
@@ -13,68 +13,51 @@ class RuntimeConfig:
     """Parameters of the live pipeline.
 
     target_fps: the rate the processing stages aim at (the dynamic frame rate's ceiling).
-    emit_rate_hz / heartbeat_s: the UDP stream (SPEC protocol v1).
     video_pace_fps: delivery rate of video files (None = their own frame rate; 0 = flat out).
     video_loop: loop video files (the dashboard's "videos" source) or play them once.
-    ring_slots / max_frame_bytes: shared-memory ring of each camera (a frame must fit a slot).
-    grouper: multi-view grouping tolerances.
-    snapshot_interval_s: dashboard snapshots are re-encoded at most this often.
-    start_method: multiprocessing start method of the workers.
-    osc: OSC destinations (host, port) that also get ``/cave/locomotion``.
+    grouper: multi-view grouping tolerances (``[runtime.grouper]``); its ``gone_after_s`` also
+        marks a camera silent that long as not ok.
+    camera_retry_s: a camera that fails is opened again after this long.
     capture_nice: the capture workers' niceness (added to the main process's): decoding
         gives way to pose detection, which is what the frame rate waits for, and takes the
         cores' idle moments instead.
+    ring_slots / max_frame_bytes: shared-memory ring of each camera (a frame must fit a slot).
+    snapshot_interval_s / snapshot_long_side: dashboard snapshots are re-encoded at most this
+        often, at this size.
+    start_method: multiprocessing start method of the workers.
+    latency_window: latency samples kept per stage for the percentiles.
+    stall_after_s: a running pipeline that fused no frame for this long reports ``stalled``.
     """
 
     target_fps: float = 30.0
-    emit_rate_hz: float = 60.0
-    heartbeat_s: float = 1.0
     video_pace_fps: float | None = None
     video_loop: bool = True
+    grouper: GrouperConfig = field(default_factory=GrouperConfig)
+    camera_retry_s: float = 1.0
+    capture_nice: int = 5
     ring_slots: int = 3
     max_frame_bytes: int = 3840 * 2160 * 3
-    grouper: GrouperConfig = field(default_factory=GrouperConfig)
     snapshot_interval_s: float = 0.2
     snapshot_long_side: int = 640
-    camera_retry_s: float = 1.0
     start_method: Literal["forkserver", "spawn", "fork"] = "forkserver"
-    osc: tuple[tuple[str, int], ...] = ()
     latency_window: int = 600
-    capture_nice: int = 5
+    stall_after_s: float = 0.5
 
     def __post_init__(self) -> None:
-        if self.target_fps <= 0 or self.emit_rate_hz <= 0 or self.heartbeat_s <= 0:
-            raise ValueError(f"target_fps, emit_rate_hz and heartbeat_s must be > 0, got {self.target_fps}, "
-                             f"{self.emit_rate_hz}, {self.heartbeat_s}")
+        if self.target_fps <= 0:
+            raise ValueError(f"target_fps must be > 0, got {self.target_fps}")
         if self.video_pace_fps is not None and self.video_pace_fps < 0:
             raise ValueError(f"video_pace_fps must be >= 0 or None, got {self.video_pace_fps}")
+        if self.camera_retry_s <= 0 or self.stall_after_s <= 0 or self.snapshot_interval_s < 0:
+            raise ValueError(f"camera_retry_s and stall_after_s must be > 0 and snapshot_interval_s >= 0, "
+                             f"got {self.camera_retry_s}, {self.stall_after_s}, {self.snapshot_interval_s}")
         if self.ring_slots < 2 or self.max_frame_bytes <= 0:
-            raise ValueError(f"need ring_slots >= 2 and max_frame_bytes > 0, got {self.ring_slots}, "
+            raise ValueError(f"ring_slots must be >= 2 and max_frame_bytes > 0, got {self.ring_slots}, "
                              f"{self.max_frame_bytes}")
         if not 0 <= self.capture_nice <= 19:
             raise ValueError(f"capture_nice must be in 0..19, got {self.capture_nice}")
         if self.start_method not in ("forkserver", "spawn", "fork"):
             raise ValueError(f"start_method must be forkserver, spawn or fork, got {self.start_method!r}")
-
-    @classmethod
-    def from_settings(cls, runtime: Any) -> RuntimeConfig:
-        """From ``settings.runtime`` (duck-typed: pipeline never imports app)."""
-        fields = {name: getattr(runtime, name) for name in cls.__dataclass_fields__
-                  if hasattr(runtime, name) and name not in ("grouper", "osc")}
-        default = GrouperConfig()
-        grouper = GrouperConfig(
-            tolerance_s=getattr(runtime, "group_tolerance_s", default.tolerance_s),
-            max_wait_s=getattr(runtime, "group_max_wait_s", default.max_wait_s),
-            gone_after_s=getattr(runtime, "camera_gone_s", default.gone_after_s),
-        )
-        osc = tuple(_endpoint(v) for v in getattr(runtime, "osc", ()) or ())
-        return cls(**fields, grouper=grouper, osc=osc)
-
-
-def _endpoint(value: str | tuple[str, int]) -> tuple[str, int]:
-    if isinstance(value, tuple):
-        return value
-    host, _, port = str(value).rpartition(":")
-    if not host or not port.isdigit():
-        raise ValueError(f"OSC destination {value!r} must be HOST:PORT")
-    return host.strip("[]"), int(port)
+        if self.latency_window < 1 or self.snapshot_long_side < 16:
+            raise ValueError(f"latency_window must be >= 1 and snapshot_long_side >= 16, got "
+                             f"{self.latency_window}, {self.snapshot_long_side}")

@@ -38,7 +38,7 @@ from pipeline.runtime.messages import FusedFrame, SetNavigator, WorkerEvent, put
 from pipeline.runtime.metrics import RuntimeMetrics
 from pipeline.runtime.shm import FrameRing, RingSpec
 from pipeline.runtime.snapshot import person_labels, render_snapshot
-from pipeline.runtime.stages import FusionFactory, PoseStageFactory, fusion_factory_from_settings
+from pipeline.runtime.stages import FusionFactory
 from pipeline.runtime.status import PipelineEvent, PipelineStatus, State
 from pipeline.runtime.supervisor import Supervisor, WorkerDef, drain
 from pipeline.runtime.workers import CaptureSpec, DetectSpec, capture_loop, detect_loop, fuse_loop, sim_loop
@@ -104,7 +104,8 @@ class Pipeline:
                  pose_factory: Callable[[], Any] | None = None,
                  fusion: FusionFactory | None = None,
                  sim_factory: SimFactory | None = None,
-                 workstations: Sequence[tuple[str, int]] = ()) -> None:
+                 workstations: Sequence[tuple[str, int]] = (),
+                 emitter: EmitterConfig | None = None) -> None:
         self.config = config
         self.cameras_calibrated = list(cameras_calibrated) if cameras_calibrated else None
         self.camera_sources = dict(camera_sources or {})
@@ -118,31 +119,10 @@ class Pipeline:
         self._events: deque[PipelineEvent] = deque(maxlen=EVENT_LOG_SIZE)
         self._last_action: str | None = None
         self._snapshots: dict[str, tuple[float, bytes]] = {}
-        self.emitter = UdpEmitter(
-            EmitterConfig(rate_hz=config.emit_rate_hz, heartbeat_s=config.heartbeat_s),
-            list(workstations), list(config.osc) or None,
-        )
+        emitter = emitter or EmitterConfig()
+        self.emitter = UdpEmitter(emitter, list(workstations), emitter.osc_endpoints or None)
         self.emitter.set_state("stopped")
         self.emitter.start()
-
-    # ----------------------------------------------------------------------------- factories
-    @classmethod
-    def from_settings(cls, settings: Any, cameras_calibrated: list[Camera] | None = None,
-                      sim_factory: SimFactory | None = None, config: RuntimeConfig | None = None) -> Pipeline:
-        """Build from the app's settings (duck-typed; pipeline never imports app).
-
-        Reads ``runtime``, ``pose``, ``recognition``, ``cameras``, ``workstations`` and, when
-        present, ``tracking``/``triangulation``; the pose model is ``settings.pose_model_path``.
-        ``config`` replaces the runtime section (benchmarks).
-        """
-        config = config or RuntimeConfig.from_settings(settings.runtime)
-        pose_factory = PoseStageFactory.from_settings(settings.pose, settings.pose_model_path,
-                                                      getattr(settings, "tracking", None))
-        fusion = fusion_factory_from_settings(settings, cameras_calibrated)
-        endpoints = [_split_endpoint(w) for w in settings.workstations]
-        sources = {c.name: c.source for c in settings.cameras}
-        return cls(config, cameras_calibrated, camera_sources=sources, pose_factory=pose_factory,
-                   fusion=fusion, sim_factory=sim_factory, workstations=endpoints)
 
     # ---------------------------------------------------------------------------- lifecycle
     def start(self, source: SourceName, videos: dict[str, Path] | None = None) -> None:
@@ -572,11 +552,6 @@ def _capture_group(spec: CaptureSpec, ring: RingSpec) -> Callable[[], list[Worke
 
 def _f(x: float) -> float | None:
     return round(float(x), 4) if math.isfinite(float(x)) else None
-
-
-def _split_endpoint(value: str) -> tuple[str, int]:
-    host, _, port = value.rpartition(":")
-    return host.strip("[]"), int(port)
 
 
 def _slot_bytes(width: int, height: int) -> int:

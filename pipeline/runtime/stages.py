@@ -22,20 +22,23 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.camera import Camera
+from pipeline.cave import CaveGeometry
 from pipeline.errors import ModelError
-from pipeline.pose.detector import PoseDetector, PoseDetectorConfig
-from pipeline.pose.roi import RoiConfig, RoiScheduler
+from pipeline.pose.config import PoseConfig
+from pipeline.pose.detector import PoseDetector
+from pipeline.pose.roi import RoiScheduler
 from pipeline.pose.types import ViewDetections
 from pipeline.recognition.recognizer import ActionRecognizer, RecognizerConfig
 from pipeline.recognition.types import ActionEstimate
 from pipeline.results import FrameResult
 from pipeline.runtime.messages import DetectedFrame
 from pipeline.sim.scene import default_cameras
-from pipeline.sim.script import load_script
-from pipeline.sim.world import SimWorld
+from pipeline.sim.script import MotionScript, load_script
+from pipeline.sim.world import SimConfig, SimWorld
 from pipeline.tracking.ocsort import MultiViewTracker, OCSortConfig
 from pipeline.tracking.stage import DetectAndTrack
 from pipeline.tracking.types import TrackedView
+from pipeline.triangulation.config import NavigatorConfig, ReconstructionConfig
 from pipeline.triangulation.types import Person3D
 
 log = logging.getLogger(__name__)
@@ -59,31 +62,22 @@ class PoseStage:
 
 @dataclass(frozen=True, slots=True)
 class PoseStageFactory:
-    """Builds the pose + tracking stage inside the detect worker (loads the ONNX model there).
+    """Builds the pose + tracking stage inside the detect worker (loads the ONNX model there)."""
 
-    detector_config: pipeline.pose.detector.PoseDetectorConfig; roi: pipeline.pose.roi.RoiConfig;
-    tracking: pipeline.tracking.ocsort.OCSortConfig (None: its defaults).
-    """
-
-    detector_config: Any
-    roi: Any
+    pose: PoseConfig
+    model_path: Path
+    tracking: OCSortConfig = field(default_factory=OCSortConfig)
     cameras: tuple[str, ...] = ()
-    tracking: Any = None
 
     def __call__(self) -> PoseStage:
         if not self.cameras:
             raise ValueError("PoseStageFactory needs the camera names (use with_cameras)")
-        return PoseStage(PoseDetector.load(self.detector_config),
-                         MultiViewTracker(list(self.cameras), self.tracking), RoiScheduler(self.roi))
+        detector = PoseDetector.load(self.pose, self.model_path, self.pose.crop_model_file(self.model_path))
+        tracker = MultiViewTracker(list(self.cameras), self.tracking)
+        return PoseStage(detector, tracker, RoiScheduler(self.pose))
 
     def with_cameras(self, cameras: Sequence[str]) -> PoseStageFactory:
         return replace(self, cameras=tuple(cameras))
-
-    @classmethod
-    def from_settings(cls, pose: Any, model_path: Path, tracking: Any = None) -> PoseStageFactory:
-        """From ``settings.pose`` (and ``settings.tracking``); duck-typed: pipeline never imports app."""
-        return cls(PoseDetectorConfig.from_settings(pose, model_path), RoiConfig.from_settings(pose),
-                   tracking=OCSortConfig.from_settings(tracking) if tracking is not None else None)
 
 
 # ------------------------------------------------------------------------------------- fusion
@@ -185,11 +179,10 @@ class FusionFactory:
 
     cameras: tuple[Camera, ...] | None
     camera_names: tuple[str, ...]
-    tracking: Any = None  # pipeline.tracking.ocsort.OCSortConfig
-    reconstruction: Any = None  # pipeline.triangulation.config.ReconstructionConfig
-    navigator: Any = None  # pipeline.triangulation.config.NavigatorConfig
-    recognition: Any = None  # pipeline.recognition.recognizer.RecognizerConfig
-    options: dict[str, Any] = field(default_factory=dict)
+    tracking: OCSortConfig = field(default_factory=OCSortConfig)
+    reconstruction: ReconstructionConfig = field(default_factory=ReconstructionConfig)
+    navigator: NavigatorConfig = field(default_factory=NavigatorConfig)
+    recognition: RecognizerConfig | None = field(default_factory=RecognizerConfig)  # None: no actions
 
     def __call__(self) -> Fusion:
         tracker = MultiViewTracker(list(self.camera_names), self.tracking)
@@ -210,16 +203,6 @@ class FusionFactory:
         return Fusion(tracker, reconstructor, selector, recognizer)  # type: ignore[arg-type]
 
 
-def fusion_factory_from_settings(settings: Any, cameras: list[Camera] | None) -> FusionFactory:
-    """The fusion stage's configs from the settings sections that exist (others: their defaults)."""
-    tracking = OCSortConfig.from_settings(settings.tracking) if hasattr(settings, "tracking") else None
-    recognition = RecognizerConfig.from_settings(settings.recognition)
-    reconstruction = settings.triangulation.to_config() if hasattr(settings, "triangulation") else None
-    navigator = settings.navigator.to_config() if hasattr(settings, "navigator") else None
-    return FusionFactory(cameras=tuple(cameras) if cameras else None, camera_names=(), tracking=tracking,
-                         reconstruction=reconstruction, navigator=navigator, recognition=recognition)
-
-
 # ---------------------------------------------------------------------------------- simulator
 @dataclass(frozen=True, slots=True)
 class SimWorldFactory:
@@ -229,11 +212,11 @@ class SimWorldFactory:
     config: pipeline.sim.world.SimConfig.
     """
 
-    cave: Any  # pipeline.cave.CaveGeometry
+    cave: CaveGeometry
     cameras: tuple[Camera, ...]
-    config: Any
+    config: SimConfig
     fps: float
-    script: Any = None  # pipeline.sim.script.MotionScript of the navigator; None = random routines
+    script: MotionScript | None = None  # the navigator's routine; None = random routines
 
     def __post_init__(self) -> None:
         if not self.cameras:
@@ -241,14 +224,13 @@ class SimWorldFactory:
         if self.fps <= 0:
             raise ValueError(f"fps must be > 0, got {self.fps}")
 
-    def __call__(self) -> Any:
+    def __call__(self) -> SimWorld:
         return SimWorld(self.cave, list(self.cameras), self.config, self.script)
 
     @classmethod
-    def from_settings(cls, sim: Any, cave: Any, camera_count: int = 4, **overrides: Any) -> SimWorldFactory:
-        """From ``settings.sim`` (its ``to_config()``: scene, people, faults, routine) and the CAVE
-        geometry; ``overrides`` go to SimConfig (e.g. fps=60)."""
-        config = sim.to_config(camera_count=camera_count, **overrides)
-        script = load_script(sim.script) if sim.script is not None else None
+    def build(cls, config: SimConfig, cave: CaveGeometry) -> SimWorldFactory:
+        """The simulator of ``config`` (its routine file loaded here, so a bad one fails before any
+        process starts) in the CAVE ``cave``."""
+        script = load_script(config.script) if config.script is not None else None
         cameras = tuple(default_cameras(cave, config.camera_preset, config.camera_count))
         return cls(cave, cameras, config, config.fps, script)

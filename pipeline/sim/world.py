@@ -14,6 +14,7 @@ import math
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
@@ -53,6 +54,8 @@ class SimConfig:
     navigator_height_m: None = a random height in 1.40-2.05 m.
     repeat_script: after the navigator's script ends, play it again (else random routines).
     observe: run the virtual cameras (False: ground truth only, ``views`` stay empty; faster).
+    script: the navigator's routine file (JSON/TOML, :func:`pipeline.sim.script.load_script`);
+        None = random routines.
     """
 
     fps: float = 30.0
@@ -65,6 +68,7 @@ class SimConfig:
     navigator_height_m: float | None = None
     repeat_script: bool = False
     observe: bool = True
+    script: Path | None = None
 
     def __post_init__(self) -> None:
         if not math.isfinite(self.fps) or not 1.0 <= self.fps <= 240.0:

@@ -15,6 +15,10 @@ from dataclasses import dataclass, field
 
 @dataclass(frozen=True, slots=True)
 class GrouperConfig:
+    """tolerance_s: frames this close in time form one multi-view frame. max_wait_s: how long to
+    wait for a late camera. gone_after_s: a camera silent this long is not waited for (and is
+    reported). The settings' ``[runtime.grouper]``."""
+
     tolerance_s: float = 0.02
     max_wait_s: float = 0.015
     gone_after_s: float = 1.0

@@ -21,11 +21,12 @@ import numpy as np
 
 from pipeline.demo_data import fetch_demo
 from pipeline.errors import InputError
-from pipeline.pose.detector import PoseDetector, PoseDetectorConfig
-from pipeline.pose.roi import RoiConfig, RoiScheduler
+from pipeline.pose.config import PoseConfig
+from pipeline.pose.detector import PoseDetector
+from pipeline.pose.roi import RoiScheduler
 from pipeline.runtime.offline import SyncedVideos
-from pipeline.tracking.ocsort import MultiViewTracker, OCSortConfig, TrackingSettingsLike
-from pipeline.tracking.stage import DetectAndTrack, PoseStageSettings, StepTimings
+from pipeline.tracking.ocsort import MultiViewTracker, OCSortConfig
+from pipeline.tracking.stage import DetectAndTrack, StepTimings
 from pipeline.tracking.types import TrackedView
 
 log = logging.getLogger(__name__)
@@ -165,8 +166,8 @@ def format_results(results: list[DetectBenchResult]) -> str:
 
 
 def bench_demo(
-    pose: PoseStageSettings,
-    tracking: TrackingSettingsLike,
+    pose: PoseConfig,
+    tracking: OCSortConfig,
     model_path: Path,
     cache_dir: Path,
     frames: int | None = 100,
@@ -183,19 +184,18 @@ def bench_demo(
     if unknown:
         raise InputError(f"unknown benchmark modes {sorted(unknown)}; use full and/or roi")
     demo = fetch_demo(cache_dir)
-    config = replace(PoseDetectorConfig.from_settings(pose, model_path), spinning=spinning)
+    config = replace(pose, spinning=spinning)
     if threads is not None:
         config = replace(config, threads=threads)
     if parallel is not None:
         config = replace(config, parallel=parallel)
-    detector = PoseDetector.load(config)
-    track_cfg = OCSortConfig.from_settings(tracking)
+    detector = PoseDetector.load(config, model_path, config.crop_model_file(model_path))
     results = []
     for mode in modes:
-        roi_cfg = replace(RoiConfig.from_settings(pose), enabled=mode == "roi")
+        roi_cfg = replace(config, roi=mode == "roi")
 
-        def make(cams: list[str], roi_cfg: RoiConfig = roi_cfg) -> DetectAndTrack:
-            return DetectAndTrack(detector, MultiViewTracker(cams, track_cfg), RoiScheduler(roi_cfg))
+        def make(cams: list[str], roi_cfg: PoseConfig = roi_cfg) -> DetectAndTrack:
+            return DetectAndTrack(detector, MultiViewTracker(cams, tracking), RoiScheduler(roi_cfg))
 
         runs = [run_detect_benchmark(demo.videos, make, mode, frames) for _ in range(max(1, repeat))]
         results.append(min(runs, key=lambda r: r.median_ms))

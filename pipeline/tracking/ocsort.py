@@ -18,7 +18,6 @@ import logging
 from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -31,25 +30,6 @@ from pipeline.tracking.types import TrackedView
 log = logging.getLogger(__name__)
 
 F64 = NDArray[np.float64]
-
-
-class TrackingSettingsLike(Protocol):
-    """The fields of ``app.core.config.TrackingSettings`` read here (pipeline never imports app)."""
-
-    @property
-    def det_thresh(self) -> float: ...
-    @property
-    def max_age(self) -> int: ...
-    @property
-    def min_hits(self) -> int: ...
-    @property
-    def iou_threshold(self) -> float: ...
-    @property
-    def delta_t(self) -> int: ...
-    @property
-    def inertia(self) -> float: ...
-    @property
-    def history(self) -> int: ...
 
 
 @dataclass(frozen=True, slots=True)
@@ -84,10 +64,6 @@ class OCSortConfig:
             )
         if self.inertia < 0:
             raise ValueError(f"inertia must be >= 0, got {self.inertia}")
-
-    @classmethod
-    def from_settings(cls, tracking: TrackingSettingsLike) -> OCSortConfig:
-        return cls(**{name: getattr(tracking, name) for name in cls.__dataclass_fields__})
 
 
 @dataclass(frozen=True, slots=True)

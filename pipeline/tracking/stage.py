@@ -10,22 +10,18 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.pixels import image_size
-from pipeline.pose.detector import PoseDetector, PoseSettingsLike
-from pipeline.pose.roi import RoiConfig, RoiScheduler, RoiSettingsLike
-from pipeline.tracking.ocsort import MultiViewTracker, OCSortConfig, TrackingSettingsLike
+from pipeline.pose.config import PoseConfig
+from pipeline.pose.detector import PoseDetector
+from pipeline.pose.roi import RoiScheduler
+from pipeline.tracking.ocsort import MultiViewTracker, OCSortConfig
 from pipeline.tracking.types import TrackedView
 
 log = logging.getLogger(__name__)
-
-
-class PoseStageSettings(PoseSettingsLike, RoiSettingsLike, Protocol):
-    """The ``pose`` settings section: detector and ROI fields."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -56,14 +52,11 @@ class DetectAndTrack:
         self.roi = roi
 
     @classmethod
-    def from_settings(cls, pose: PoseStageSettings, tracking: TrackingSettingsLike, model_path: Path,
-                      cameras: Sequence[str]) -> DetectAndTrack:
-        """Build from the ``pose`` and ``tracking`` settings sections (loads the model)."""
-        return cls(
-            PoseDetector.from_settings(pose, model_path),
-            MultiViewTracker(cameras, OCSortConfig.from_settings(tracking)),
-            RoiScheduler(RoiConfig.from_settings(pose)),
-        )
+    def load(cls, pose: PoseConfig, tracking: OCSortConfig, model_path: Path,
+             cameras: Sequence[str]) -> DetectAndTrack:
+        """The pose model (and its crop model) loaded, one tracker per camera, the ROI scheduler."""
+        detector = PoseDetector.load(pose, model_path, pose.crop_model_file(model_path))
+        return cls(detector, MultiViewTracker(cameras, tracking), RoiScheduler(pose))
 
     @property
     def cameras(self) -> tuple[str, ...]:

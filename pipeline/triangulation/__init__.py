@@ -7,6 +7,6 @@
 - ``tracks3d``: persistent user ids through short occlusions, One-Euro smoothing, bone-length priors.
 - ``navigator``: ``NavigatorSelector`` (manual by user id, or auto: nearest the CAVE centre).
 - ``reconstructor``: ``Reconstructor(cameras, ReconstructionConfig).update(views, t) -> list[Person3D]``.
-- ``config``: the frozen configs (built by ``Settings.triangulation.to_config()`` and
-  ``Settings.navigator.to_config()``).
+- ``config``: the frozen configs (the settings' ``[triangulation]``, ``[association]``,
+  ``[tracks3d]`` and ``[navigator]`` sections).
 """

@@ -1,24 +1,18 @@
-"""Frozen configs of the triangulation stage (no heavy imports: the settings build these).
+"""Frozen configs of the triangulation stage: the settings' ``[triangulation]``, ``[association]``,
+``[tracks3d]`` and ``[navigator]`` sections (no heavy imports here).
 
 Units are in the names: ``_px`` pixels at the camera's resolution, ``_m`` metres, ``_s`` seconds.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from dataclasses import dataclass, fields
-from typing import Any, Literal, Protocol
+from dataclasses import dataclass
+from typing import Literal
 
 
 def _check(cond: bool, what: str, value: object) -> None:
     if not cond:
         raise ValueError(f"{what}, got {value!r}")
-
-
-class SettingsSection(Protocol):
-    """A pydantic settings section (``app.core.config``'s ``triangulation`` or ``navigator``)."""
-
-    def model_dump(self) -> dict[str, Any]: ...
 
 
 @dataclass(frozen=True, slots=True)
@@ -124,38 +118,12 @@ class Tracks3DParams:
 
 @dataclass(frozen=True, slots=True)
 class ReconstructionConfig:
-    """Everything the :class:`~pipeline.triangulation.reconstructor.Reconstructor` needs."""
+    """Everything the :class:`~pipeline.triangulation.reconstructor.Reconstructor` needs: the three
+    parts' configs as they are (each its own settings section)."""
 
     triangulation: TriangulationParams = TriangulationParams()
     association: AssociationParams = AssociationParams()
     tracks: Tracks3DParams = Tracks3DParams()
-
-    @classmethod
-    def from_settings(cls, section: SettingsSection) -> ReconstructionConfig:
-        """From the settings' ``triangulation`` section."""
-        return cls.from_flat(section.model_dump())
-
-    @classmethod
-    def from_flat(cls, values: Mapping[str, Any]) -> ReconstructionConfig:
-        """Build from one flat mapping of field names (the settings' ``triangulation`` section).
-
-        Raises ValueError naming unknown keys.
-        """
-        parts: dict[str, dict[str, Any]] = {}
-        known: set[str] = set()
-        for part, kind in (("triangulation", TriangulationParams), ("association", AssociationParams),
-                           ("tracks", Tracks3DParams)):
-            names = {f.name for f in fields(kind)}
-            known |= names
-            parts[part] = {k: v for k, v in values.items() if k in names}
-        unknown = sorted(set(values) - known)
-        if unknown:
-            raise ValueError(f"unknown triangulation settings: {', '.join(unknown)}")
-        return cls(
-            TriangulationParams(**parts["triangulation"]),
-            AssociationParams(**parts["association"]),
-            Tracks3DParams(**parts["tracks"]),
-        )
 
 
 @dataclass(frozen=True, slots=True)
@@ -186,11 +154,6 @@ class NavigatorConfig:
     switch_margin_m: float = 0.5
     manual_grace_s: float = 3.0
     reacquire_radius_m: float = 0.6
-
-    @classmethod
-    def from_settings(cls, section: SettingsSection) -> NavigatorConfig:
-        """From the settings' ``navigator`` section."""
-        return cls(**section.model_dump())
 
     def __post_init__(self) -> None:
         _check(self.mode in ("auto", "manual"), "mode must be 'auto' or 'manual'", self.mode)

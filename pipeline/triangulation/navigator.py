@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pipeline.errors import InputError
-from pipeline.triangulation.config import NavigatorConfig, SettingsSection
+from pipeline.triangulation.config import NavigatorConfig
 from pipeline.triangulation.types import Person3D
 
 log = logging.getLogger(__name__)
@@ -77,11 +77,6 @@ class NavigatorSelector:
         self._challenger_since: dict[int, float] = {}
         self._manual_last: _LastSeen | None = None
         self._t = 0.0
-
-    @classmethod
-    def from_settings(cls, section: SettingsSection) -> NavigatorSelector:
-        """Build from the settings' ``navigator`` section."""
-        return cls(NavigatorConfig.from_settings(section))
 
     @property
     def mode(self) -> str:

@@ -21,7 +21,7 @@ from pipeline.errors import InputError
 from pipeline.skeleton import FLIP_PAIRS, NUM_JOINTS
 from pipeline.tracking.types import TrackedView
 from pipeline.triangulation.association import FLIP_PERM, associate
-from pipeline.triangulation.config import ReconstructionConfig, SettingsSection
+from pipeline.triangulation.config import ReconstructionConfig
 from pipeline.triangulation.dlt import CameraRig, triangulate, triangulate_linear
 from pipeline.triangulation.tracks3d import Candidate, Tracks3D
 from pipeline.triangulation.types import Person3D
@@ -79,11 +79,6 @@ class Reconstructor:
         self.rig = CameraRig.from_cameras(cameras)
         self._cam_index = {name: i for i, name in enumerate(self.rig.names)}
         self.tracks = Tracks3D(self.config.tracks, memory_s=self.config.association.memory_s)
-
-    @classmethod
-    def from_settings(cls, cameras: Sequence[Camera], section: SettingsSection) -> Reconstructor:
-        """Build from the calibrated cameras and the settings' ``triangulation`` section."""
-        return cls(cameras, ReconstructionConfig.from_settings(section))
 
     @property
     def cameras(self) -> tuple[Camera, ...]:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import time
 import xml.etree.ElementTree as ET
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -33,9 +34,8 @@ def _wait(client: TestClient, job_id: int, timeout_s: float = 120.0) -> dict[str
 @pytest.fixture()
 def small_search_settings(tmp_path: Path) -> Settings:
     s = make_settings(tmp_path)
-    planner = s.planner.model_copy(
-        update={"mount_heights_m": [2.3], "pans_deg": [0.0], "aim_heights_m": [1.0]}
-    )
+    search = replace(s.planner.search, heights_m=(2.3,), pans_deg=(0.0,), aim_heights_m=(1.0,))
+    planner = replace(s.planner, search=search)
     return s.model_copy(update={"planner": planner})
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -24,15 +25,8 @@ def test_the_planner_panel_maps_the_default_layout_and_searches_mounts(
     if not Path(CHROMIUM).exists():
         pytest.fail(f"{CHROMIUM} missing: apt-get install -y chromium chromium-driver")
     s = make_settings(tmp_path)
-    planner = s.planner.model_copy(
-        update={
-            "mount_heights_m": [2.0, 2.45],
-            "pans_deg": [0.0],
-            "aim_heights_m": [1.0],
-            "top_k": 2,
-            "samples": 1,
-        }
-    )
+    search = replace(s.planner.search, heights_m=(2.0, 2.45), pans_deg=(0.0,), aim_heights_m=(1.0,), top_k=2)
+    planner = replace(s.planner, search=search, samples=1)
     settings = s.model_copy(update={"planner": planner})
     with Served(settings, autostart=None, pipeline_factory=None) as served, sync_playwright() as pw:
         browser = pw.chromium.launch(

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from datetime import UTC, datetime
 from typing import Annotated, Any, Literal
 
@@ -10,11 +11,12 @@ from fastapi import Path as PathParam
 from fastapi.responses import JSONResponse
 
 from app.api.deps import SessionDep, SettingsDep
+from app.core.config import Settings
 from app.db.models import StudySession
 from app.schemas.study import AnalysisPublic
 from app.study.analysis import AnalysisConfig, analyse
 from app.study.data import load_events, load_study
-from app.study.design import DesignConfig, design_summary
+from app.study.design import design_summary
 from app.study.figures import FORMATS, GROUPS, study_figure, timeline_figure
 from app.study.report import export_csv
 
@@ -40,11 +42,16 @@ CorrectionQuery = Annotated[
 ]
 
 
+def _analysis_config(settings: Settings, correction: str | None) -> AnalysisConfig:
+    """The settings' analysis, with the correction a request asks for."""
+    return replace(settings.study.analysis, correction=correction) if correction else settings.study.analysis
+
+
 @router.get("/analysis", response_model=AnalysisPublic)
 def get_analysis(db: SessionDep, settings: SettingsDep, correction: CorrectionQuery = None) -> dict[str, Any]:
     """Per measure: descriptives per condition, Shapiro-Wilk, the chosen paired test, Cohen's d_z with its
     exact CI, and the p-values corrected for multiple comparisons (Holm by default)."""
-    return analyse(load_study(db), AnalysisConfig.from_settings(settings, correction))
+    return analyse(load_study(db), _analysis_config(settings, correction))
 
 
 @router.get("/analysis.json")
@@ -53,8 +60,8 @@ def get_analysis_json(db: SessionDep, settings: SettingsDep) -> JSONResponse:
     data = load_study(db)
     body = {
         "generated_at": datetime.now(UTC).isoformat(),
-        "analysis": analyse(data, AnalysisConfig.from_settings(settings)),
-        "design": design_summary(data, DesignConfig.from_settings(settings)),
+        "analysis": analyse(data, settings.study.analysis),
+        "design": design_summary(data, settings.study.design),
     }
     return JSONResponse(
         body, headers={"Content-Disposition": 'attachment; filename="cavewalk-analysis.json"'}
@@ -68,7 +75,7 @@ def get_figure(name: str, ext: str, db: SessionDep, settings: SettingsDep) -> Re
     if name not in GROUPS:
         raise HTTPException(status.HTTP_404_NOT_FOUND, f"unknown figure {name!r}; use one of {list(GROUPS)}")
     data = load_study(db)
-    analysis = analyse(data, AnalysisConfig.from_settings(settings))
+    analysis = analyse(data, settings.study.analysis)
     return Response(study_figure(data, analysis, name, fmt), media_type=FORMATS[fmt])
 
 

@@ -20,7 +20,6 @@ from app.schemas.study import (
 )
 from app.study.data import load_study
 from app.study.design import (
-    DesignConfig,
     completeness,
     counterbalanced_orders,
     design_summary,
@@ -40,7 +39,7 @@ def instruments() -> dict[str, Any]:
 @router.get("/study/design", response_model=DesignPublic)
 def design(db: SessionDep, settings: SettingsDep) -> dict[str, Any]:
     """Counterbalancing so far, the next participant's order, gap warnings and completeness."""
-    return design_summary(load_study(db), DesignConfig.from_settings(settings))
+    return design_summary(load_study(db), settings.study.design)
 
 
 @router.get("/study/order", response_model=list[OrderPublic])
@@ -57,8 +56,8 @@ def study_completeness(db: SessionDep) -> list[dict[str, Any]]:
 
 @router.get("/study/warnings", response_model=list[GapWarningPublic])
 def study_warnings(db: SessionDep, settings: SettingsDep) -> list[dict[str, Any]]:
-    """Sessions of one participant closer together than the minimum gap (settings: study.min_gap_days)."""
-    cfg = DesignConfig.from_settings(settings)
+    """Sessions of one participant closer together than the minimum gap (study.design.min_gap_days)."""
+    cfg = settings.study.design
     return [w.as_dict() for w in gap_warnings(load_study(db), cfg.min_gap_days)]
 
 

@@ -99,6 +99,8 @@ def test_design_summary() -> None:
 def test_config_from_settings_and_validation() -> None:
     from app.core.config import load_settings
 
-    assert DesignConfig.from_settings(load_settings()).min_gap_days == 2.0
+    assert load_settings().study.design.min_gap_days == 2.0
+    with pytest.warns(FutureWarning, match="study.design.min_gap_days"):
+        assert load_settings(study={"min_gap_days": 3.0}).study.design.min_gap_days == 3.0
     with pytest.raises(ValueError, match="min_gap_days"):
         DesignConfig(min_gap_days=-1)

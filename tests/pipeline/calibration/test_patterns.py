@@ -11,7 +11,6 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from app.core.config import load_settings
 from pipeline.calibration.config import CalibrationConfig
 from pipeline.calibration.patterns import (
     Marker,
@@ -99,9 +98,8 @@ def test_grid_too_large_for_dictionary_or_wall_is_refused() -> None:
         make_layout(box_cave(resolution_px=(64, 48)), CalibrationConfig(grid=(6, 5)))
 
 
-def test_settings_section_builds_the_stage_config() -> None:
-    cfg = load_settings().calibration.to_config()
-    assert isinstance(cfg, CalibrationConfig)
+def test_the_stage_config_defaults() -> None:
+    cfg = CalibrationConfig()
     assert cfg.dictionary == "DICT_4X4_250" and cfg.grid == (6, 5)
 
 

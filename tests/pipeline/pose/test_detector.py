@@ -13,10 +13,11 @@ import pytest
 from pipeline.demo_data import DemoData
 from pipeline.errors import InputError, ModelError
 from pipeline.pixels import to_i420
+from pipeline.pose.config import PoseConfig
 from pipeline.pose.decode import RawPoses, iou_matrix
-from pipeline.pose.detector import PoseDetector, PoseDetectorConfig, merge
-from pipeline.pose.prepare import crop_model_path
-from pipeline.pose.roi import RoiConfig, crop_region, with_margin
+from pipeline.pose.detector import PoseDetector, merge
+from pipeline.pose.model_files import crop_model_path
+from pipeline.pose.roi import crop_region, roi_net_size, with_margin
 from pipeline.pose.types import Job, ViewDetections
 from pipeline.skeleton import J
 
@@ -40,7 +41,7 @@ def demo_frames(demo_data: DemoData) -> dict[int, tuple[list[str], list[np.ndarr
 
 @pytest.fixture(scope="module")
 def detector(pose_model_path: Path) -> PoseDetector:
-    return PoseDetector.load(PoseDetectorConfig(pose_model_path, threads=2))
+    return PoseDetector.load(PoseConfig(threads=2, parallel=1), pose_model_path)
 
 
 def subject(view: ViewDetections) -> int:
@@ -49,10 +50,10 @@ def subject(view: ViewDetections) -> int:
     return int(np.argmax((b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1])))
 
 
-def crop_job(image: int, box: np.ndarray, view: ViewDetections, cfg: RoiConfig) -> Job:
+def crop_job(image: int, box: np.ndarray, view: ViewDetections, cfg: PoseConfig) -> Job:
     """The crop ROI mode makes around ``box`` of ``view`` (margin, network size of its own)."""
-    region = with_margin(box, cfg.margin)
-    net = cfg.net_size(region, view.image_size)
+    region = with_margin(box, cfg.roi_margin)
+    net = roi_net_size(cfg, region, view.image_size)
     return Job(image, crop_region(region, view.image_size, net), net)
 
 
@@ -98,10 +99,10 @@ def test_roi_crops_find_the_same_person(
 ) -> None:
     cams, images = demo_frames[FRAMES[1]]
     full = detector.detect(images, cams, 1, 0.0)
-    cfg = RoiConfig()
+    cfg = PoseConfig()
     jobs = [crop_job(i, view.boxes_xyxy[subject(view)], view, cfg) for i, view in enumerate(full.views)]
     for job in jobs:
-        assert job.net_size is not None and max(job.net_size) <= cfg.long_side
+        assert job.net_size is not None and max(job.net_size) <= cfg.roi_long_side
     roi = detector.detect(images, cams, 1, 0.0, jobs=jobs)
     assert [b.net_size for b in roi.letterboxes] == [j.net_size for j in jobs], "each crop at its own size"
     for crop, whole in zip(roi.letterboxes, full.letterboxes, strict=True):
@@ -131,14 +132,14 @@ def test_crop_cutting_a_person_drops_the_partial_detection(
 
 def test_missing_model_says_how_to_make_it(tmp_path: Path) -> None:
     with pytest.raises(ModelError, match="cavewalk models prepare"):
-        PoseDetector.load(PoseDetectorConfig(tmp_path / "nope.onnx"))
+        PoseDetector.load(PoseConfig(parallel=1), tmp_path / "nope.onnx")
 
 
 def test_a_file_that_is_not_a_model_is_a_model_error(tmp_path: Path) -> None:
     bad = tmp_path / "bad.onnx"
     bad.write_bytes(b"not an onnx file")
     with pytest.raises(ModelError, match="cannot load"):
-        PoseDetector.load(PoseDetectorConfig(bad))
+        PoseDetector.load(PoseConfig(parallel=1), bad)
 
 
 @pytest.mark.parametrize(
@@ -154,13 +155,13 @@ def test_a_file_that_is_not_a_model_is_a_model_error(tmp_path: Path) -> None:
     ],
 )
 def test_config_rejects_bad_values(changes: dict[str, object], match: str) -> None:
-    base = PoseDetectorConfig(Path("m.onnx"))
+    base = PoseConfig()
     with pytest.raises(ValueError, match=match):
         replace(base, **changes)  # type: ignore[arg-type]
 
 
 def test_cuda_requested_without_cuda_falls_back_to_cpu(pose_model_path: Path) -> None:
-    det = PoseDetector.load(PoseDetectorConfig(pose_model_path, providers=("cuda", "cpu"), threads=1))
+    det = PoseDetector.load(PoseConfig(providers=("cuda", "cpu"), threads=1, parallel=1), pose_model_path)
     assert det.providers[-1] == "CPUExecutionProvider"
 
 
@@ -202,11 +203,11 @@ def test_parallel_runs_give_what_one_run_gives(
 ) -> None:
     """Crops of several sizes split over two threads: the same detections as one thread in turn."""
     cams, images = demo_frames[FRAMES[1]]
-    one = PoseDetector.load(PoseDetectorConfig(pose_model_path, threads=1, parallel=1))
-    two = PoseDetector.load(PoseDetectorConfig(pose_model_path, parallel=2))
+    one = PoseDetector.load(PoseConfig(threads=1, parallel=1), pose_model_path)
+    two = PoseDetector.load(PoseConfig(parallel=2), pose_model_path)
     assert two.config.intra_op_threads == 1, "side-by-side runs use one onnxruntime thread each"
     full = one.detect(images, cams, 1, 0.0)
-    cfg = RoiConfig()
+    cfg = PoseConfig()
     jobs = [Job(i, None, (192, 320)) for i in range(len(images))]  # coarse whole views, one size
     # and crops, of sizes that differ by view
     jobs += [crop_job(i, view.boxes_xyxy[subject(view)], view, cfg) for i, view in enumerate(full.views)]
@@ -241,10 +242,9 @@ def test_crops_on_the_crop_model_find_what_the_full_model_finds(
 ) -> None:
     """The head without its stride-8 level gives the people of person-sized crops to the pixel."""
     crop_model = crop_model_path(pose_model_path)
-    full = PoseDetector.load(PoseDetectorConfig(pose_model_path, threads=1, parallel=1))
-    cropped = PoseDetector.load(PoseDetectorConfig(pose_model_path, threads=1, parallel=1,
-                                                   crop_model_path=crop_model))
-    cfg = RoiConfig()
+    full = PoseDetector.load(PoseConfig(threads=1, parallel=1), pose_model_path)
+    cropped = PoseDetector.load(PoseConfig(threads=1, parallel=1), pose_model_path, crop_model)
+    cfg = PoseConfig()
     for frame in FRAMES:
         cams, images = demo_frames[frame]
         found = full.detect(images, cams, 1, 0.0)
@@ -258,13 +258,10 @@ def test_crops_on_the_crop_model_find_what_the_full_model_finds(
 
 
 def test_the_crop_model_is_used_when_it_is_there_and_wanted(pose_model_path: Path, tmp_path: Path) -> None:
-    from app.core.config import Settings
-
-    on = Settings.model_validate({"pose": {"model": str(pose_model_path)}})
-    assert PoseDetectorConfig.from_settings(on.pose, pose_model_path).crop_model_path == \
-        crop_model_path(pose_model_path)
-    off = Settings.model_validate({"pose": {"model": str(pose_model_path), "crop_model": False}})
-    assert PoseDetectorConfig.from_settings(off.pose, pose_model_path).crop_model_path is None
+    on = PoseConfig(model=pose_model_path)
+    assert on.crop_model_file(pose_model_path) == crop_model_path(pose_model_path)
+    off = PoseConfig(model=pose_model_path, crop_model=False)
+    assert off.crop_model_file(pose_model_path) is None
     lone = tmp_path / "custom.onnx"
     shutil.copy2(pose_model_path, lone)
-    assert PoseDetectorConfig.from_settings(on.pose, lone).crop_model_path is None, "no crop model beside it"
+    assert on.crop_model_file(lone) is None, "no crop model beside it"

@@ -8,13 +8,13 @@ import cv2
 import numpy as np
 import pytest
 
-from app.core.config import Settings
 from pipeline.demo_data import DemoData
+from pipeline.pose.config import PoseConfig
 from pipeline.pose.decode import iou_matrix
-from pipeline.pose.detector import PoseDetector, PoseDetectorConfig
-from pipeline.pose.prepare import crop_model_path, int8_path
+from pipeline.pose.detector import PoseDetector
+from pipeline.pose.model_files import Precision, crop_model_path, int8_path
 from pipeline.pose.quantize import excluded_head_nodes
-from pipeline.pose.roi import RoiConfig, RoiScheduler
+from pipeline.pose.roi import RoiScheduler
 from pipeline.tracking.benchmark import run_detect_benchmark
 from pipeline.tracking.ocsort import MultiViewTracker, OCSortConfig
 from pipeline.tracking.stage import DetectAndTrack
@@ -42,8 +42,8 @@ def frames(demo_data: DemoData) -> list[tuple[list[str], list[np.ndarray]]]:
 def test_int8_finds_the_same_people_with_keypoints_a_few_px_from_fp32(
     pose_model_path: Path, frames: list[tuple[list[str], list[np.ndarray]]]
 ) -> None:
-    fp32 = PoseDetector.load(PoseDetectorConfig(pose_model_path, threads=2))
-    int8 = PoseDetector.load(PoseDetectorConfig(int8_path(pose_model_path), threads=2))
+    fp32 = PoseDetector.load(PoseConfig(threads=2, parallel=1), pose_model_path)
+    int8 = PoseDetector.load(PoseConfig(threads=2, parallel=1), int8_path(pose_model_path))
     distances: list[float] = []
     ious: list[float] = []
     for cams, images in frames:
@@ -79,11 +79,10 @@ def test_int8_keeps_the_demo_ids_in_roi_mode(demo_data: DemoData, pose_model_pat
     """The figures of issue 5 with the int8 models as the live pipeline runs them (crops on the
     int8 crop model, two model calls side by side), 4 views x 100 frames."""
     model = int8_path(pose_model_path)
-    config = PoseDetectorConfig(model, crop_model_path=crop_model_path(model), parallel=2)
-    detector = PoseDetector.load(config)
+    detector = PoseDetector.load(PoseConfig(parallel=2), model, crop_model_path(model))
 
     def make(cams: list[str]) -> DetectAndTrack:
-        return DetectAndTrack(detector, MultiViewTracker(cams, OCSortConfig()), RoiScheduler(RoiConfig()))
+        return DetectAndTrack(detector, MultiViewTracker(cams, OCSortConfig()), RoiScheduler(PoseConfig()))
 
     result = run_detect_benchmark(demo_data.videos, make, "roi")
     assert result.frames == 100 and result.views == 4
@@ -114,13 +113,12 @@ def test_which_nodes_stay_float32(name: str, stays_fp32: bool) -> None:
 
 @pytest.mark.parametrize(("precision", "file"), [
     ("fp32", "yolo11n-pose.onnx"), ("int8", "yolo11n-pose.int8.onnx")])
-def test_precision_picks_the_model_file(precision: str, file: str, tmp_path: Path) -> None:
-    s = Settings.model_validate({"paths": {"models_dir": str(tmp_path)}, "pose": {"precision": precision}})
-    assert s.pose_model_path == tmp_path / file
-    named = Settings.model_validate({"pose": {"precision": precision, "model": str(tmp_path / "x.onnx")}})
-    assert named.pose_model_path == tmp_path / "x.onnx", "an explicit model file wins"
+def test_precision_picks_the_model_file(precision: Precision, file: str, tmp_path: Path) -> None:
+    assert PoseConfig(precision=precision).model_file(tmp_path) == tmp_path / file
+    named = PoseConfig(precision=precision, model=tmp_path / "x.onnx")
+    assert named.model_file(tmp_path) == tmp_path / "x.onnx", "an explicit model file wins"
 
 
 def test_unknown_precision_is_rejected() -> None:
     with pytest.raises(ValueError, match="precision"):
-        Settings.model_validate({"pose": {"precision": "fp16"}})
+        PoseConfig(precision="fp16")  # type: ignore[arg-type]

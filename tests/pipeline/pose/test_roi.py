@@ -8,7 +8,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from pipeline.pose.roi import RoiConfig, RoiScheduler, crop_region, merge_regions, with_margin
+from pipeline.pose.config import PoseConfig
+from pipeline.pose.roi import RoiScheduler, crop_region, merge_regions, roi_net_size, with_margin
 from pipeline.pose.types import Job
 
 SIZES = [(1080, 1920), (1080, 1920)]
@@ -18,9 +19,9 @@ def person(cx: float = 540, cy: float = 900, w: float = 300, h: float = 800) -> 
     return np.array([cx - w / 2, cy - h / 2, cx + w / 2, cy + h / 2])
 
 
-def started(config: RoiConfig | None = None, views: int = 2) -> RoiScheduler:
+def started(config: PoseConfig | None = None, views: int = 2) -> RoiScheduler:
     """A scheduler past its first frame (every view looked at whole once)."""
-    sched = RoiScheduler(config or RoiConfig())
+    sched = RoiScheduler(config or PoseConfig())
     plan = sched.plan(SIZES[:1] * views, [{}] * views)
     assert plan.full and plan.reason in ("first frame", "roi off")
     sched.report()
@@ -28,7 +29,7 @@ def started(config: RoiConfig | None = None, views: int = 2) -> RoiScheduler:
 
 
 def test_first_frame_is_full_then_crops_per_track() -> None:
-    sched = RoiScheduler(RoiConfig())
+    sched = RoiScheduler(PoseConfig())
     plan = sched.plan(SIZES, [{}, {}])
     assert plan.full and plan.reason == "first frame" and plan.full_views == {0, 1}
     assert plan.jobs == (Job(0), Job(1))
@@ -46,17 +47,17 @@ def test_first_frame_is_full_then_crops_per_track() -> None:
 
 
 def test_crops_are_sampled_no_finer_than_the_full_frame_pass() -> None:
-    cfg = RoiConfig()
-    full_scale = cfg.full_long_side / 1920
+    cfg = PoseConfig()
+    full_scale = cfg.input_long_side / 1920
     for h in (300, 600, 900, 1500):
-        region = with_margin(person(h=h, w=h / 3), cfg.margin)
-        net_w, net_h = cfg.net_size(region, (1080, 1920))
+        region = with_margin(person(h=h, w=h / 3), cfg.roi_margin)
+        net_w, net_h = roi_net_size(cfg, region, (1080, 1920))
         crop = crop_region(region, (1080, 1920), (net_w, net_h))
         crop_h = crop[3] - crop[1]
-        assert cfg.min_side <= net_h <= cfg.long_side and net_h % 32 == 0 and net_w % 32 == 0
+        assert cfg.crop_min_side <= net_h <= cfg.roi_long_side and net_h % 32 == 0 and net_w % 32 == 0
         # the smallest multiple of 32 that samples at least as finely as the full pass (or a bound)
-        assert net_h - 32 < crop_h * full_scale or net_h == cfg.min_side, f"h={h}: {net_h} px for {crop_h}"
-        assert net_h >= min(crop_h * full_scale, cfg.long_side) - 1e-6, f"h={h}: coarser than the full pass"
+        assert net_h - 32 < crop_h * full_scale or net_h == cfg.crop_min_side, f"h={h}: {net_h} px, {crop_h}"
+        assert net_h >= min(crop_h * full_scale, cfg.roi_long_side) - 1e-6, f"h={h}: coarser than the full"
 
 
 def test_a_view_without_tracks_is_looked_at_whole_at_the_crop_size() -> None:
@@ -79,7 +80,7 @@ def test_a_lost_track_gets_that_view_looked_at_whole_and_only_that_view() -> Non
 
 def test_looks_for_newcomers_are_staggered_over_the_views() -> None:
     views = 4
-    sched = started(RoiConfig(full_every=8), views)
+    sched = started(PoseConfig(roi_full_every=8), views)
     looked: dict[int, list[int]] = {}
     for frame in range(1, 25):
         plan = sched.plan(SIZES[:1] * views, [{1: person()}] * views)
@@ -101,12 +102,12 @@ def test_looks_for_newcomers_are_staggered_over_the_views() -> None:
 @pytest.mark.parametrize(
     ("config", "expected", "reason"),
     [
-        (RoiConfig(enabled=False), [{1: person()}, {1: person()}], "roi off"),
-        (RoiConfig(), [{}, {}], "nobody tracked"),
-        (RoiConfig(max_crops=1), [{1: person()}, {1: person()}], "too many crops"),
+        (PoseConfig(roi=False), [{1: person()}, {1: person()}], "roi off"),
+        (PoseConfig(), [{}, {}], "nobody tracked"),
+        (PoseConfig(roi_max_crops=1), [{1: person()}, {1: person()}], "too many crops"),
     ],
 )
-def test_falls_back_to_full_frames(config: RoiConfig, expected: list[dict[int, np.ndarray]],
+def test_falls_back_to_full_frames(config: PoseConfig, expected: list[dict[int, np.ndarray]],
                                    reason: str) -> None:
     sched = started(config)
     plan = sched.plan(SIZES, expected)
@@ -114,7 +115,7 @@ def test_falls_back_to_full_frames(config: RoiConfig, expected: list[dict[int, n
 
 
 def test_camera_keys_keep_their_state_when_a_camera_is_missing() -> None:
-    sched = RoiScheduler(RoiConfig())
+    sched = RoiScheduler(PoseConfig())
     sched.plan(SIZES, [{}, {}], ["a", "b"])
     sched.report()
     sched.plan(SIZES, [{1: person()}, {1: person()}], ["a", "b"])
@@ -128,14 +129,14 @@ def test_camera_keys_keep_their_state_when_a_camera_is_missing() -> None:
 
 def test_report_needs_a_plan() -> None:
     with pytest.raises(RuntimeError, match="plan"):
-        RoiScheduler(RoiConfig()).report()
+        RoiScheduler(PoseConfig()).report()
 
 
 def test_crop_region_contains_the_box_with_margin_and_stays_in_the_image() -> None:
     b = person(100, 500, 200, 600)  # near the left edge
     region = with_margin(b, 0.1)
     assert region == pytest.approx((-60, 140, 260, 860))
-    net = RoiConfig().net_size(region, (1080, 1920))
+    net = roi_net_size(PoseConfig(), region, (1080, 1920))
     x1, y1, x2, y2 = crop_region(region, (1080, 1920), net)
     assert x1 >= 0 and y1 >= 0 and x2 <= 1080 and y2 <= 1920, "shifted into the image"
     assert x1 <= b[0] and y1 <= b[1] - 60 + 1e-6 and x2 >= b[2] and y2 >= b[3] + 60 - 1e-6
@@ -144,12 +145,13 @@ def test_crop_region_contains_the_box_with_margin_and_stays_in_the_image() -> No
 
 
 def test_net_size_widens_for_wide_people_within_bounds() -> None:
-    cfg = RoiConfig()
-    narrow = cfg.net_size(with_margin(person(w=200, h=900), 0.1), (1080, 1920))
-    wide = cfg.net_size(with_margin(person(w=700, h=900), 0.1), (1080, 1920))
+    cfg = PoseConfig()
+    narrow = roi_net_size(cfg, with_margin(person(w=200, h=900), 0.1), (1080, 1920))
+    wide = roi_net_size(cfg, with_margin(person(w=700, h=900), 0.1), (1080, 1920))
     assert narrow == (128, 320), "a 200x900 box plus margins (0.35) is held at min_aspect 0.4"
     assert wide[0] > narrow[0] and wide[1] == 320
-    assert cfg.net_size(with_margin(person(w=3000, h=1000), 0.0), (1080, 1920)) == (320, 320), "max_aspect"
+    wider = roi_net_size(cfg, with_margin(person(w=3000, h=1000), 0.0), (1080, 1920))
+    assert wider == (320, 320), "max_aspect"
 
 
 def test_people_side_by_side_share_a_crop_but_distant_ones_do_not() -> None:
@@ -167,17 +169,18 @@ def test_people_side_by_side_share_a_crop_but_distant_ones_do_not() -> None:
 
 @pytest.mark.parametrize(
     ("changes", "match"),
-    [({"long_side": 100}, "multiple of 32"), ({"min_side": 40}, "multiple of 32"),
-     ({"min_side": 352}, "min_side"), ({"margin": -1}, "margin"), ({"full_every": 0}, "full_every"),
-     ({"min_aspect": 2.0}, "min_aspect"), ({"merge_growth": 0.5}, "merge_growth")],
+    [({"roi_long_side": 100}, "multiple of 32"), ({"roi_min_side": 40}, "multiple of 32"),
+     ({"roi_min_side": 352}, "min_side"), ({"roi_margin": -1}, "margin"),
+     ({"roi_full_every": 0}, "full_every"),
+     ({"roi_min_aspect": 2.0}, "min_aspect"), ({"roi_merge_growth": 0.5}, "merge_growth")],
 )
 def test_config_rejects_bad_values(changes: dict[str, float], match: str) -> None:
     with pytest.raises(ValueError, match=match):
-        replace(RoiConfig(), **changes)  # type: ignore[arg-type]
+        replace(PoseConfig(), **changes)  # type: ignore[arg-type]
 
 
 def test_crops_stay_still_while_the_person_stays_inside() -> None:
-    sched = started(RoiConfig(margin=0.1), views=1)
+    sched = started(PoseConfig(roi_margin=0.1), views=1)
     crops = []
     for k in range(12):
         plan = sched.plan(SIZES[:1], [{1: person(400 + 10 * k, 900)}])

@@ -241,19 +241,6 @@ def test_filter_rejects_bad_probabilities() -> None:
     assert f.label == 0 and f.probs[0] == 1.0, "a rejected update leaves the filter as it was"
 
 
-def test_config_from_settings() -> None:
-    from app.core.config import load_settings
-
-    s = load_settings(recognition={"ema_alpha": 0.4, "min_dwell_s": 0.2, "forward_step_m": 0.5})
-    cfg = s.recognition.to_config()
-    assert isinstance(cfg, RecognizerConfig)
-    assert (cfg.ema_alpha, cfg.min_dwell_s, cfg.speed.forward_step_m) == (0.4, 0.2, 0.5)
-    assert cfg.model_path == DEFAULT_MODEL_PATH
-
-
-# ------------------------------------------------------------------ no data (issue 15, D4)
-
-
 @pytest.mark.parametrize("value", [np.nan, np.inf, -np.inf])
 def test_no_data_is_still_with_confidence_zero(value: float, caplog: pytest.LogCaptureFixture) -> None:
     rec = ActionRecognizer.from_config(RecognizerConfig())

@@ -7,9 +7,13 @@ from pathlib import Path
 
 import pytest
 
-from app.core.config import Settings
+from pipeline.cave import box_cave
 from pipeline.demo_data import DemoData
-from pipeline.runtime import Pipeline, RuntimeConfig, SimWorldFactory, fusion_factory_from_settings
+from pipeline.emitter.udp import EmitterConfig
+from pipeline.runtime.config import RuntimeConfig
+from pipeline.runtime.pipeline import Pipeline
+from pipeline.runtime.stages import FusionFactory, SimWorldFactory
+from pipeline.sim.world import SimConfig
 
 from .live import Listener, shrink_video
 
@@ -30,10 +34,11 @@ def listener() -> Iterator[Listener]:
 
 
 @pytest.fixture()
-def sim_pipeline(base_settings: Settings) -> Iterator[Pipeline]:
+def sim_pipeline() -> Iterator[Pipeline]:
     """The real pipeline on the simulator source (30 fps, one bystander)."""
-    sim = SimWorldFactory.from_settings(base_settings.sim, base_settings.cave.geometry(), fps=30.0)
-    pipeline = Pipeline(RuntimeConfig(target_fps=30.0, heartbeat_s=0.25), None,
-                        fusion=fusion_factory_from_settings(base_settings, None), sim_factory=sim)
+    sim = SimWorldFactory.build(SimConfig(fps=30.0), box_cave())
+    pipeline = Pipeline(RuntimeConfig(target_fps=30.0), None, sim_factory=sim,
+                        fusion=FusionFactory(cameras=None, camera_names=()),
+                        emitter=EmitterConfig(heartbeat_s=0.25))
     yield pipeline
     pipeline.close()

@@ -9,7 +9,8 @@ import pytest
 
 from pipeline.errors import InputError, SourceError
 from pipeline.recognition.recognizer import DEFAULT_MODEL_PATH
-from pipeline.runtime import Pipeline, RuntimeConfig
+from pipeline.runtime.config import RuntimeConfig
+from pipeline.runtime.pipeline import Pipeline
 
 from .live import Listener, children_alive, shm_segments, wait_for
 

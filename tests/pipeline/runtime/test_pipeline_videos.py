@@ -9,10 +9,12 @@ from pathlib import Path
 import cv2
 import pytest
 
-from app.core.config import Settings
 from pipeline.demo_data import DemoData
 from pipeline.errors import InputError, SourceError
-from pipeline.runtime import Pipeline, PoseStageFactory, RuntimeConfig, fusion_factory_from_settings
+from pipeline.pose.config import PoseConfig
+from pipeline.runtime.config import RuntimeConfig
+from pipeline.runtime.pipeline import Pipeline
+from pipeline.runtime.stages import FusionFactory, PoseStageFactory
 from pipeline.sources.grouper import GrouperConfig
 
 from .live import children_alive, shm_segments, wait_for
@@ -20,19 +22,19 @@ from .live import children_alive, shm_segments, wait_for
 pytestmark = pytest.mark.slow
 
 
-def video_pipeline(settings: Settings, pose_model_path: Path, cameras: dict[str, str] | None = None,
+def video_pipeline(pose_model_path: Path, cameras: dict[str, str] | None = None,
                    **config: object) -> Pipeline:
     base = RuntimeConfig(target_fps=15.0, video_pace_fps=15.0, video_loop=True, camera_retry_s=0.3,
                          grouper=GrouperConfig(tolerance_s=0.03, max_wait_s=0.02, gone_after_s=0.6))
     return Pipeline(replace(base, **config), None, camera_sources=cameras,  # type: ignore[arg-type]
-                    pose_factory=PoseStageFactory.from_settings(settings.pose, pose_model_path),
-                    fusion=fusion_factory_from_settings(settings, None))
+                    pose_factory=PoseStageFactory(PoseConfig(), pose_model_path),
+                    fusion=FusionFactory(cameras=None, camera_names=()))
 
 
 def test_videos_run_with_the_real_detector_and_stop_clean(
-        base_settings: Settings, pose_model_path: Path, small_videos: dict[str, Path]) -> None:
+        pose_model_path: Path, small_videos: dict[str, Path]) -> None:
     before = shm_segments()
-    pipeline = video_pipeline(base_settings, pose_model_path)
+    pipeline = video_pipeline(pose_model_path)
     try:
         pipeline.start("videos", {k: small_videos[k] for k in ("cam01", "cam02")})
         assert len(shm_segments() - before) == 2, "one shared-memory ring per camera"
@@ -55,7 +57,7 @@ def test_videos_run_with_the_real_detector_and_stop_clean(
 
 
 def test_a_video_that_ends_and_a_camera_that_vanishes_do_not_stop_the_others(
-        base_settings: Settings, pose_model_path: Path, small_videos: dict[str, Path],
+        pose_model_path: Path, small_videos: dict[str, Path],
         tmp_path: Path) -> None:
     folder = tmp_path / "cam04"
     folder.mkdir()
@@ -67,7 +69,7 @@ def test_a_video_that_ends_and_a_camera_that_vanishes_do_not_stop_the_others(
     cap.release()
     cameras = {"cam01": str(small_videos["cam01"]), "cam03": str(small_videos["cam03"]), "cam04": str(folder)}
     # played once at 10 fps: cam01 and cam04 last 6 s, cam03 (12 frames) ends after 1.2 s
-    pipeline = video_pipeline(base_settings, pose_model_path, cameras, video_loop=False, video_pace_fps=10.0)
+    pipeline = video_pipeline(pose_model_path, cameras, video_loop=False, video_pace_fps=10.0)
     try:
         pipeline.start("cameras")
         wait_for(lambda: any(c["name"] == "cam03" and c["last_error"] == "source ended"
@@ -92,12 +94,12 @@ def test_a_video_that_ends_and_a_camera_that_vanishes_do_not_stop_the_others(
 
 
 def test_bad_videos_are_rejected_and_nothing_starts(
-        base_settings: Settings, pose_model_path: Path, small_videos: dict[str, Path],
+        pose_model_path: Path, small_videos: dict[str, Path],
         tmp_path: Path) -> None:
     before = shm_segments()
     bad = tmp_path / "bad.mp4"
     bad.write_bytes(b"not a video")
-    pipeline = video_pipeline(base_settings, pose_model_path)
+    pipeline = video_pipeline(pose_model_path)
     try:
         with pytest.raises(InputError, match="video not found"):
             pipeline.start("videos", {"cam01": tmp_path / "missing.mp4"})
@@ -112,13 +114,13 @@ def test_bad_videos_are_rejected_and_nothing_starts(
 
 
 def test_calibration_that_does_not_match_the_videos(
-        base_settings: Settings, pose_model_path: Path, small_videos: dict[str, Path],
+        pose_model_path: Path, small_videos: dict[str, Path],
         demo_data: DemoData) -> None:
     from pipeline.calibration.io import load_calibration
 
     cams = load_calibration(demo_data.calibration)
     pipeline = Pipeline(RuntimeConfig(), cams,
-                        pose_factory=PoseStageFactory.from_settings(base_settings.pose, pose_model_path))
+                        pose_factory=PoseStageFactory(PoseConfig(), pose_model_path))
     try:
         with pytest.raises(InputError, match=r"cameras \['side'\] are not in the calibration"):
             pipeline.start("videos", {"cam01": small_videos["cam01"], "side": small_videos["cam02"]})
@@ -128,11 +130,11 @@ def test_calibration_that_does_not_match_the_videos(
 
 
 def test_a_killed_capture_worker_is_restarted_and_its_camera_returns(
-        base_settings: Settings, pose_model_path: Path, small_videos: dict[str, Path]) -> None:
+        pose_model_path: Path, small_videos: dict[str, Path]) -> None:
     import os
     import signal
 
-    pipeline = video_pipeline(base_settings, pose_model_path)
+    pipeline = video_pipeline(pose_model_path)
     try:
         pipeline.start("videos", {k: small_videos[k] for k in ("cam01", "cam02")})
         wait_for(lambda: pipeline.status().processed >= 2, 120, "first results")

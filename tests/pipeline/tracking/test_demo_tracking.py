@@ -8,8 +8,9 @@ from pathlib import Path
 import pytest
 
 from pipeline.demo_data import DemoData
-from pipeline.pose.detector import PoseDetector, PoseDetectorConfig
-from pipeline.pose.roi import RoiConfig, RoiScheduler
+from pipeline.pose.config import PoseConfig
+from pipeline.pose.detector import PoseDetector
+from pipeline.pose.roi import RoiScheduler
 from pipeline.tracking.benchmark import run_detect_benchmark
 from pipeline.tracking.ocsort import MultiViewTracker, OCSortConfig
 from pipeline.tracking.stage import DetectAndTrack
@@ -17,10 +18,10 @@ from pipeline.tracking.stage import DetectAndTrack
 
 @pytest.mark.slow
 def test_demo_ids_are_stable_and_keypoints_found(demo_data: DemoData, pose_model_path: Path) -> None:
-    detector = PoseDetector.load(PoseDetectorConfig(pose_model_path, threads=2))
+    detector = PoseDetector.load(PoseConfig(threads=2, parallel=1), pose_model_path)
 
     def make(cams: list[str]) -> DetectAndTrack:
-        return DetectAndTrack(detector, MultiViewTracker(cams, OCSortConfig()), RoiScheduler(RoiConfig()))
+        return DetectAndTrack(detector, MultiViewTracker(cams, OCSortConfig()), RoiScheduler(PoseConfig()))
 
     result = run_detect_benchmark(demo_data.videos, make, "roi")
     assert result.frames == 100 and result.views == 4

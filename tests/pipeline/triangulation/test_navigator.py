@@ -121,9 +121,7 @@ def test_bad_navigator_config_is_rejected() -> None:
 
 
 def test_changes_are_logged_and_the_selector_comes_from_the_settings(caplog) -> None:
-    from app.core.config import load_settings
-
-    sel = NavigatorSelector.from_settings(load_settings(navigator={"dwell_s": 0.0}).navigator)
+    sel = NavigatorSelector(NavigatorConfig(dwell_s=0.0))
     assert sel.config.dwell_s == 0.0 and sel.mode == "auto"
     with caplog.at_level("INFO", logger="pipeline.triangulation.navigator"):
         sel.update([person(4, 0.0, 0.0)], 0.0)

@@ -7,12 +7,16 @@ import copy
 import numpy as np
 import pytest
 
-from app.core.config import load_settings
 from pipeline.camera import project
 from pipeline.errors import InputError
 from pipeline.pose.types import ViewDetections
 from pipeline.tracking.types import TrackedView
-from pipeline.triangulation.config import ReconstructionConfig, Tracks3DParams
+from pipeline.triangulation.config import (
+    AssociationParams,
+    ReconstructionConfig,
+    Tracks3DParams,
+    TriangulationParams,
+)
 from pipeline.triangulation.reconstructor import FLIP_PERM, Reconstructor, flipped_views
 from tests.pipeline.triangulation.scene import corner_cameras, observe, skeleton_at
 
@@ -151,14 +155,14 @@ def _rename(view, name):
     return TrackedView(det, view.track_ids, view.detection_index)
 
 
-def test_config_comes_from_the_settings() -> None:
-    s = load_settings(triangulation={"outlier_ratio": 4.0, "smoothing": "none", "memory_s": 9.0})
-    cfg = s.triangulation.to_config()
+def test_the_reconstructor_keeps_its_three_configs() -> None:
+    cfg = ReconstructionConfig(TriangulationParams(outlier_ratio=4.0), AssociationParams(memory_s=9.0),
+                               Tracks3DParams(smoothing="none"))
     assert cfg.triangulation.outlier_ratio == 4.0
     assert cfg.tracks.smoothing == "none" and cfg.association.memory_s == 9.0
-    with pytest.raises(ValueError, match="unknown triangulation settings: bogus"):
-        ReconstructionConfig.from_flat({"bogus": 1})
-    rec = Reconstructor.from_settings(CAMS, s.triangulation)
+    with pytest.raises(TypeError, match="bogus"):
+        TriangulationParams(bogus=1)  # type: ignore[call-arg]
+    rec = Reconstructor(CAMS, cfg)
     assert rec.config == cfg and rec.rig.names == tuple(c.name for c in CAMS)
 
 
