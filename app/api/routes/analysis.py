@@ -38,7 +38,7 @@ def _format(ext: str) -> str:
 
 CorrectionQuery = Annotated[
     Literal["holm", "bonferroni", "none"] | None,
-    Query(description="Multiple-comparison correction (default: settings study.correction, Holm)."),
+    Query(description="Multiple-comparison correction (default: settings study.analysis.correction, Holm)."),
 ]
 
 

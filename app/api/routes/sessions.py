@@ -16,6 +16,7 @@ from fastapi import APIRouter, Query, Request, Response, status
 from fastapi.responses import JSONResponse
 
 from app.api.deps import EventsDep, IdPath, SessionDep, SettingsDep
+from app.core.config import Settings
 from app.db import repositories as repo
 from app.db.models import StudySession
 from app.schemas.participants import ExclusionRequest
@@ -26,6 +27,7 @@ from app.services.participant_link import link_url, qr_svg
 from app.study.questionnaires import QuestionnaireError, score
 from app.study.session_script import session_script
 from app.study.summary import session_summary
+from pipeline.recognition.recognizer import DEFAULT_MODEL_PATH
 
 router = APIRouter(prefix="/sessions", tags=["sessions"])
 
@@ -53,15 +55,15 @@ def questionnaire_error(exc: QuestionnaireError) -> JSONResponse:
     return JSONResponse({"detail": str(exc), "items": list(exc.items)}, status_code=422)
 
 
-def start_context(request: Request, settings: Any) -> dict[str, Any]:
+def start_context(request: Request, settings: Settings) -> dict[str, Any]:
     """What a session's start event records: the active calibration, the models, the navigator."""
     snap = request.app.state.pipeline.snapshot()
     calibration = request.app.state.calibration
-    model = settings.recognition.model
+    model = settings.recognition.model_path
     return {
         "calibration_id": calibration.active_id,
         "pose_model": settings.pose_model_path.name,
-        "action_model": model.name if model is not None else "action.onnx (committed)",
+        "action_model": model.name if model != DEFAULT_MODEL_PATH else "action.onnx (committed)",
         "pipeline": snap.get("state"),
         "source": snap.get("source"),
         "navigator": snap.get("navigator"),
