@@ -115,12 +115,12 @@ class GateVerdict:
 
     def to_dict(self) -> dict[str, object]:
         return {
-            "active": self.active,
+            "active": bool(self.active),
             "command": ACTIONS[self.label],
             "reason": self.reason,
             "evidence": self.evidence,
-            "allowance_s": round(self.allowance_s, 3),
-            "deadline_s": round(self.deadline_s, 3) if math.isfinite(self.deadline_s) else None,
+            "allowance_s": round(float(self.allowance_s), 3),
+            "deadline_s": round(float(self.deadline_s), 3) if math.isfinite(self.deadline_s) else None,
         }
 
 

@@ -187,26 +187,26 @@ class StepFrame:
             "feet": [
                 {
                     "foot": name,
-                    "known": f.known,
-                    "planted": f.planted,
-                    "rising": f.rising,
-                    "lifted": f.lifted,
-                    "landed": f.landed,
+                    "known": bool(f.known),
+                    "planted": bool(f.planted),
+                    "rising": bool(f.rising),
+                    "lifted": bool(f.lifted),
+                    "landed": bool(f.landed),
                     "height_m": r(f.height_m),
                     "swing_s": r(f.swing_s),
                     "lateral_m": r(f.lateral_m),
                     "sagittal_m": r(f.sagittal_m),
                     "vertical_m": r(f.vertical_m),
                     "kind": f.kind,
-                    "jump": f.jump,
+                    "jump": bool(f.jump),
                     "turn_deg": r(f.turn_deg, 1),
                 }
                 for name, f in zip(FEET, self.feet, strict=True)
             ],
             "leg_m": r(self.leg_m),
-            "crouched": self.crouched,
+            "crouched": bool(self.crouched),
             "pelvis_ratio": r(self.pelvis_ratio),
-            "stepping": FEET[self.stepping] if self.stepping >= 0 else None,
+            "stepping": FEET[int(self.stepping)] if self.stepping >= 0 else None,
         }
 
 

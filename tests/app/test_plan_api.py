@@ -132,6 +132,8 @@ def test_the_active_calibration_is_planned_after_a_calibration_run(client: TestC
     while client.get(f"/api/v1/calibration/runs/{run['id']}").json()["status"] not in ("done", "failed"):
         assert time.monotonic() < deadline, "the calibration run did not finish"
         time.sleep(0.2)
+    # a finished run waits for the operator's accept (issue 19.9)
+    assert client.post(f"/api/v1/calibration/runs/{run['id']}/activate").json()["active"]
     assert client.get("/api/v1/calibration/active").json()["id"] == run["id"]
     job = _wait(client, client.post("/api/v1/plan", json={"source": "active", **QUICK}).json()["id"])
     assert job["status"] == "done", job["message"]

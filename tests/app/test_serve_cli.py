@@ -17,6 +17,12 @@ from pipeline.errors import CavewalkError
 ROOT = Path(__file__).resolve().parents[2]
 
 
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
 @pytest.fixture()
 def busy_port() -> Iterator[int]:
     s = socket.socket()
@@ -49,6 +55,9 @@ def test_bad_options_raise_a_cavewalk_error(
         args[args.index("NOTADB")] = str(notes)
     if "--db" not in args:
         args += ["--db", str(tmp_path / "x.db")]
+    for opt in ("--port", "--viser-port"):  # not 8000/8080, which another server here may hold
+        if opt not in args:
+            args += [opt, str(free_port())]
     result = CliRunner().invoke(cli, ["demo", *args])
     assert isinstance(result.exception, CavewalkError), result.output
     assert match in str(result.exception)

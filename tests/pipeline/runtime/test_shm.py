@@ -98,7 +98,9 @@ def test_another_process_reads_the_frames_and_nothing_is_left() -> None:
     assert ring.spec.shm_name in shm_names(), "a reader exiting must not unlink the owner's segment"
     ring.unlink()
     ring.unlink()  # twice is fine
-    assert shm_names() == before, "no segment left after unlink"
+    # only this test's own segments: other processes on a shared machine come and go in /dev/shm
+    assert ring.spec.shm_name not in shm_names(), "the segment is gone after unlink"
+    assert not {n for n in shm_names() - before if "proc" in n}, "no segment of this test left"
 
 
 def test_attach_to_missing_ring() -> None:
