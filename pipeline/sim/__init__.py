@@ -8,8 +8,9 @@
 - :mod:`pipeline.sim.routines`: one seed -> a person doing a routine of a kind (training API).
 - :mod:`pipeline.sim.motion`: ``simulate_user``: animated users (17 COCO joints in the CAVE
   frame) with ground-truth labels, tags, foot contacts, yaw and speed; planned by
-  :mod:`pipeline.sim.stepping` (stepping bouts, turns), :mod:`pipeline.sim.behaviours` (still
-  behaviours) on :mod:`pipeline.sim.feet` (foot moves) and :mod:`pipeline.sim.plan` (channels).
+  :mod:`pipeline.sim.stepping` (stepping bouts, turns), :mod:`pipeline.sim.behaviours` (the
+  still library), :mod:`pipeline.sim.idle` (standing, gestures) on :mod:`pipeline.sim.feet`
+  (foot moves) and :mod:`pipeline.sim.plan` (channels).
 - :mod:`pipeline.sim.motion_v1`: the first motion model, kept for the committed action model's
   tests until it is retrained.
 - :mod:`pipeline.sim.scene`: the default virtual cameras (one above each wall).

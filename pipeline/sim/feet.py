@@ -29,6 +29,7 @@ SIDE_SIGN = (-1.0, 1.0)  # each foot's side in the body frame (x to the person's
 MAX_PAUSE_S = 1.0  # longest both-feet-down interval inside one bout (TEAM.md LABELS)
 NATURAL_GAP_MAX_S = 0.75  # slow stepping lifts longer rather than waiting longer than this
 MIN_SWING_S = 0.08
+MIN_DOUBLE_S = 0.04  # both feet down at least this long between two steps (no hop) unless running
 
 
 def forward_xy(yaw_rad: float) -> F64:
@@ -200,6 +201,7 @@ def bout_times(
     irregularity: float = 0.0,
     same_foot: bool = False,
     even: bool = False,
+    flight: bool = False,
 ) -> list[tuple[int, float, float]]:
     """(foot, lift-off, touch-down) of each step of one bout in [t_start, t_end].
 
@@ -210,6 +212,8 @@ def bout_times(
     random spread of step periods and swing times. same_foot: consecutive steps are made by one
     foot (it must land before it lifts again). even: prefer an even number of steps (out-and-back
     and step-together end with the feet together) unless that bends the cadence by over 12 %.
+    flight: the next foot may lift before the last one lands (running); otherwise a foot is
+    always down (at least ``MIN_DOUBLE_S`` of double support between steps).
     The first lift-off is at ``t_start`` and the last touch-down at ``t_end``; no both-feet-down
     interval inside the bout is longer than ``MAX_PAUSE_S``.
     """
@@ -226,8 +230,8 @@ def bout_times(
         s = swing0 * swing_mult[f] * float(np.clip(1.0 + 0.5 * irr * rng.standard_normal(), 0.6, 1.5))
         p = period * float(np.clip(1.0 + irr * rng.standard_normal(), 0.5, 1.6))
         g = p - s
-        if same_foot:
-            g = max(g, 0.04)
+        if same_foot or not flight:
+            g = max(g, MIN_DOUBLE_S)
         if pause_prob > 0 and rng.random() < pause_prob:
             g = max(g + 0.15, float(rng.uniform(*pause_s)))
         swings[k], gaps[k] = max(s, MIN_SWING_S), min(g, MAX_PAUSE_S)
@@ -240,13 +244,15 @@ def bout_times(
         if abs(ends[n_even - 1] / dur - 1.0) < 0.12:  # else end with the foot out, at the cadence asked
             n = n_even
     sw, gp = swings[:n].copy(), gaps[: n - 1].copy()
+    floor = -np.inf if flight else MIN_DOUBLE_S
     last = dur - (sw[:-1].sum() + gp.sum())  # what is left for the last step's swing
     if 0.6 * sw[-1] <= last <= 1.6 * sw[-1]:
         sw[-1] = last  # the cadence as asked; the last step lands a little sooner or later
     else:
         scale = dur / (sw.sum() + gp.sum())
         sw *= scale
-        gp *= scale
+        gp = np.maximum(gp * scale, floor)
+        sw *= (dur - gp.sum()) / sw.sum()
     if gp.size and gp.max() > MAX_PAUSE_S:
         gp = np.minimum(gp, MAX_PAUSE_S)
         sw *= (dur - gp.sum()) / sw.sum()

@@ -3,7 +3,8 @@
 :func:`simulate_user` plays a :class:`MotionScript` with a :class:`BodyParams` body and a
 personal :class:`MotionStyle`. Each segment is planned by its behaviour
 (:mod:`pipeline.sim.stepping`: marching, walking, running, side steps, turns on the spot;
-:mod:`pipeline.sim.behaviours`: the still behaviours), as foot moves on the floor
+:mod:`pipeline.sim.behaviours`: the still library, crouching to stretching;
+:mod:`pipeline.sim.idle`: standing idle and gestures), as foot moves on the floor
 (:mod:`pipeline.sim.feet`) and per-frame control channels (:mod:`pipeline.sim.plan`). The body
 is then posed on its feet: the pelvis follows the feet's midpoint (smoothed: it shifts before
 a step), moves over the stance foot during a step and is lowered where a leg could not reach
@@ -29,7 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.errors import InputError
-from pipeline.sim.behaviours import idle_layer, schedule_gestures, tag_gestures
+from pipeline.sim.behaviours import plan_behaviour
 from pipeline.sim.body import (
     FACE_OFFSETS_M,
     BodyParams,
@@ -45,6 +46,7 @@ from pipeline.sim.body import (
     two_bone_ik,
 )
 from pipeline.sim.feet import LEFT, RIGHT, SIDE_SIGN, Feet, FeetTrack, right_xy
+from pipeline.sim.idle import idle_layer, schedule_gestures, tag_gestures
 from pipeline.sim.plan import ArmPose, Channels, Ctx
 from pipeline.sim.script import (
     GESTURES,
@@ -189,6 +191,8 @@ def simulate_user(
     gestures = []
     for i, (seg, s0) in enumerate(zip(segs, starts.tolist(), strict=True)):
         s1 = s0 + seg.duration_s
+        if seg.action != "still" or seg.behaviour not in (None, "idle"):  # re-centre on the feet
+            ctx.stance_xy = 0.5 * (ctx.feet.xy[LEFT] + ctx.feet.xy[RIGHT])
         if seg.action in STEPPING:
             cadence[i] = plan_bout(ctx, resolve_bout(seg, s0, s1, style, r_seg))
             continue
@@ -200,6 +204,7 @@ def simulate_user(
             ch.still[ch.span(s0, s1)] = 1.0
             if seg.behaviour not in (None, "idle"):
                 ch.tag(s0, s1, seg.behaviour_name)
+                plan_behaviour(ctx, seg, s0, s1)
             gestures += schedule_gestures(r_evt, seg, s0, style.gesture_rate_hz)
     blend = np.array([s.blend_s if s.blend_s is not None else style.blend_s for s in segs])[k]
     ch.still = smooth(ch.still, np.clip(blend, 0.05, 0.5) * fps / 2.0)
@@ -238,7 +243,7 @@ def _pelvis_path(
     mid = track.base.mean(axis=1)
     feet_centre = smooth(mid, ch.support_sigma_s * fps)
     path = np.where(ch.path_w[:, None] > 0, ch.path_xy, feet_centre)
-    w_path = smooth(ch.path_w, 0.05 * fps)[:, None]
+    w_path = smooth(ch.path_w, 0.1 * fps)[:, None]
     support = (1.0 - w_path) * feet_centre + w_path * path
     right = np.stack([np.cos(ch.yaw), np.sin(ch.yaw)], -1)
     fwd = np.stack([-np.sin(ch.yaw), np.cos(ch.yaw)], -1)
@@ -362,7 +367,7 @@ def _pose(
             goal = _arm_goal(
                 arm, s, r_trunk, r_body, r_head, r_pelvis, head_center, hips[c], knees[c], support
             )
-            target = (1 - w) * target + w * goal
+            target = _blend_reach(s, target, goal, w, apply(r_trunk, np.array([c * 0.6, 0.8, 0.0])))
             pole = (1 - w) * pole + w * np.asarray(arm.pole)
         elbows[c], wrists[c] = two_bone_ik(s, target, ua, fa, apply(r_trunk, pole))
 
@@ -376,6 +381,20 @@ def _pose(
         joints[:, J[f"{lr}_knee"]] = knees[c]
         joints[:, J[f"{lr}_ankle"]] = ankles[c]
     return joints, support
+
+
+def _blend_reach(shoulder: F64, a: F64, b: F64, w: F64, via: F64) -> F64:
+    """Hand targets from ``a`` towards ``b`` (weights ``w`` (T, 1)) as an arm moves: the direction
+    from the shoulder turns (through ``via``, out and forward, when the two are far apart, as a
+    raised arm does) and the reach changes, instead of the hand cutting through the shoulder."""
+    va, vb = a - shoulder, b - shoulder
+    ra, rb = np.linalg.norm(va, axis=1, keepdims=True), np.linalg.norm(vb, axis=1, keepdims=True)
+    ua, ub = va / np.maximum(ra, 1e-9), vb / np.maximum(rb, 1e-9)
+    apart = np.clip(0.5 * (1.0 - np.sum(ua * ub, axis=1, keepdims=True)), 0.0, 1.0)  # 1 when opposite
+    d = (1 - w) * ua + w * ub + 4.0 * w * (1 - w) * apart * via
+    d /= np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-9)
+    out: F64 = shoulder + d * ((1 - w) * ra + w * rb)
+    return out
 
 
 def _arm_goal(

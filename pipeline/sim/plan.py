@@ -59,7 +59,8 @@ class Channels:
     feet are down, -1 over the left foot, 0 between, +1 over the right foot (a side-stepper's
     weight goes out with the leading foot). path_xy: (T, 2) where a walker's or runner's centre
     travels, followed where path_w is 1 (instead of the feet's midpoint). elbow_flex: extra
-    elbow bend, rad (runners). still: 1 in still segments (idle sway,
+    elbow bend, rad (runners). busy: 1 while a library behaviour (crouch, jump ...) plays: the
+    idle sway-shifts-dips and gestures stay out of its way. still: 1 in still segments (idle sway,
     weight shifts and gestures play there). arms: hand targets. tags: (T,) behaviour names.
     """
 
@@ -83,6 +84,7 @@ class Channels:
     path_xy: F64
     path_w: F64
     elbow_flex: F64
+    busy: F64
     still: F64
     arms: list[ArmPose] = field(default_factory=list)
     tags: list[str] = field(default_factory=list)
@@ -115,6 +117,7 @@ class Channels:
             path_xy=np.zeros((n, 2)),
             path_w=z(),
             elbow_flex=z(),
+            busy=z(),
             still=z(),
             tags=[""] * n,
         )

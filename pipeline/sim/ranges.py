@@ -32,11 +32,27 @@ ACTION_WEIGHTS: dict[str, dict[str, float]] = {
 FORWARD_WEIGHTS: dict[str, float] = {"march": 0.75, "walk": 0.17, "run": 0.08}
 SIDE_WEIGHTS: dict[str, float] = {"side-step-out-back": 0.5, "step-together": 0.3, "shuffle": 0.2}
 # Still behaviours per routine kind (the stepping kind keeps its still moments plain).
+_LIBRARY = {
+    "crouch": 0.08,
+    "squat": 0.06,
+    "kneel": 0.06,
+    "bend": 0.08,
+    "lean": 0.08,
+    "tiptoe": 0.06,
+    "jump": 0.07,
+    "sway": 0.06,
+    "dance-on-spot": 0.07,
+    "weight-shift": 0.08,
+    "stretch": 0.06,
+    "look-around": 0.08,
+    "point": 0.08,
+    "wave": 0.06,
+}
 STILL_WEIGHTS: dict[str, dict[str, float]] = {
-    "mixed": {"idle": 0.5, "look-around": 0.2, "point": 0.15, "wave": 0.15},
+    "mixed": {"idle": 0.35, **{k: 0.65 * v / sum(_LIBRARY.values()) for k, v in _LIBRARY.items()}},
     "stepping": {"idle": 1.0},
-    "still": {"idle": 0.3, "look-around": 0.25, "point": 0.25, "wave": 0.2},
-    "still-heavy": {"idle": 0.3, "look-around": 0.25, "point": 0.25, "wave": 0.2},
+    "still": {"idle": 0.12, **{k: 0.88 * v / sum(_LIBRARY.values()) for k, v in _LIBRARY.items()}},
+    "still-heavy": {"idle": 0.15, **{k: 0.85 * v / sum(_LIBRARY.values()) for k, v in _LIBRARY.items()}},
 }
 # Segment lengths, seconds: per kind for stepping bouts and plain still, per still behaviour.
 SEGMENT_S: dict[str, tuple[float, float]] = {
@@ -51,6 +67,17 @@ BEHAVIOUR_S: dict[str, tuple[float, float]] = {
     "look-around": (2.0, 6.0),
     "point": (1.5, 5.0),
     "wave": (1.5, 5.0),
+    "crouch": (2.0, 6.0),
+    "squat": (2.0, 6.0),
+    "kneel": (3.0, 8.0),
+    "bend": (1.5, 4.0),
+    "lean": (1.5, 5.0),
+    "tiptoe": (1.0, 4.0),
+    "jump": (0.8, 3.0),
+    "sway": (2.0, 8.0),
+    "dance-on-spot": (3.0, 10.0),
+    "weight-shift": (3.0, 10.0),
+    "stretch": (2.0, 6.0),
 }
 
 # Stepping parameter ranges (what issue 14 asks the simulator to cover).
@@ -69,8 +96,21 @@ ASYMMETRY = (0.7, 1.4)  # 25 % of bouts lift one foot clearly higher
 WALK_MPS = (0.4, 1.5)
 RUN_MPS = (1.9, 2.6)  # jogging: a CAVE is about 3 m across
 WALK_M = (0.6, 2.2)  # distance of one walk (limited by the room left on the floor)
+MIN_TRAVEL_S = 0.8  # a walk shorter than this is a few steps in place ...
+MIN_RUN_S = 0.8  # ... and so is a run shorter than this
+JOG_MIN_MPS = 1.3  # a run short of room slows down to a jog, not slower
+RUN_EXTRA_M = 0.2  # a run may take the person this much further from the start than a walk
+WALK_RAMP_S, RUN_RAMP_S = 0.6, 1.0  # speeding up from standing / slowing down to a stop
 TURN_RATE_DPS = 150.0  # people turn on the spot at up to ~150 deg/s
 STEER_PROB = 0.2  # marching bouts that steer
+
+
+def travel_duration_s(dist_m: float, speed_mps: float, run: bool) -> float:
+    """How long a walk or run at ``speed_mps`` takes to cover ``dist_m`` with its speed-up and
+    slow-down (each ``*_RAMP_S``, at most a third of the bout; see ``stepping._path``)."""
+    ramp = RUN_RAMP_S if run else WALK_RAMP_S
+    cruise = dist_m / max(speed_mps, 1e-6)
+    return cruise + ramp if cruise + ramp >= 3.0 * ramp else 1.5 * cruise
 
 
 def pick(rng: np.random.Generator, weights: dict[str, float]) -> str:

@@ -9,7 +9,9 @@ evaluation scripts)::
     motion.joints_m   # (T, 17, 3) clean joints, CAVE frame, metres
     motion.labels     # (T,) still | forward | left | right (TEAM.md LABELS)
     motion.tags       # (T,) behaviour names: march, walk, run, side-step-out-back, step-together,
-                      #      shuffle, turn, look-around, point, wave, ... ("" for plain standing)
+                      #      shuffle, turn, crouch, squat, kneel, bend, lean, tiptoe, jump, sway,
+                      #      dance-on-spot, weight-shift, stretch, stand-up, look-around, point,
+                      #      wave, cross-arms, hands-on-hips, touch-face ("" for plain standing)
     motion.contacts   # (T, 2) bool, feet planted [left, right]
     motion.to_sequence()  # the SPEC skeleton sequence (source="sim"), for save_npz
 
@@ -19,7 +21,10 @@ Kinds (``ROUTINE_KINDS``; what each draws: :mod:`pipeline.sim.ranges`):
   3-30 cm, pauses, slides, creeping; walking and running; side steps out-and-back,
   step-together and shuffles 8-45 cm wide; cadence 0.5-2.6 steps/s; irregular and asymmetric
   bouts), with short still moments;
-- ``still``: the still library only (every frame ``still``): for false-movement training;
+- ``still``: the still library only (every frame ``still``; :mod:`pipeline.sim.behaviours`):
+  crouch, squat, kneel, bend to pick up, lean far, tiptoe, jump, sway, dance on the spot,
+  weight shifts, stretches, looking around, pointing, waving, turns on the spot, standing
+  idle: for false-movement training;
 - ``still-heavy``: the still library with short stepping bouts;
 - ``mixed``: all of it (the default of :func:`pipeline.sim.script.random_script`, which the
   live demo's navigator plays).

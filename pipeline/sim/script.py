@@ -35,7 +35,24 @@ GESTURES: tuple[str, ...] = ("point", "wave", "cross_arms", "hands_on_hips", "to
 # (forward: ``walk`` / ``run`` by default when the segment travels at walking / running speed).
 FORWARD_BEHAVIOURS: tuple[str, ...] = ("march", "walk", "run")
 SIDE_BEHAVIOURS: tuple[str, ...] = ("side-step-out-back", "step-together", "shuffle")
-STILL_BEHAVIOURS: tuple[str, ...] = ("idle", "look-around", "point", "wave")
+STILL_BEHAVIOURS: tuple[str, ...] = (
+    "idle",
+    "look-around",
+    "point",
+    "wave",
+    "crouch",
+    "squat",
+    "kneel",
+    "bend",
+    "lean",
+    "tiptoe",
+    "jump",
+    "sway",
+    "dance-on-spot",
+    "weight-shift",
+    "stretch",
+)
+TURNING_STILL = ("idle", "look-around", "point", "wave")  # still behaviours a turn may go with
 BEHAVIOURS: dict[str, tuple[str, ...]] = {
     "forward": FORWARD_BEHAVIOURS,
     "left": SIDE_BEHAVIOURS,
@@ -154,6 +171,10 @@ class Segment:
                 object.__setattr__(self, name, v)
         if self.turn_deg is not None:
             object.__setattr__(self, "turn_deg", _finite("turn_deg", self.turn_deg))
+            if self.action == "still" and self.turn_deg != 0 and self.behaviour_name not in TURNING_STILL:
+                raise InputError(
+                    f"a {self.behaviour} segment cannot turn (turn_deg); turn in a segment of its own"
+                )
         travel = _finite("travel_mps", self.travel_mps)
         _in_range("travel_mps", travel, *TRAVEL_RANGE)
         if travel > 0 and self.action != "forward":
@@ -316,7 +337,7 @@ def save_script(path: str | Path, script: MotionScript) -> None:
 
 
 DEFAULT_ACTION_WEIGHTS: dict[str, float] = ranges.ACTION_WEIGHTS["mixed"]
-TRAVEL_RADIUS_M = 0.9  # walks, runs and step-together stay within this of the routine's start
+TRAVEL_RADIUS_M = 0.8  # walks, runs and step-together stay within this of the routine's start
 
 
 class _Floor:
@@ -332,12 +353,12 @@ class _Floor:
         a = math.radians(self.yaw + deg_from_facing)
         return np.array([-math.sin(a), math.cos(a)])
 
-    def room(self, deg_from_facing: float = 0.0) -> float:
-        """How far the person can go that way before leaving the circle around the start."""
+    def room(self, deg_from_facing: float = 0.0, extra: float = 0.0) -> float:
+        """How far the person can go that way before leaving the circle (radius + ``extra``)."""
         u = self.direction(deg_from_facing)
         d = self.xy - self.start
         b = float(d @ u)
-        c = float(d @ d) - self.radius**2
+        c = float(d @ d) - (self.radius + extra) ** 2
         return max(0.0, -b + math.sqrt(max(b * b - c, 0.0)))
 
     def towards_start_deg(self) -> float:
@@ -393,15 +414,14 @@ def random_script(
             action = ranges.pick(rng, weights)
             if action != prev or len(actions) == 1 or rng.random() < repeat_prob:
                 break
-        after_turn = bool(segments) and segments[-1].action == "turn"
-        for seg in _draw(rng, kind, action, (lo, hi), floor, after_turn):
+        may_turn = "turn" in weights and not (segments and segments[-1].action == "turn")
+        for seg in _draw(rng, kind, action, (lo, hi), floor, may_turn):
             left = d - sum(s.duration_s for s in segments)
             if left < 1e-3:
                 break
             if seg.duration_s > left:
                 seg = _shortened(seg, left)
             segments.append(seg)
-            floor.yaw += seg.yaw_change_deg
         prev = action
     return MotionScript(tuple(segments), start_xy_m=start_xy_m, start_yaw_deg=yaw)
 
@@ -414,8 +434,8 @@ def _shortened(seg: Segment, duration_s: float) -> Segment:
     elif seg.action == "turn":
         kw["turn_deg"] = seg.yaw_change_deg * duration_s / seg.duration_s
     kw["duration_s"] = duration_s
-    if seg.behaviour in ("walk", "run") and seg.travel_mps * duration_s < 0.05:
-        kw["behaviour"], kw["travel_mps"] = "march", 0.0
+    if seg.behaviour in ("walk", "run") and duration_s < ranges.MIN_RUN_S:
+        kw["behaviour"], kw["travel_mps"] = "march", 0.0  # no time to get going
     if seg.action == "still" and seg.behaviour is not None and duration_s < ranges.MIN_BEHAVIOUR_S:
         kw["behaviour"], kw["intensity"] = None, None  # too short to show it: just standing
     return Segment(**kw)
@@ -427,19 +447,21 @@ def _draw(
     action: str,
     seg_s: tuple[float, float],
     floor: _Floor,
-    after_turn: bool,
+    may_turn: bool,
 ) -> list[Segment]:
     """One drawn part of a routine: usually one segment, a turn back first when a walk has no room
-    (unless the routine has just turned: then it marches instead)."""
+    (if it may turn: not right after a turn, not when the routine has no turns; else it marches)."""
     if action == "still":
         behaviour = ranges.pick(rng, ranges.STILL_WEIGHTS[kind])
         dur = float(rng.uniform(*ranges.BEHAVIOUR_S.get(behaviour, seg_s)))
-        return [Segment("still", dur, **ranges.still_kwargs(rng, behaviour))]
+        return [Segment("still", dur, **ranges.still_kwargs(rng, behaviour))]  # no turn: yaw kept
     if action == "turn":
         dur = float(rng.uniform(*seg_s))
-        return [
-            Segment("turn", dur, turn_deg=ranges.turn_deg(rng, dur), blend_s=float(rng.uniform(0.1, 0.4)))
-        ]
+        turned = Segment(
+            "turn", dur, turn_deg=ranges.turn_deg(rng, dur), blend_s=float(rng.uniform(0.1, 0.4))
+        )
+        floor.yaw += turned.yaw_change_deg
+        return [turned]
     bout_s = ranges.STILL_HEAVY_BOUT_S if kind == "still-heavy" else seg_s
     dur = float(rng.uniform(*bout_s))
     if action == "forward":
@@ -449,20 +471,25 @@ def _draw(
     kw = ranges.stepping_kwargs(rng, action, behaviour)
     out: list[Segment] = []
     if behaviour in ("walk", "run"):
-        if floor.room() < 0.6 and not after_turn:  # turn back towards the start first
+        run = behaviour == "run"
+        extra = ranges.RUN_EXTRA_M if run else 0.0  # a jog may go a little further out
+        if floor.room(extra=extra) < (1.2 if run else 0.6) and may_turn:  # turn back towards the start
             turn = floor.towards_start_deg() + float(rng.uniform(-20.0, 20.0))
             t_dur = max(0.5, abs(turn) / float(rng.uniform(90.0, ranges.TURN_RATE_DPS)))
             out.append(Segment("turn", t_dur, turn_deg=turn))
             floor.yaw += turn
-        dist = min(float(rng.uniform(*ranges.WALK_M)), floor.room())
-        dur = dist / kw["travel_mps"]
-        if dist < 0.4 or dur < 0.4:  # no room to walk: march instead
+        dist = min(float(rng.uniform(*ranges.WALK_M)), floor.room(extra=extra))
+        if run:  # short of room a run is a slower jog
+            kw["travel_mps"] = min(kw["travel_mps"], dist / ranges.MIN_RUN_S)
+        dur = ranges.travel_duration_s(dist, kw["travel_mps"], run)
+        too_slow = run and kw["travel_mps"] < ranges.JOG_MIN_MPS
+        if dist < 0.4 or too_slow or dur < (ranges.MIN_RUN_S if run else ranges.MIN_TRAVEL_S):  # march
             kw = ranges.stepping_kwargs(rng, action, "march")
             dur = float(rng.uniform(*bout_s))
         else:
             floor.xy = floor.xy + dist * floor.direction()
     elif behaviour in ("step-together", "shuffle"):
-        side = -90.0 if action == "left" else 90.0
+        side = 90.0 if action == "left" else -90.0  # counter-clockwise from the facing: the left
         reach = kw["step_width_m"] * max(1.0, kw["cadence_steps_per_s"] * dur / 2.0)
         if reach > floor.room(side):
             kw = ranges.stepping_kwargs(rng, action, "side-step-out-back")
@@ -472,4 +499,5 @@ def _draw(
         kw["travel_mps"] = min(kw["travel_mps"], 0.3 / dur)
         floor.xy = floor.xy + kw["travel_mps"] * dur * floor.direction()
     out.append(Segment(action, dur, **kw))
+    floor.yaw += out[-1].yaw_change_deg  # marching may steer
     return out

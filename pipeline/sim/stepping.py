@@ -34,6 +34,7 @@ from numpy.typing import NDArray
 from pipeline.sim.body import MotionStyle
 from pipeline.sim.feet import LEFT, RIGHT, SIDE_SIGN, bout_times, forward_xy, right_xy
 from pipeline.sim.plan import Ctx
+from pipeline.sim.ranges import RUN_RAMP_S, WALK_RAMP_S
 from pipeline.sim.script import PAUSE_RANGE, Segment
 from pipeline.sim.signals import smoothstep
 
@@ -278,9 +279,16 @@ def _travel(ctx: Ctx, b: Bout) -> Steps:
         foot_of=_alternate(int(rng.integers(2))),
         swing_mult=_swing_mult(b),
         irregularity=b.irregularity,
+        flight=run,
     )
     n = len(steps)
-    path = _path(ctx, b.t0, b.t1, b.travel_mps, ramp_s=(1.0 if run else 0.6))
+    ramp = RUN_RAMP_S if run else WALK_RAMP_S
+    path = _path(ctx, b.t0, b.t1, b.travel_mps, ramp_s=ramp)
+    leg = ctx.body.thigh_m + ctx.body.shin_m
+    reach = (n - 1) * (1.1 if run else 0.75) * leg  # a bout of n steps cannot go further than this
+    if path.dist[-1] > reach:
+        slower = b.travel_mps * reach / float(path.dist[-1])
+        path = _path(ctx, b.t0, b.t1, slower, ramp_s=ramp)
     total = float(path.dist[-1])
     ahead = 0.2 if run else 0.4
     span = ch.span(b.t0, b.t1)
@@ -324,21 +332,20 @@ def _side(ctx: Ctx, b: Bout) -> Steps:
         same_foot=out_back,
         even=True,
     )
-    centre = ctx.stance_xy.copy()
     reach = 0.0
     for k, (f, t0, t1) in enumerate(steps):
         yaw = ch.yaw_at(t1)
         r = right_xy(yaw)
         if k % 2 == 0:
-            reach = b.width_m * float(np.clip(1.0 + 0.5 * b.irregularity * rng.standard_normal(), 0.6, 1.4))
+            spread = float(np.clip(1.0 + 0.5 * b.irregularity * rng.standard_normal(), 0.6, 1.4))
+            reach = min(b.width_m * spread, 0.5)
+        # placed from the other foot, so that a stance left wide before cannot add up
         if out_back:
-            offset = sign * reach * r if k % 2 == 0 else 0.0 * r
-            target = ctx.home(lead, yaw, centre) + offset
+            target = ctx.feet.xy[trail] + sign * (ctx.width_m + (reach if k % 2 == 0 else 0.0)) * r
         elif f == lead:
-            target = ctx.home(lead, yaw, centre + sign * reach * r)
+            target = ctx.feet.xy[trail] + sign * (ctx.width_m + reach) * r
         else:
-            centre = centre + sign * reach * r
-            target = ctx.home(trail, yaw, centre)
+            target = ctx.feet.xy[lead] - sign * ctx.width_m * r
         target = target + _placement_error(ctx, b, yaw) * 0.5
         lift = _lift(ctx, b, f)
         ctx.feet.move(f, t0, t1, target, ctx.feet_yaw(yaw, f), lift_m=lift, bulge_m=0.1 * lift)
@@ -349,7 +356,7 @@ def _side(ctx: Ctx, b: Bout) -> Steps:
             a0 = t1 + 0.06
             a1 = a0 + min(0.35, tap_room - 0.12)
             ctx.feet.move(trail, a0, a1, ctx.feet.xy[trail] + ctx.jitter(0.005, yaw), lift_m=b.trail_lift_m)
-    ctx.stance_xy = centre
+    ctx.stance_xy = 0.5 * (ctx.feet.xy[LEFT] + ctx.feet.xy[RIGHT])
     return steps
 
 

@@ -96,6 +96,8 @@ def test_jumps_are_absent_from_stepping_and_running_has_flight() -> None:
     assert not (~march.contacts).all(axis=1).any(), "marching never has both feet in the air"
     run = _run(Segment("forward", 2.0, behaviour="run", travel_mps=2.8), seed=1)
     assert (~run.contacts[30:90]).all(axis=1).sum() >= 3, "running has flight phases"
+    shaky = _run(Segment("forward", 6.0, irregularity=1.0, asymmetry=1.8, cadence_steps_per_s=2.6), seed=2)
+    assert not (~shaky.contacts).all(axis=1).any(), "an irregular marcher never hops"
     walk = _run(Segment("forward", 3.0, behaviour="walk", travel_mps=1.0), seed=1)
     assert not (~walk.contacts).all(axis=1).any(), "walking always has a foot down"
 
@@ -150,11 +152,17 @@ def test_labels_are_consistent_with_contacts_in_every_routine_kind(kind: str, se
         np.array(m.tags), ["", "look-around", "point", "wave", "cross-arms", "hands-on-hips", "touch-face"]
     )
     assert m.contacts[plain].all(), "feet stay planted while standing, gesturing, looking around"
-    assert planted_slide_m(m)[~np.isin(np.array(m.tags[1:]), ["turn", "march"])].max() < 1e-9
+    tags = np.array(m.tags)
+    airborne = (~m.contacts).all(axis=1)
+    assert set(tags[airborne]) <= {"run", "jump"}, "only runners and jumpers have both feet in the air"
+    gliding = np.isin(tags[1:], ["turn", "march"]) | np.isin(tags[:-1], ["turn", "march"])  # swivels, slides
+    assert planted_slide_m(m)[~gliding].max() < 1e-9
     hips = m.joints_m[:, [J["l_hip"], J["r_hip"]]].mean(axis=1)
     assert np.linalg.norm(np.diff(hips, axis=0), axis=1).max() < 3.5 / FPS, "the pelvis jumped (over 3.5 m/s)"
     travel = np.linalg.norm(m.root_xy_m - np.array([0.3, 0.1]), axis=1).max()
-    assert travel < 1.3, f"the routine wandered {travel:.2f} m from its start"
+    # the routine's own estimate of where it is misses a person's creep and side steps that end
+    # with a foot out: allow some slack over its 0.8 m (1.0 m for runs) radius
+    assert travel < 1.6, f"the routine wandered {travel:.2f} m from its start"
 
 
 def test_routine_kinds_draw_what_they_say() -> None:

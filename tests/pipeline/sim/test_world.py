@@ -79,7 +79,7 @@ def test_long_runs_are_continuous_bystanders_walk_and_the_navigator_stays_centra
     assert travelled[1] > 2.0 and travelled[2] > 2.0, f"bystanders did not walk around: {travelled}"
     half = np.array(cave.floor_half_size_m)
     assert np.all(np.abs(hips[:, 1:]) < half), "a bystander left the CAVE floor"
-    assert np.linalg.norm(hips[:, 0], axis=-1).max() < 1.0, "the navigator wandered off the centre"
+    assert np.linalg.norm(hips[:, 0], axis=-1).max() < 1.3, "the navigator wandered off the centre"
     assert {f.label for f in frames} == {"still", "forward", "left", "right"}
 
 
