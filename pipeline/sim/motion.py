@@ -162,8 +162,13 @@ def simulate_user(
     fps: float = 30.0,
     seed: int = 0,
     style: MotionStyle | None = None,
+    start_feet_xy_m: tuple[F64, F64] | None = None,
 ) -> UserMotion:
-    """Animate ``body`` through ``script`` at ``fps``; ``style`` None = drawn from ``seed``."""
+    """Animate ``body`` through ``script`` at ``fps``; ``style`` None = drawn from ``seed``.
+
+    start_feet_xy_m: where the (left, right) ankles stand on the floor at the start (a routine
+    that continues another one); None = side by side around the script's start position.
+    """
     if not isinstance(script, MotionScript):
         raise InputError(f"script must be a MotionScript, got {type(script).__name__}")
     if not np.isfinite(fps) or not 1.0 <= fps <= 1000.0:
@@ -184,7 +189,16 @@ def simulate_user(
     centre = np.asarray(script.start_xy_m, dtype=np.float64)
     half = style.stance_width_m / 2.0 * right_xy(yaw0)
     toe = math.radians(style.toe_out_deg)
-    feet = Feet((centre - half, centre + half), (yaw0 + toe, yaw0 - toe))
+    ankles = (centre - half, centre + half)
+    if start_feet_xy_m is not None:
+        ankles = (
+            np.asarray(start_feet_xy_m[0], dtype=np.float64),
+            np.asarray(start_feet_xy_m[1], dtype=np.float64),
+        )
+        if any(a.shape != (2,) or not np.all(np.isfinite(a)) for a in ankles):
+            raise InputError(f"start_feet_xy_m must be two finite (x, y) positions, got {start_feet_xy_m}")
+        centre = 0.5 * (ankles[0] + ankles[1])
+    feet = Feet(ankles, (yaw0 + toe, yaw0 - toe))
     ctx = Ctx(r_seg, body, style, feet, ch, centre, style.stance_width_m)
 
     cadence = np.zeros(len(segs))

@@ -30,6 +30,7 @@ from pipeline.sim.motion import UserMotion, simulate_user, smoothstep, wrap_deg
 from pipeline.sim.scene import PRESETS, default_cameras
 from pipeline.sim.script import MotionScript, Segment, random_script
 from pipeline.sim.views import FaultConfig, observe_with_ids
+from pipeline.skeleton import J
 from pipeline.tracking.types import TrackedView
 from pipeline.triangulation.types import Person3D
 
@@ -148,11 +149,18 @@ class _Actor:
         raise NotImplementedError
 
     def _load(self) -> None:
+        feet = None
         if self.motion is not None:
             self.previous = self.motion.joints_m[-1].copy()
+            last = self.motion.joints_m[-1]
+            feet = (last[J["l_ankle"], :2].copy(), last[J["r_ankle"], :2].copy())
         script = self.next_script()
         seed = int(self.rng.integers(2**31))
-        self.motion = simulate_user(script, self.body, fps=self.fps, seed=seed, style=self.style)
+        if feet is not None and np.linalg.norm(0.5 * (feet[0] + feet[1]) - script.start_xy_m) > 0.3:
+            feet = None  # a script of its own somewhere else (the navigator's own routine)
+        self.motion = simulate_user(
+            script, self.body, fps=self.fps, seed=seed, style=self.style, start_feet_xy_m=feet
+        )  # a continuing chunk starts on the feet the last one ended on
         self.cursor = 0
 
     def end_state(self) -> tuple[tuple[float, float], float]:

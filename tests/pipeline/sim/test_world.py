@@ -104,3 +104,16 @@ def test_realtime_run_stamps_frames_on_the_monotonic_clock() -> None:
 def test_bad_sim_configs_are_rejected(kwargs: dict[str, object], match: str) -> None:
     with pytest.raises(InputError, match=match):
         SimConfig(**kwargs)  # type: ignore[arg-type]
+
+
+def test_chunks_join_on_the_feet_the_last_one_ended_on() -> None:
+    world = SimWorld.build(box_cave(), SimConfig(bystanders=1, seed=1, chunk_s=3.0, fps=30.0, observe=False))
+    frames = list(world.run(30 * 30))
+    joints = np.array([f.navigator_joints for f in frames])
+    contacts = np.array([f.contacts for f in frames])
+    tags = np.array([f.tag for f in frames])
+    step = np.linalg.norm(np.diff(joints[:, [15, 16], :2], axis=0), axis=-1)
+    planted = np.where(contacts[1:] & contacts[:-1], step, 0.0)
+    gliding = np.isin(tags[1:], ["turn", "march"]) | np.isin(tags[:-1], ["turn", "march"])
+    assert planted[~gliding].max() < 1e-6, "a planted foot slid across a chunk join"
+    assert {f.label for f in frames} >= {"still", "forward"}
