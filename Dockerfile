@@ -11,9 +11,12 @@ RUN apt-get update && apt-get install -y --no-install-recommends libgl1 libglib2
 COPY pyproject.toml README.md ./
 COPY pipeline ./pipeline
 COPY app ./app
+COPY scripts/one_opencv.py ./scripts/one_opencv.py
+# one_opencv.py: ultralytics pulls opencv-python next to opencv-python-headless; keep headless only
 RUN pip install --no-cache-dir --extra-index-url https://download.pytorch.org/whl/cpu \
         torch torchvision \
-    && pip install --no-cache-dir ".[models]"
+    && pip install --no-cache-dir ".[models]" \
+    && python scripts/one_opencv.py
 ENV CAVEWALK_PATHS__MODELS_DIR=/models
 RUN cavewalk models prepare
 

@@ -11,29 +11,8 @@ shift || true
 
 PY="${PYTHON:-python3.11}"
 command -v "$PY" >/dev/null 2>&1 || PY=python3
-# as_root CMD...: runs CMD as root (directly when we are root, else through sudo).
-# `env` carries the DEBIAN_FRONTEND assignment: with an empty sudo prefix a bare
-# `VAR=value cmd` after an expansion would become the command word.
-as_root() {
-  if [ "$(id -u)" -eq 0 ]; then
-    "$@"
-  elif command -v sudo >/dev/null 2>&1; then
-    sudo "$@"
-  else
-    echo "error: '$*' needs root: run as root or install sudo" >&2
-    return 1
-  fi
-}
-
-apt_install() {
-  local missing=()
-  for pkg in "$@"; do dpkg -s "$pkg" >/dev/null 2>&1 || missing+=("$pkg"); done
-  if [ "${#missing[@]}" -gt 0 ]; then
-    echo "==> apt-get install ${missing[*]}"
-    as_root env DEBIAN_FRONTEND=noninteractive apt-get update -qq
-    as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "${missing[@]}"
-  fi
-}
+# shellcheck source=scripts/lib/apt.sh
+. scripts/lib/apt.sh  # as_root, apt_install
 
 "$PY" -c 'import venv, ensurepip' 2>/dev/null || apt_install python3-venv
 if [ ! -x .venv/bin/python ]; then
@@ -45,6 +24,9 @@ echo "==> installing cavewalk with its extras (torch from local wheels where pre
 # torch/torchvision first, pinned, so ultralytics does not pull another build.
 .venv/bin/python -m pip install -q --disable-pip-version-check torch==2.14.1 torchvision==0.29.1
 .venv/bin/python -m pip install -q --disable-pip-version-check -e '.[models,train,test]'
+# ultralytics requires opencv-python (the GUI build) next to our opencv-python-headless: both
+# write cv2/, so keep only headless (issue 15 S2)
+.venv/bin/python scripts/one_opencv.py
 
 echo "==> preparing the pose model and the demo data"
 .venv/bin/cavewalk models prepare
