@@ -2,12 +2,14 @@
 
 from pipeline.emitter.protocol import (
     OSC_ADDRESS,
+    OSC_LOCOMOTION_TYPES,
     PROTOCOL_VERSION,
     STATES,
     LocomotionCommand,
     encode,
     heartbeat_message,
     locomotion_message,
+    osc_locomotion_message,
     validate_datagram,
 )
 from pipeline.emitter.receiver import ReceiverStats, open_receiver_socket, receive
@@ -15,6 +17,7 @@ from pipeline.emitter.udp import EmitterConfig, UdpEmitter, resolve_endpoint
 
 __all__ = [
     "OSC_ADDRESS",
+    "OSC_LOCOMOTION_TYPES",
     "PROTOCOL_VERSION",
     "STATES",
     "EmitterConfig",
@@ -25,6 +28,7 @@ __all__ = [
     "heartbeat_message",
     "locomotion_message",
     "open_receiver_socket",
+    "osc_locomotion_message",
     "receive",
     "resolve_endpoint",
     "validate_datagram",

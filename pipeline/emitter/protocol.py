@@ -81,6 +81,25 @@ def heartbeat_message(state: str, seq: int, ts_unix: float) -> dict[str, Any]:
             "state": state}
 
 
+#: OSC type tags of ``/cave/locomotion``: user_id, action, confidence, yaw_deg, speed_mps, x, y, z, ts.
+#: ``ts`` is a 64-bit double (tag ``d``), Unix seconds: a float32 resolves only to 128 s at
+#: today's epoch (issue 15); the other numbers are float32, ample for their ranges.
+OSC_LOCOMOTION_TYPES = "isffffffd"
+
+
+def osc_locomotion_message(cmd: LocomotionCommand, ts_unix: float, address: str = OSC_ADDRESS) -> bytes:
+    """The OSC message ``address`` carrying ``cmd`` (types :data:`OSC_LOCOMOTION_TYPES`)."""
+    from pythonosc.osc_message_builder import OscMessageBuilder
+
+    values: list[Any] = [int(cmd.user_id), cmd.action, _finite(min(max(cmd.confidence, 0.0), 1.0), 4),
+                         _finite(cmd.yaw_deg, 2), _finite(cmd.speed_mps, 3),
+                         *(_finite(v, 4) for v in cmd.position_m), float(ts_unix)]
+    builder = OscMessageBuilder(address=address)
+    for tag, value in zip(OSC_LOCOMOTION_TYPES, values, strict=True):
+        builder.add_arg(value, arg_type=tag)
+    return bytes(builder.build().dgram)
+
+
 def encode(message: dict[str, Any]) -> bytes:
     data = json.dumps(message, separators=(",", ":"), allow_nan=False).encode("utf-8")
     if len(data) > MAX_DATAGRAM_BYTES:

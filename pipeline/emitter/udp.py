@@ -20,11 +20,11 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from pipeline.emitter.protocol import (
-    OSC_ADDRESS,
     LocomotionCommand,
     encode,
     heartbeat_message,
     locomotion_message,
+    osc_locomotion_message,
 )
 from pipeline.errors import InputError
 
@@ -123,7 +123,7 @@ class UdpEmitter:
         self._sock.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_TTL, config.multicast_ttl)
         self._endpoints: list[Endpoint] = []
         self._seq: dict[Endpoint, int] = {}
-        self._osc: list[object] = []
+        self._osc: list[Endpoint] = []  # OSC destinations, sent from the same socket
         self._command: LocomotionCommand | None = None
         self._command_at = 0.0
         self._pending = False  # a fresh command waits to be sent
@@ -156,12 +156,10 @@ class UdpEmitter:
             return list(self._endpoints)
 
     def set_osc_endpoints(self, endpoints: list[Endpoint]) -> None:
-        from pythonosc.udp_client import SimpleUDPClient
-
+        """Replace the OSC destinations of ``/cave/locomotion`` (resolved first; on error nothing changes)."""
         resolved = [resolve_endpoint(h, p) for h, p in endpoints]
-        clients: list[object] = [SimpleUDPClient(h, p, allow_broadcast=True) for h, p in resolved]
         with self._lock:
-            self._osc = clients
+            self._osc = list(dict.fromkeys(resolved))
 
     def set_state(self, state: str) -> None:
         heartbeat_message(state, 0, 1.0)  # validates the state name
@@ -208,11 +206,10 @@ class UdpEmitter:
     def _send_locomotion(self, cmd: LocomotionCommand, now: float) -> None:
         ts = cmd.timestamp_s + self._offset
         self._send(lambda seq: encode(locomotion_message(cmd, seq, ts)))
-        for client in self._osc:
+        osc = osc_locomotion_message(cmd, ts) if self._osc else b""
+        for ep in self._osc:
             try:
-                client.send_message(OSC_ADDRESS, [  # type: ignore[attr-defined]
-                    int(cmd.user_id), cmd.action, float(cmd.confidence), float(cmd.yaw_deg),
-                    float(cmd.speed_mps), *(float(v) for v in cmd.position_m), float(ts)])
+                self._sock.sendto(osc, ep)
             except OSError as exc:
                 self.errors += 1
                 log.debug("OSC send failed: %s", exc)

@@ -8,15 +8,18 @@ from typing import Any
 
 import pytest
 from pythonosc.dispatcher import Dispatcher
+from pythonosc.osc_message import OscMessage
 from pythonosc.osc_server import ThreadingOSCUDPServer
 from runtime.live import Listener  # tests/pipeline/runtime/live.py: the reference receiver in a thread
 
 from pipeline.emitter import (
     OSC_ADDRESS,
+    OSC_LOCOMOTION_TYPES,
     EmitterConfig,
     LocomotionCommand,
     ReceiverStats,
     UdpEmitter,
+    osc_locomotion_message,
 )
 from pipeline.errors import InputError
 
@@ -106,10 +109,12 @@ def test_osc_server_receives_locomotion() -> None:
     thread.start()
     emitter = UdpEmitter(EmitterConfig(rate_hz=50.0), [], osc_endpoints=[("127.0.0.1", port)])
     try:
+        sent_unix = []
         for label in ("forward", "right", "still"):
-            emitter.submit(cmd(label))
+            sent_unix.append(time.time())
+            emitter.submit(cmd(label))  # capture time: now
             time.sleep(0.03)
-        deadline = time.monotonic() + 2.0
+        deadline = time.monotonic() + 10.0  # generous: only waits for the three messages
         while len(got) < 3 and time.monotonic() < deadline:
             time.sleep(0.02)
     finally:
@@ -122,6 +127,20 @@ def test_osc_server_receives_locomotion() -> None:
     assert conf == pytest.approx(0.75) and yaw == pytest.approx(30.0) and speed == pytest.approx(1.1)
     assert (x, y, z) == pytest.approx((0.5, -0.25, 0.0))
     assert ts > 1_600_000_000, "ts is Unix time"
+    assert isinstance(ts, float) and abs(ts - sent_unix[0]) < 0.01, (
+        f"ts {ts!r} must resolve milliseconds (a double), sent at {sent_unix[0]!r}; a float32 is "
+        "off by up to 64 s at today's epoch"
+    )
+
+
+def test_osc_locomotion_message_types_ts_as_a_double() -> None:
+    ts = 1_796_148_736.123456
+    message = OscMessage(osc_locomotion_message(cmd("left"), ts))
+    assert message.address == OSC_ADDRESS
+    assert b"," + OSC_LOCOMOTION_TYPES.encode() in message.dgram and OSC_LOCOMOTION_TYPES.endswith("d")
+    user, action, conf, _yaw, _speed, _x, _y, _z, got = message.params
+    assert (user, action, conf) == (2, "left", pytest.approx(0.75))
+    assert got == ts, "a double carries the microseconds"
 
 
 def test_bad_workstation_rejected_and_destinations_unchanged() -> None:
