@@ -14,24 +14,21 @@ import secrets
 from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager
 from pathlib import Path
-from typing import Any
-
-from fastapi import FastAPI, Request
+from fastapi import FastAPI
 from fastapi.middleware.cors import CORSMiddleware
-from fastapi.responses import JSONResponse
 from fastapi.staticfiles import StaticFiles
 
+from app.api.errors import SafeJSONResponse, install_error_handlers
+from app.api.fallback import install_api_fallback
+from app.api.json_body import JsonBodyGuard
 from app.api.limits import BodySizeLimit
 from app.api.main import api_router
+from app.api.openapi import install_docs
+from app.api.origin import SameOriginGuard, allowed_host_names
 from app.core.config import Settings, get_settings
-from app.db.engine import make_engine, make_session_factory
+from app.db.engine import DatabaseLock, make_engine, make_session_factory
 from app.db.migrate import upgrade
-from app.db.repositories import (
-    RecordNotFound,
-    StateConflict,
-    fail_unfinished_calibration_runs,
-    running_session,
-)
+from app.db.repositories import fail_unfinished_calibration_runs, running_session
 from app.services.calibration import CalibrationService
 from app.services.event_log import EventWriter
 from app.services.live import PipelineFacade, PipelineService, SourceName
@@ -40,7 +37,6 @@ from app.services.pipeline_factory import runtime_factory
 from app.services.planner import PlannerService
 from app.services.session_timer import SessionTimer
 from app.viewer import Viewer
-from pipeline.errors import CavewalkError, InputError
 
 log = logging.getLogger(__name__)
 
@@ -83,6 +79,7 @@ def create_app(
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
+        db_lock = DatabaseLock.acquire(settings.paths.db)  # one server per database (issue 15 D5)
         engine = make_engine(settings.paths.db)
         upgrade(engine)
         factory = make_session_factory(engine)
@@ -149,17 +146,25 @@ def create_app(
             if viewer is not None:
                 viewer.stop()
             engine.dispose()
+            db_lock.release()
 
     app = FastAPI(
         title="cavewalk",
         summary="Markerless full-body locomotion for CAVE VR rooms: operator API",
         version="1",
         lifespan=lifespan,
+        default_response_class=SafeJSONResponse,
+        openapi_url=None,  # served by install_docs, behind the token
+        docs_url=None,
+        redoc_url=None,
     )
     app.state.token = token
     app.state.settings = settings
-    _install_error_handlers(app)
+    install_error_handlers(app)
     app.include_router(api_router)
+    install_docs(app)
+    install_api_fallback(app)  # after every API route, before the static mount at /
+    app.add_middleware(JsonBodyGuard)
     if settings.server.cors_origins:
         app.add_middleware(
             CORSMiddleware,
@@ -168,20 +173,11 @@ def create_app(
             allow_headers=["*"],
         )
     app.add_middleware(BodySizeLimit, max_bytes=settings.server.max_request_bytes)
+    app.add_middleware(  # outermost: Host and Origin before anything reads the request
+        SameOriginGuard,
+        allowed_hosts=allowed_host_names(settings.server.host, settings.server.allowed_hosts),
+        cors_origins=settings.server.cors_origins,
+    )
     if FRONTEND_DIR.is_dir():
         app.mount("/", StaticFiles(directory=FRONTEND_DIR, html=True), name="frontend")
     return app
-
-
-def _install_error_handlers(app: FastAPI) -> None:
-    def handler(code: int) -> Callable[[Request, Exception], Any]:
-        async def _handle(_request: Request, exc: Exception) -> JSONResponse:
-            message = exc.args[0] if exc.args else str(exc)
-            return JSONResponse({"detail": str(message)}, status_code=code)
-
-        return _handle
-
-    app.add_exception_handler(RecordNotFound, handler(404))
-    app.add_exception_handler(StateConflict, handler(409))
-    app.add_exception_handler(InputError, handler(422))
-    app.add_exception_handler(CavewalkError, handler(400))

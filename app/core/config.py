@@ -121,6 +121,9 @@ class ServerSettings(_Section):
     viser_port: int = Field(8080, ge=1, le=65535)
     token: str | None = None
     cors_origins: list[str] = Field(default_factory=list)
+    # Host names the server answers to besides loopback and the bound address ("*" = any; see
+    # app/api/origin.py): e.g. the DNS name of the server machine, or a reverse proxy's name
+    allowed_hosts: list[str] = Field(default_factory=list)
     max_request_bytes: int = Field(1_000_000, gt=0)
     live_rate_hz: float = Field(10.0, gt=0, le=60)  # WebSocket status messages per second
     viser: bool = True  # serve the 3D view
@@ -265,7 +268,7 @@ class Settings(BaseSettings):
         dotenv_settings: PydanticBaseSettingsSource,
         file_secret_settings: PydanticBaseSettingsSource,
     ) -> tuple[PydanticBaseSettingsSource, ...]:
-        toml_path = _TOML_FILE.get() or _ConfigPath().config or DEFAULT_CONFIG_FILE
+        toml_path = _toml_path()
         sources: list[PydanticBaseSettingsSource] = [init_settings, env_settings]
         if toml_path.is_file():
             sources.append(TomlConfigSettingsSource(settings_cls, toml_file=toml_path))
@@ -287,6 +290,11 @@ class _ConfigPath(BaseSettings):
 
     model_config = SettingsConfigDict(env_prefix="CAVEWALK_", extra="ignore")
     config: Path | None = None
+
+
+def _toml_path() -> Path:
+    """The settings TOML file: the one given to load_settings, else CAVEWALK_CONFIG, else ./cavewalk.toml."""
+    return _TOML_FILE.get() or _ConfigPath().config or DEFAULT_CONFIG_FILE
 
 
 def _decode_json_strings(data: dict[str, Any], node: Any) -> None:
@@ -402,7 +410,10 @@ def load_settings(config_path: Path | None = None, **overrides: Any) -> Settings
     Raises :class:`ConfigError` with a message naming every bad key.
     """
     source = str(config_path) if config_path else "environment / cavewalk.toml"
-    if config_path is not None and not Path(config_path).is_file():
+    toml = Path(config_path) if config_path is not None else _toml_path()
+    if toml.exists() and not toml.is_file():  # a folder named cavewalk.toml was silently ignored
+        raise ConfigError(f"config {toml} is a folder, not a TOML settings file")
+    if config_path is not None and not toml.is_file():
         raise ConfigError(f"config file not found: {config_path}")
     moved_token = _MOVED_NOW.set({})
     try:

@@ -18,9 +18,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from sqlalchemy import func, select
+from sqlalchemy import exists, func, select, update
 from sqlalchemy.exc import IntegrityError
-from sqlalchemy.orm import Session
+from sqlalchemy.orm import Session, aliased
 
 from app.db.errors import DesignRuleViolation, RecordNotFound, StateConflict
 from app.db.models import (
@@ -352,6 +352,11 @@ def running_session(db: Session) -> StudySession | None:
     ).first()
 
 
+def _rowcount(result: Any) -> int:
+    """Rows an UPDATE changed (``CursorResult.rowcount``)."""
+    return int(result.rowcount)
+
+
 def start_session(
     db: Session, session_id: int, ts: float, context: dict[str, Any] | None = None
 ) -> StudySession:
@@ -369,8 +374,23 @@ def start_session(
     other = running_session(db)
     if other is not None:
         raise StateConflict(f"session {other.id} is still running; stop it first")
-    row.status = "running"
-    row.started_at = utcnow()
+    # one conditional UPDATE (still planned, none running): of racing starts exactly one wins
+    running = aliased(StudySession)
+    won = _rowcount(db.execute(
+        update(StudySession)
+        .where(StudySession.id == session_id, StudySession.status == "planned",
+               ~exists().where(running.status == "running"))
+        .values(status="running", started_at=utcnow())
+        .execution_options(synchronize_session=False)
+    ))
+    if won != 1:
+        db.rollback()
+        db.refresh(row)
+        other = running_session(db)
+        if other is not None and other.id != session_id:
+            raise StateConflict(f"session {other.id} is still running; stop it first")
+        raise StateConflict(f"session {session_id} is {row.status}; only a planned session can start")
+    db.refresh(row)
     payload: dict[str, Any] = {"state": "running", **(context or {})}
     if row.planned_duration_s is not None:
         payload["planned_duration_s"] = row.planned_duration_s
@@ -384,9 +404,17 @@ def stop_session(db: Session, session_id: int, ts: float, by: str = "operator") 
     row = get_session(db, session_id)
     if row.status != "running":
         raise StateConflict(f"session {session_id} is {row.status}; only a running session can stop")
-    row.status = "stopped"
-    row.stopped_at = utcnow()
-    row.stopped_by = by
+    won = _rowcount(db.execute(  # one conditional UPDATE: of racing stops exactly one wins
+        update(StudySession)
+        .where(StudySession.id == session_id, StudySession.status == "running")
+        .values(status="stopped", stopped_at=utcnow(), stopped_by=by)
+        .execution_options(synchronize_session=False)
+    ))
+    if won != 1:
+        db.rollback()
+        db.refresh(row)
+        raise StateConflict(f"session {session_id} is {row.status}; only a running session can stop")
+    db.refresh(row)
     db.add(Event(session_id=row.id, ts=ts, kind="session", payload={"state": "stopped", "by": by}))
     db.commit()
     return row

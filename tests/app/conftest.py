@@ -24,8 +24,14 @@ def free_port() -> int:
         return int(s.getsockname()[1])
 
 
+#: the Host header of Starlette's TestClient (http://testserver), a name no real server has
+TESTCLIENT_HOST = "testserver"
+
+
 def make_settings(tmp_path: Path, *, viser: bool = False, **server: object) -> Settings:
+    """Settings with the database in ``tmp_path``, free ports, and the TestClient's Host allowed."""
     base = load_settings()
+    server.setdefault("allowed_hosts", [TESTCLIENT_HOST])
     return base.model_copy(
         update={
             "paths": base.paths.model_copy(update={"db": tmp_path / "cavewalk.db"}),

@@ -2,14 +2,19 @@
 
 from __future__ import annotations
 
+import hmac
+import socket
+import threading
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
+import httpx
 import pytest
 from fastapi.testclient import TestClient
 from starlette.websockets import WebSocketDisconnect
 
 from app.main import create_app, is_loopback, operator_token
-from tests.app.conftest import make_settings
+from tests.app.conftest import Served, make_settings
 
 
 @pytest.mark.parametrize(
@@ -86,3 +91,135 @@ def test_oversized_requests_get_413_and_store_nothing(tmp_path: Path) -> None:
         assert r.status_code == 413
         assert c.get("/api/v1/participants").json() == []
         assert c.post("/api/v1/participants", json={"code": "P03", "notes": "short"}).status_code == 201
+
+
+# ------------------------------------------------------------------ what held (issue 15): kept held
+TRAVERSALS = [
+    "/../pyproject.toml", "/../../etc/passwd", "/..%2fpyproject.toml", "/%2e%2e/pyproject.toml",
+    "/%2e%2e%2fpyproject.toml", "/css/../../pyproject.toml", "/css/..%2f..%2fpyproject.toml",
+    "/js/%2e%2e/%2e%2e/pyproject.toml", "/..\\pyproject.toml", "/..%5cpyproject.toml",
+    "/css/..%5c..%5cpyproject.toml", "/%252e%252e/pyproject.toml", "/%252e%252e%252fpyproject.toml",
+    "/....//pyproject.toml", "/..;/pyproject.toml", "/.%2e/pyproject.toml", "/%2e./pyproject.toml",
+    "/%c0%ae%c0%ae/pyproject.toml", "/%c0%af../pyproject.toml", "//etc/passwd", "/%2fetc%2fpasswd",
+    "/css/%00../../pyproject.toml", "/api/v1/../../pyproject.toml", "/api/v1/%2e%2e/%2e%2e/pyproject.toml",
+    "/js/../../../../../../etc/passwd", "/index.html/../../pyproject.toml",
+]  # fmt: skip
+
+
+def raw_get(port: int, target: str) -> tuple[str, bytes]:
+    """GET ``target`` byte for byte (an HTTP client library would normalise the dots away)."""
+    with socket.create_connection(("127.0.0.1", port), timeout=30) as s:
+        s.sendall(f"GET {target} HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n".encode())
+        data = b""
+        while chunk := s.recv(65536):
+            data += chunk
+    return data.split(b"\r\n", 1)[0].decode(), data
+
+
+def test_path_traversal_variants_get_404(tmp_path: Path) -> None:
+    assert len(TRAVERSALS) == 26
+    with Served(make_settings(tmp_path), pipeline_factory=None, autostart=None) as s:
+        port = s.settings.server.port
+        status, body = raw_get(port, "/index.html")
+        assert status.endswith("200 OK") and b"<html" in body.lower(), "the files themselves are served"
+        for target in TRAVERSALS:
+            status, body = raw_get(port, target)
+            assert " 404 " in status, f"{target}: {status}"
+            assert b"[build-system]" not in body and b"root:" not in body, target
+
+
+def test_an_11_mb_body_gets_413_with_or_without_a_length(client: TestClient) -> None:
+    big = b'{"code": "P01", "notes": "' + b"x" * 11_000_000 + b'"}'
+    r = client.post("/api/v1/participants", content=big, headers={"content-type": "application/json"})
+    assert r.status_code == 413
+
+    def chunks() -> Iterator[bytes]:
+        for i in range(0, len(big), 1 << 20):
+            yield big[i : i + (1 << 20)]
+
+    r = client.post("/api/v1/participants", content=chunks(), headers={"content-type": "application/json"})
+    assert r.status_code == 413
+    assert client.get("/api/v1/participants").json() == [], "nothing stored"
+
+
+def race(n: int, call: Callable[[int], int]) -> list[int]:
+    """``call(i)`` from n threads released at the same instant; their statuses."""
+    barrier = threading.Barrier(n)
+    out: list[int] = [0] * n
+
+    def run(i: int) -> None:
+        barrier.wait()
+        out[i] = call(i)
+
+    threads = [threading.Thread(target=run, args=(i,)) for i in range(n)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(timeout=60)
+    return out
+
+
+def test_races_on_duplicate_codes_and_session_starts_have_exactly_one_winner(tmp_path: Path) -> None:
+    with Served(make_settings(tmp_path), pipeline_factory=None, autostart=None) as s:
+        api = f"{s.base}/api/v1"
+        with httpx.Client(timeout=60) as h:
+            codes = race(12, lambda _i: h.post(f"{api}/participants", json={"code": "P07"}).status_code)
+            assert sorted(codes) == [201] + [409] * 11, codes
+            pid = h.get(f"{api}/participants").json()[0]["id"]
+            sids = [h.post(f"{api}/sessions", json={"participant_id": pid, "condition": c}).json()["id"]
+                    for c in ("CC", "EC")]
+            same = race(8, lambda _i: h.post(f"{api}/sessions/{sids[0]}/start").status_code)
+            assert sorted(same) == [200] + [409] * 7, same
+            assert h.post(f"{api}/sessions/{sids[0]}/stop").status_code == 200
+            sid3 = h.post(f"{api}/sessions", json={"participant_id": pid, "condition": "CC"}).json()["id"]
+            both = race(8, lambda i: h.post(f"{api}/sessions/{(sids[1], sid3)[i % 2]}/start").status_code)
+            assert sorted(both) == [200] + [409] * 7, f"one session runs at a time: {both}"
+            running = [x for x in h.get(f"{api}/sessions").json() if x["status"] == "running"]
+            assert len(running) == 1
+
+
+def test_the_token_is_compared_in_constant_time(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import app.api.deps as deps
+
+    calls: list[tuple[bytes, bytes]] = []
+    real = hmac.compare_digest
+
+    def spy(a: bytes, b: bytes) -> bool:
+        calls.append((a, b))
+        return real(a, b)
+
+    monkeypatch.setattr(deps.hmac, "compare_digest", spy)
+    settings = make_settings(tmp_path, host="0.0.0.0", token="lab-token-123")
+    with TestClient(create_app(settings, pipeline_factory=None)) as c:
+        assert c.get("/api/v1/status", headers={"Authorization": "Bearer lab-token-12X"}).status_code == 401
+        assert calls == [(b"lab-token-123", b"lab-token-12X")], "the HTTP check goes through compare_digest"
+        with pytest.raises(WebSocketDisconnect), c.websocket_connect("/api/v1/ws/live?token=nope") as ws:
+            ws.receive_json()
+        assert calls[-1] == (b"lab-token-123", b"nope"), "the WebSocket check too"
+        assert c.get("/openapi.json?token=zzz").status_code == 401 and calls[-1][1] == b"zzz"
+
+
+def test_every_route_but_health_answers_401_without_the_token(tmp_path: Path) -> None:
+    settings = make_settings(tmp_path, host="0.0.0.0", token="lab-token-123")
+    with TestClient(create_app(settings, pipeline_factory=None)) as c:
+        schema = c.get("/openapi.json", headers={"Authorization": "Bearer lab-token-123"}).json()
+        checked = 0
+        for path, ops in schema["paths"].items():
+            target = path
+            for key in ("{ext}", "{name}", "{camera}", "{wall}"):
+                target = target.replace(key, {"{ext}": "png", "{name}": "ssq"}.get(key, "front"))
+            target = target.replace("{participant_id}", "1").replace("{session_id}", "1")
+            target = target.replace("{run_id}", "1")
+            for method in ops:
+                r = c.request(method.upper(), target, headers={"content-type": "application/json"},
+                              content="{}" if method in ("post", "put", "patch") else None)
+                expected = 200 if path == "/api/v1/health" else 401
+                assert r.status_code == expected, f"{method.upper()} {path}: {r.status_code}"
+                checked += 1
+        assert checked >= 40
+        for path in ("/openapi.json", "/docs", "/api/v1/no-such-route"):
+            assert c.get(path).status_code == 401, path
+        assert c.options("/api/v1/participants").status_code == 401
+        with pytest.raises(WebSocketDisconnect) as info, c.websocket_connect("/api/v1/ws/live") as ws:
+            ws.receive_json()
+        assert info.value.code == 1008

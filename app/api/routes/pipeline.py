@@ -9,7 +9,8 @@ from fastapi import APIRouter, HTTPException, status
 from app.api.deps import PipelineDep
 from app.schemas.live import PipelineStart, StatusPublic
 from app.services.live import PipelineUnavailable
-from pipeline.errors import CavewalkError
+from pipeline.errors import CavewalkError, SourceError
+from pipeline.sources.opencv import probe_video
 
 router = APIRouter(prefix="/pipeline", tags=["pipeline"])
 
@@ -19,15 +20,36 @@ def pipeline_status(pipeline: PipelineDep) -> StatusPublic:
     return StatusPublic.model_validate(pipeline.snapshot())
 
 
-@router.post("/start", response_model=StatusPublic)
+def unusable_videos(videos: dict[str, Path]) -> list[str]:
+    """``name=path`` of each video that is not a file that opens as a video.
+
+    A missing file and one that exists but does not open get the same answer, so that the
+    API does not tell a caller which paths exist on the server (issue 15)."""
+    bad = []
+    for name, path in videos.items():
+        try:
+            if not path.is_file():
+                raise SourceError("not a file")
+            probe_video(name, path)
+        except (OSError, ValueError, CavewalkError):  # ValueError: a NUL in the path
+            bad.append(f"{name}={path}")
+    return bad
+
+
+@router.post(
+    "/start",
+    response_model=StatusPublic,
+    responses={503: {"description": "No pipeline can run in this server (the reason is given)"}},
+)
 def start(body: PipelineStart, pipeline: PipelineDep) -> StatusPublic:
     videos = None
     if body.videos:
         videos = {name: Path(p) for name, p in body.videos.items()}
-        missing = [f"{name}={p}" for name, p in videos.items() if not p.is_file()]
-        if missing:
+        bad = unusable_videos(videos)
+        if bad:
             raise HTTPException(
-                status.HTTP_422_UNPROCESSABLE_CONTENT, f"video not found: {', '.join(missing)}"
+                status.HTTP_422_UNPROCESSABLE_CONTENT,
+                f"cannot use as a video: {', '.join(bad)} (give video files the server can open)",
             )
     try:
         pipeline.start(body.source, videos)

@@ -80,7 +80,7 @@ def study(tmp_path_factory: pytest.TempPathFactory) -> Iterator[TestClient]:
     settings = base.model_copy(
         update={
             "paths": base.paths.model_copy(update={"db": tmp_path_factory.mktemp("study") / "cavewalk.db"}),
-            "server": base.server.model_copy(update={"viser": False}),
+            "server": base.server.model_copy(update={"viser": False, "allowed_hosts": ["testserver"]}),
         }
     )
     with TestClient(create_app(settings, pipeline_factory=None)) as client:
