@@ -11,7 +11,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
 
-from pipeline.pose.model_files import Precision, crop_model_path, pose_model_file
+from pipeline.pose.model_files import Precision, crop_model_path, pose_model_file, usable_model_path
 from pipeline.pose.preprocess import STRIDE
 
 MIN_CROP_SIDE = 128  # the shortest crop network height, px
@@ -120,11 +120,14 @@ class PoseConfig:
         return self.threads or (1 if self.runs > 1 else 0)
 
     def model_file(self, models_dir: Path) -> Path:
-        """The model file: ``model``, else the prepared model of ``precision`` in ``models_dir``."""
-        return self.model if self.model is not None else pose_model_file(models_dir, self.precision)
+        """The model file: ``model``, else the prepared model of ``precision`` in ``models_dir``
+        (the float32 one when ``models prepare`` did not keep the int8 copy: it missed the check)."""
+        if self.model is not None:
+            return self.model
+        return usable_model_path(pose_model_file(models_dir, self.precision))
 
     def crop_model_file(self, model_path: Path) -> Path | None:
         """The crop model beside ``model_path`` when ``crop_model`` is on and it exists, else None
-        (crops then run on the model itself)."""
-        crop = crop_model_path(Path(model_path))
+        (crops then run on the model itself); a rejected int8 crop model gives its float32 one."""
+        crop = usable_model_path(crop_model_path(Path(model_path)))
         return crop if self.crop_model and crop.is_file() else None

@@ -8,8 +8,12 @@ copy), and beside each the *crop model* for ROI crops (``yolo11n-pose.crop.onnx`
 
 from __future__ import annotations
 
+import json
+import logging
 from pathlib import Path
 from typing import Literal
+
+log = logging.getLogger(__name__)
 
 POSE_MODEL_NAME = "yolo11n-pose"
 INT8_SUFFIX = ".int8"  # yolo11n-pose.int8.onnx
@@ -34,3 +38,28 @@ def crop_model_path(model_path: Path) -> Path:
     ``x.int8.onnx`` -> ``x.crop.int8.onnx``."""
     base, _, rest = model_path.name.partition(".")
     return model_path.with_name(f"{base}{CROP_SUFFIX}.{rest}")
+
+
+def rejected_int8(path: Path) -> str | None:
+    """Why ``cavewalk models prepare`` did not keep the int8 file ``path`` (its JSON says), or None."""
+    meta_path = path.with_suffix(".json")
+    if path.is_file() or not meta_path.is_file():
+        return None
+    try:
+        meta = json.loads(meta_path.read_text())
+    except (OSError, ValueError):
+        return None
+    reason = meta.get("rejected") if isinstance(meta, dict) else None
+    return str(reason) if reason else None
+
+
+def usable_model_path(path: Path) -> Path:
+    """``path``, or the float32 model an int8 ``path`` was made from when ``models prepare``
+    rejected the int8 copy (it missed the int8 check against float32 on the demo frames)."""
+    reason = rejected_int8(path)
+    if reason is None or INT8_SUFFIX not in path.name:
+        return path
+    fp32 = path.with_name(path.name.replace(INT8_SUFFIX, "", 1))
+    log.warning("%s was not kept by `cavewalk models prepare` (%s); using the float32 %s",
+                path.name, reason, fp32.name)
+    return fp32

@@ -7,8 +7,16 @@ that turns the head's outputs into pixels stay in float32: their values are pixe
 coordinates, where one U8 step would be several pixels. With the box branch in int8 too
 the model is a little faster, but in ROI mode it lost the demo subject in one crop of
 cam01 (boxes touching the crop edge are dropped), which broke its track for 3 frames.
-Measured on the Pose2Sim demo (this 2-core machine, AVX-512 VNNI): keypoints a median
+Measured on the Pose2Sim demo (a 2-core machine with AVX-512 VNNI): keypoints a median
 4.4 px (1088x1920 images) from the float32 model's; see ``scripts/bench_detect.py``.
+
+Weights use 7 of their 8 bits (``reduce_range``). Without VNNI (AVX2 only, e.g. AMD Zen 3)
+onnxruntime's U8S8 kernels add pairs of products in saturating 16-bit lanes, which full-range
+weights overflow: with the same files and packages the int8 model moved the demo boxes (IoU
+10th percentile 0.902 against float32, where our check needs 0.95; worst box 0.67) on a Zen 3,
+and passed on AVX-512 VNNI. With 7-bit weights it is 0.963 (worst 0.75), keypoints a median
+5.1 px, on the Zen 3 (issue 15 S2). ``cavewalk models prepare`` checks every int8 file
+against float32 on the demo frames on the machine it runs on and keeps float32 when it misses.
 
 Only ``cavewalk models prepare`` runs this (through :mod:`pipeline.pose.prepare`).
 """
@@ -18,6 +26,7 @@ from __future__ import annotations
 import logging
 import tempfile
 from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import cv2
@@ -26,6 +35,7 @@ from numpy.typing import NDArray
 
 from pipeline.errors import ModelError
 from pipeline.pose.config import PoseConfig
+from pipeline.pose.decode import iou_matrix
 from pipeline.pose.detector import PoseDetector
 from pipeline.pose.preprocess import expand_to_aspect, fit_region, letterbox_into, net_size_for
 
@@ -36,10 +46,150 @@ Region = tuple[float, float, float, float]
 HEAD_PREFIX = "/model.23/"  # the YOLO11 pose head (Ultralytics' module index 23)
 QUANTIZED_BRANCHES = ("/cv3.",)  # the class convolution stack; /cv2. = boxes, /cv4. = keypoints
 # names what was quantized and how; an int8 file made by another recipe is made again
-RECIPE = "qdq-u8s8-perchannel-minmax; int8: backbone, neck, class branch"
+RECIPE = "qdq-u8s8-perchannel-minmax-7bit-weights; int8: backbone, neck, class branch"
 CALIBRATION_EVERY = 12  # every this many frames of each video
 CROP_ASPECT = 0.6  # crops around the people found, like the ROI mode's (w / h)
 CROP_MARGIN = 0.1
+
+
+@dataclass(frozen=True, slots=True)
+class Int8Recipe:
+    """How the int8 copy is made. name: recorded in the model's JSON (a file made by another
+    recipe is made again). every: calibration frames, every this many of each video.
+    keep_head_fp32: the box/keypoint branches and decoding stay float32 (see
+    :func:`excluded_head_nodes`). max_inputs: at most this many calibration inputs (None = all).
+    reduce_range: weights in 7 bits.
+    The default is the shipped recipe; tests make a deliberately degraded one."""
+
+    name: str = RECIPE
+    every: int = CALIBRATION_EVERY
+    keep_head_fp32: bool = True
+    max_inputs: int | None = None
+    reduce_range: bool = True  # 7-bit weights: no saturation in AVX2's 16-bit sums (module docstring)
+
+
+DEFAULT_RECIPE = Int8Recipe()
+
+# -- the int8 check of `cavewalk models prepare` (the criteria of tests/pipeline/pose/test_int8.py)
+AGREEMENT_FRAMES = (10, 55, 90)  # frames of each demo video the int8 model is checked on
+AGREEMENT_CROP_PAD_PX = 40.0  # ROI-style crops: the fp32 boxes grown by this much
+AGREEMENT_CROP_NET = (192, 320)  # ... run at this network size (w, h)
+KEYPOINT_SCORE = 0.5  # keypoints compared where both models are at least this sure
+MIN_BOX_IOU = 0.6  # the worst matched box
+P10_BOX_IOU = 0.95  # the 10th percentile of matched boxes
+MAX_MEDIAN_KEYPOINT_PX = 6.0  # median keypoint distance, px of the 1088x1920 demo images
+MIN_KEYPOINTS = 100  # enough keypoints compared for the median to mean something
+
+
+@dataclass(frozen=True, slots=True)
+class Int8Agreement:
+    """How the int8 model agrees with float32 on the demo frames.
+
+    views: views compared (whole frames and crops); count_mismatches: ``camera: fp32 n, int8 m``
+    where they found different numbers of people; box IoU of each fp32 box with its best int8
+    box (min and 10th percentile); median distance of keypoints both are sure of, px."""
+
+    views: int
+    count_mismatches: tuple[str, ...]
+    min_iou: float
+    p10_iou: float
+    median_keypoint_px: float
+    keypoints: int
+    failures: tuple[str, ...] = field(default_factory=tuple)
+
+    @property
+    def ok(self) -> bool:
+        return not self.failures
+
+    def as_dict(self) -> dict[str, object]:
+        return {"views": self.views, "count_mismatches": list(self.count_mismatches),
+                "min_box_iou": round(self.min_iou, 4), "p10_box_iou": round(self.p10_iou, 4),
+                "median_keypoint_px": round(self.median_keypoint_px, 3), "keypoints": self.keypoints,
+                "criteria": {"min_box_iou": MIN_BOX_IOU, "p10_box_iou": P10_BOX_IOU,
+                             "max_median_keypoint_px": MAX_MEDIAN_KEYPOINT_PX,
+                             "min_keypoints": MIN_KEYPOINTS},
+                "ok": self.ok, "failures": list(self.failures)}
+
+
+Views = list[tuple[list[str], list[NDArray[np.uint8]]]]
+
+
+def agreement_frames(videos: Mapping[str, Path], frames: Sequence[int] = AGREEMENT_FRAMES) -> Views:
+    """(cameras, images) for each of ``frames``, one image per video (cameras sorted)."""
+    cams = sorted(videos)
+    out: Views = [(cams, []) for _ in frames]
+    for cam in cams:
+        cap = cv2.VideoCapture(str(videos[cam]))
+        try:
+            for k, index in enumerate(frames):
+                cap.set(cv2.CAP_PROP_POS_FRAMES, index)
+                ok, image = cap.read()
+                if not ok:
+                    raise ModelError(f"int8 check: frame {index} of {videos[cam]} does not decode")
+                out[k][1].append(image)
+        finally:
+            cap.release()
+    return out
+
+
+def int8_agreement(fp32_model: Path, int8_model: Path, videos: Mapping[str, Path],
+                   crops_only: bool = False, jobs_model: Path | None = None) -> Int8Agreement:
+    """Compare ``int8_model`` with ``fp32_model`` on :data:`AGREEMENT_FRAMES` of the demo videos:
+    whole frames (unless ``crops_only``, for the crop model) and ROI-style crops around the people
+    ``jobs_model`` (default ``fp32_model``) finds in the whole frames."""
+    config = PoseConfig(parallel=1)  # one lane: the same batches, the same figures, every time
+    fp32 = PoseDetector.load(config, fp32_model)
+    int8 = PoseDetector.load(config, int8_model)
+    finder = fp32 if jobs_model is None else PoseDetector.load(config, jobs_model)
+    ious: list[float] = []
+    distances: list[float] = []
+    mismatches: list[str] = []
+    views = 0
+    try:
+        for cams, images in agreement_frames(videos):
+            found = finder.detect(images, cams, 0, 0.0)
+            pad = AGREEMENT_CROP_PAD_PX
+            jobs = [(i, (float(b[0]) - pad, float(b[1]) - pad, float(b[2]) + pad, float(b[3]) + pad))
+                    for i, v in enumerate(found.views) for b in v.boxes_xyxy]
+            pairs = []
+            if not crops_only:
+                pairs += list(zip(fp32.detect(images, cams, 0, 0.0).views,
+                                  int8.detect(images, cams, 0, 0.0).views, strict=True))
+            if jobs:
+                pairs += list(zip(fp32.detect(images, cams, 0, 0.0, jobs, AGREEMENT_CROP_NET).views,
+                                  int8.detect(images, cams, 0, 0.0, jobs, AGREEMENT_CROP_NET).views,
+                                  strict=True))
+            for a, b in pairs:
+                views += 1
+                if len(a) != len(b):
+                    mismatches.append(f"{a.camera}: fp32 {len(a)}, int8 {len(b)}")
+                if not len(a) or not len(b):
+                    continue
+                iou = iou_matrix(a.boxes_xyxy, b.boxes_xyxy)
+                ious.extend(iou.max(axis=1).tolist())
+                for i, j in enumerate(iou.argmax(axis=1)):
+                    both = (a.keypoint_scores[i] >= KEYPOINT_SCORE) & (b.keypoint_scores[j] >= KEYPOINT_SCORE)
+                    d = np.linalg.norm(a.keypoints_xy[i] - b.keypoints_xy[j], axis=1)[both]
+                    distances.extend(d.tolist())
+    finally:
+        for d in {id(x): x for x in (fp32, int8, finder)}.values():
+            d.close()
+    min_iou = min(ious) if ious else 0.0
+    p10 = float(np.percentile(ious, 10)) if ious else 0.0
+    median = float(np.median(distances)) if distances else float("inf")
+    failures = []
+    if mismatches:
+        failures.append(f"it finds other numbers of people ({'; '.join(mismatches[:4])})")
+    if min_iou <= MIN_BOX_IOU:
+        failures.append(f"its worst box has IoU {min_iou:.2f} with fp32's (needs > {MIN_BOX_IOU})")
+    if p10 <= P10_BOX_IOU:
+        failures.append(f"its boxes moved: IoU 10th percentile {p10:.3f} (needs > {P10_BOX_IOU})")
+    if len(distances) < MIN_KEYPOINTS:
+        failures.append(f"only {len(distances)} keypoints to compare (needs {MIN_KEYPOINTS})")
+    elif median >= MAX_MEDIAN_KEYPOINT_PX:
+        failures.append(f"its keypoints are a median {median:.1f} px from fp32's "
+                        f"(needs < {MAX_MEDIAN_KEYPOINT_PX})")
+    return Int8Agreement(views, tuple(mismatches), min_iou, p10, median, len(distances), tuple(failures))
 
 
 def excluded_head_nodes(node_names: Iterable[str]) -> list[str]:
@@ -80,7 +230,7 @@ def calibration_inputs(
         letterbox_into(image, fit_region(region, net), x[0])
         inputs.append(x)
 
-    for camera, path in videos.items():
+    for camera, path in sorted(videos.items()):  # a fixed order: the same inputs, the same ranges
         cap = cv2.VideoCapture(str(path))
         if not cap.isOpened():
             raise ModelError(f"calibration video {path} does not open")
@@ -107,8 +257,10 @@ def calibration_inputs(
     return inputs
 
 
-def quantize_pose_model(fp32_model: Path, out_path: Path, inputs: Sequence[F32]) -> int:
-    """Write the int8 QDQ model calibrated on ``inputs``; returns how many nodes stayed float32."""
+def quantize_pose_model(fp32_model: Path, out_path: Path, inputs: Sequence[F32],
+                        keep_head_fp32: bool = True, reduce_range: bool = True) -> int:
+    """Write the int8 QDQ model calibrated on ``inputs``; returns how many nodes stayed float32
+    (with ``keep_head_fp32`` off, none: a degraded model, for tests of the int8 check)."""
     import onnx
     from onnxruntime.quantization import (
         CalibrationDataReader,
@@ -133,7 +285,7 @@ def quantize_pose_model(fp32_model: Path, out_path: Path, inputs: Sequence[F32])
         # the head's shape arithmetic defeats symbolic shape inference; ONNX's own is enough
         quant_pre_process(str(fp32_model), str(pre), skip_symbolic_shape=True)
         model = onnx.load(str(pre))
-        excluded = excluded_head_nodes(n.name for n in model.graph.node)
+        excluded = excluded_head_nodes(n.name for n in model.graph.node) if keep_head_fp32 else []
         input_name = model.graph.input[0].name
         del model
         try:
@@ -142,6 +294,7 @@ def quantize_pose_model(fp32_model: Path, out_path: Path, inputs: Sequence[F32])
                 quant_format=QuantFormat.QDQ, per_channel=True,
                 activation_type=QuantType.QUInt8, weight_type=QuantType.QInt8,
                 nodes_to_exclude=excluded, calibrate_method=CalibrationMethod.MinMax,
+                reduce_range=reduce_range,
             )
         except Exception as exc:  # onnxruntime raises many kinds
             raise ModelError(f"int8 quantization of {fp32_model} failed: {exc}") from exc
