@@ -33,6 +33,11 @@ from app.core.config import load_settings, set_settings
 from app.core.logging import configure_logging
 from pipeline.errors import CavewalkError
 
+try:  # typer >= 0.2x carries its own copy of click
+    from typer._click import exceptions as click_exceptions
+except ImportError:  # older typer runs on click itself
+    from click import exceptions as click_exceptions  # type: ignore[no-redef]
+
 cli = typer.Typer(
     name="cavewalk",
     help="Markerless full-body locomotion for CAVE virtual-reality rooms.",
@@ -68,15 +73,29 @@ cli.add_typer(plan.app)  # cavewalk plan
 
 
 def main() -> None:
-    """Console-script entry point."""
+    """Console-script entry point: a bad invocation or input ends with one ``error:`` line on
+    stderr and a non-zero exit status (2), never a traceback."""
     try:
-        cli(prog_name="cavewalk")
+        code = cli(prog_name="cavewalk", standalone_mode=False)
+    except click_exceptions.NoArgsIsHelpError as exc:  # a bare group: its help, as before
+        typer.echo(exc.ctx.get_help(), err=True)
+        sys.exit(2)
+    except click_exceptions.ClickException as exc:  # usage errors, in the same one-line form as ours
+        ctx = getattr(exc, "ctx", None)
+        hint = f" (see: {ctx.command_path} --help)" if ctx is not None else ""
+        typer.echo(f"error: {exc.format_message()}{hint}", err=True)
+        sys.exit(exc.exit_code)
     except CavewalkError as exc:
         typer.echo(f"error: {exc}", err=True)
         sys.exit(2)
-    except KeyboardInterrupt:
+    except (KeyboardInterrupt, typer.Abort):
         typer.echo("interrupted", err=True)
         sys.exit(130)
+    except OSError as exc:  # a file or device the command could not use
+        where = f": {exc.filename}" if exc.filename else ""
+        typer.echo(f"error: {exc.strerror or exc}{where}", err=True)
+        sys.exit(2)
+    sys.exit(code if isinstance(code, int) else 0)
 
 
 if __name__ == "__main__":

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -125,8 +126,12 @@ def save_npz(path: str | Path, seq: SkeletonSequence) -> None:
 def load_npz(path: str | Path) -> SkeletonSequence:
     """Read a skeleton-sequence NPZ; raises :class:`InputError` with a clear message."""
     p = Path(path)
+    if p.is_dir():
+        raise InputError(f"{p} is a folder, not an NPZ skeleton file")
     if not p.is_file():
         raise InputError(f"skeleton file not found: {p}")
+    if not zipfile.is_zipfile(p):  # np.load would try a pickle: "contains pickled (object) data"
+        raise InputError(f"{p}: not an NPZ file (expected a NumPy .npz archive of arrays)")
     try:
         with np.load(p, allow_pickle=False) as data:
             if "joints" not in data or "fps" not in data:

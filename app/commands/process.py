@@ -59,6 +59,25 @@ def _check_out(out: Path) -> None:
         raise InputError(f"--out {out}: {parent} is not a directory")
 
 
+def _report_short_videos(videos: SyncedVideos, done: int, expected: int) -> str:
+    """Warn (stderr) when the run wrote fewer frames than the files report: how many frames
+    each view really had and where the short ones ended. Returns the warning ('' if none)."""
+    if not videos.ended or not expected or done >= expected:
+        return ""  # every file had what it says, --frames stopped the run first, or no count to go by
+    had = videos.frames_had()
+    short = videos.shortfall()
+    views = "; ".join(
+        f"{cam}: {n} frames" + (f" (its file reports {short[cam][1]}: it ends at frame {n})" if cam in short
+                                else "")
+        for cam, n in had.items()
+    )
+    message = (f"warning: the videos ran out after {done} multi-view frames, fewer than the "
+               f"{expected or '?'} their files report -- {views}. Frames are written while every view "
+               "has one; a truncated or damaged video ends the run early.")
+    typer.echo(message, err=True)
+    return views
+
+
 @app.command("process")
 def process(
     video: Annotated[list[str], typer.Option(
@@ -77,7 +96,11 @@ def process(
     )] = None,
 ) -> None:
     """The whole recognition pipeline over synchronised videos: detection, tracking, 3D skeletons,
-    navigator and action per frame, as the per-frame JSON Lines of SPEC.md."""
+    navigator and action per frame, as the per-frame JSON Lines of SPEC.md.
+
+    Frames are written while every view has one. A video that ends before the frames its file
+    reports (truncated, damaged) ends the run there with a warning naming how many frames each
+    view really had; the exit status is 0 when some frames were written, 2 when none could be."""
     settings = get_settings()
     named = parse_named_paths(video, "video")
     cameras = _calibrated_cameras(calibration, list(named))
@@ -87,8 +110,8 @@ def process(
         stage = DetectAndTrack.load(pose, settings.tracking, settings.pose_model_path, list(videos.cameras))
         pipeline = OfflinePipeline(stage, stages=[_fusion_stage(settings, cameras)])
         total = videos.frame_count if frames is None else min(frames, videos.frame_count or frames)
-        typer.echo(f"processing {len(named)} videos, {total or '?'} frames at {videos.fps:g} fps "
-                   f"(ROI mode {'on' if pose.roi else 'off'}) -> {out}", err=True)
+        typer.echo(f"processing {len(named)} videos, {total or '?'} frames (as the files report) at "
+                   f"{videos.fps:g} fps (ROI mode {'on' if pose.roi else 'off'}) -> {out}", err=True)
         step = max(1, (total or 100) // 20)
 
         def progress(done: int, total: int, summary: RunSummary) -> None:
@@ -101,6 +124,9 @@ def process(
         try:
             with ResultsWriter(partial) as writer:
                 summary = pipeline.run(videos, writer, max_frames=frames, progress=progress)
+            short = _report_short_videos(videos, summary.frames, total)
+            if summary.frames == 0:
+                raise InputError(f"no frame could be processed: {short or 'the videos have no frames'}")
             partial.replace(out)
         finally:
             partial.unlink(missing_ok=True)

@@ -11,6 +11,7 @@ import typer
 import uvicorn
 
 from app.core.config import get_settings, load_settings, parse_endpoint, set_settings
+from app.db.engine import DatabaseLock
 from app.db.migrate import prepare_database
 from app.main import create_app, operator_token
 from pipeline.errors import ConfigError, InputError
@@ -74,7 +75,12 @@ def run_server(
         raise ConfigError(f"port {server.port} on {server.host} is in use (choose another with --port)")
     if server.viser and not port_free(server.host, server.viser_port):
         raise ConfigError(f"port {server.viser_port} is in use (choose another with --viser-port)")
-    prepare_database(paths.db)  # a database that cannot be used ends here with one message
+    lock = DatabaseLock.acquire(paths.db)  # held until the process ends: a second server stops here
+    try:
+        prepare_database(paths.db)  # a database that cannot be used ends here with one message
+    except BaseException:
+        lock.release()
+        raise
     token = operator_token(settings)
     app = create_app(settings, autostart="simulator" if demo else None, token=token)
     shown = "localhost" if server.host in ("127.0.0.1", "localhost") else server.host

@@ -52,13 +52,55 @@ def upgrade(engine: Engine, revision: str = "head") -> None:
         log.info("database migrated from %s to %s", before or "empty", after)
 
 
+def _foreign_tables(db_path: Path) -> list[str]:
+    """The tables of an existing database file that has no Alembic revision (another program's
+    database). Read through a read-only connection: opening it with the app's engine would
+    already switch its journal to WAL, which writes to the file."""
+    import sqlite3
+
+    if not db_path.is_file() or db_path.stat().st_size == 0:
+        return []
+    try:
+        con = sqlite3.connect(f"{db_path.resolve().as_uri()}?mode=ro", uri=True)
+    except sqlite3.Error:
+        return []
+    try:
+        names = [r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type = 'table'")]
+    except sqlite3.Error:
+        return []  # not a database: the engine says so below
+    finally:
+        con.close()
+    if "alembic_version" in names:
+        return []
+    return sorted(n for n in names if not n.startswith("sqlite_"))
+
+
+def _check_writable(engine: Engine) -> None:
+    """Write the database header (its user_version, unchanged) in a transaction rolled back: a
+    read-only file passes a migration that has nothing to do and fails at the first real write."""
+    with engine.connect() as conn:
+        conn.exec_driver_sql("BEGIN IMMEDIATE")
+        try:
+            version = conn.exec_driver_sql("PRAGMA user_version").scalar()
+            conn.exec_driver_sql(f"PRAGMA user_version = {int(version or 0)}")
+        finally:
+            conn.exec_driver_sql("ROLLBACK")
+
+
 def prepare_database(db_path: Path) -> None:
     """Create or upgrade the database file in place; ConfigError with the reason when it cannot be used."""
     if db_path.is_dir():
         raise ConfigError(f"database {db_path} is a folder, not a file")
+    foreign = _foreign_tables(db_path)
+    if foreign:
+        raise ConfigError(f"database {db_path} is not a cavewalk database (it has the tables "
+                          f"{', '.join(foreign[:5])} and no cavewalk revision); give another --db")
     engine = make_engine(db_path)
     try:
         upgrade(engine)
+        _check_writable(engine)  # a read-only file or folder is found here, not mid-session
+    except ConfigError:
+        raise
     except SQLAlchemyError as exc:
         reason = str(getattr(exc, "orig", None) or exc).splitlines()[0]
         raise ConfigError(f"database {db_path} cannot be used: {reason}") from exc

@@ -99,6 +99,8 @@ class SyncedVideos:
     def __init__(self, videos: Mapping[str, Path]) -> None:
         self._caps: dict[str, cv2.VideoCapture] = {}
         self.info: dict[str, VideoInfo] = {}
+        self.frames_read: dict[str, int] = {}  # camera -> frames decoded so far
+        self.ended: dict[str, int] = {}  # camera -> frames it really had, once it ran out
         try:
             for cam, path in videos.items():
                 if not path.is_file():
@@ -135,15 +137,41 @@ class SyncedVideos:
         return min(counts) if counts and min(counts) > 0 else 0
 
     def __iter__(self) -> Iterator[list[U8]]:
-        """Multi-view frames (images in camera order) until the shortest video ends."""
+        """Multi-view frames (images in camera order) until the shortest video ends (it is
+        recorded in :attr:`ended`, with the frames it really had)."""
+        self.frames_read = dict.fromkeys(self._caps, 0)
         while True:
             frames = []
-            for cap in self._caps.values():
+            for cam, cap in self._caps.items():
                 ok, frame = cap.read()
                 if not ok or frame is None:
+                    self.ended[cam] = self.frames_read[cam]
                     return
+                self.frames_read[cam] += 1
                 frames.append(frame)
             yield frames
+
+    def frames_had(self) -> dict[str, int]:
+        """camera -> frames it really had, after the iteration stopped at the shortest video:
+        the ones that ran out as recorded, the others counted to their end (frames skipped,
+        not decoded). Call once, after iterating."""
+        out: dict[str, int] = {}
+        for cam, cap in self._caps.items():
+            if cam in self.ended:
+                out[cam] = self.ended[cam]
+                continue
+            n = self.frames_read.get(cam, 0)
+            while cap.grab():
+                n += 1
+            out[cam] = self.ended[cam] = n
+        return out
+
+    def shortfall(self) -> dict[str, tuple[int, int]]:
+        """camera -> (frames it really had, frames its file reports) for each video that ran out
+        before the frames its container reports (a truncated or damaged file); call after
+        :meth:`frames_had`."""
+        return {cam: (n, self.info[cam].frame_count) for cam, n in self.ended.items()
+                if self.info[cam].frame_count > 0 and n < self.info[cam].frame_count}
 
     def close(self) -> None:
         for cap in self._caps.values():

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -99,3 +100,27 @@ def test_the_default_database_is_in_the_users_data_directory() -> None:
     readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
     assert "/var/lib/cavewalk" not in readme
     assert "~/.local/share/cavewalk/cavewalk.db" in readme, "the README names the default database"
+
+
+@pytest.mark.parametrize("how", ["cwd", "env", "option"])
+def test_a_config_that_is_a_folder_is_an_error(
+    how: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A folder named cavewalk.toml was silently ignored (issue 15): the defaults ran instead."""
+    folder = tmp_path / "cavewalk.toml"
+    folder.mkdir()
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.delenv("CAVEWALK_CONFIG", raising=False)
+    if how == "env":
+        monkeypatch.chdir(tmp_path.parent)
+        monkeypatch.setenv("CAVEWALK_CONFIG", str(folder))
+    with pytest.raises(ConfigError, match="is a folder, not a TOML settings file"):
+        load_settings(folder if how == "option" else None)
+    args = ["--config", str(folder)] if how == "option" else []
+    proc = subprocess.run([sys.executable, "-m", "app.cli", *args, "config", "show"], capture_output=True,
+                          text=True, check=False, cwd=Path.cwd(),
+                          env={**os.environ, "PYTHONPATH": str(Path(__file__).parents[2])})
+    assert proc.returncode == 2, proc.stdout
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: config "), proc.stderr
+    assert lines[0].endswith("cavewalk.toml is a folder, not a TOML settings file"), lines

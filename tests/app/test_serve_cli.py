@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+import shutil
 import socket
 import subprocess
 import sys
@@ -78,3 +80,132 @@ def test_main_prints_one_line_and_exits_2(busy_port: int, tmp_path: Path) -> Non
         == f"error: port {busy_port} on 127.0.0.1 is in use (choose another with --port)"
     )
     assert "Traceback" not in proc.stderr
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+@pytest.mark.slow
+def test_a_second_server_on_one_database_stops_naming_the_first(tmp_path: Path) -> None:
+    """Two real `cavewalk serve` on one --db (issue 15 D5): the second ends with one message
+    naming the PID of the first; once the first is gone (even by kill -9) the database is free."""
+    db = tmp_path / "study.db"
+
+    def serve() -> subprocess.Popen[str]:
+        cmd = [sys.executable, "-m", "app.cli", "serve", "--db", str(db), "--port", str(_free_port()),
+               "--viser-port", str(_free_port())]
+        return subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+    first = serve()
+    try:
+        assert first.stdout is not None
+        # generous: start-up imports the pipeline; it only waits for the line, it races nothing
+        line = ""
+        for line in first.stdout:
+            if line.startswith("database:"):
+                break
+        assert line.startswith("database:"), f"the first server did not start: {first.stderr}"
+        second = serve()
+        out, err = second.communicate(timeout=120)
+        assert second.returncode == 2, (out, err)
+        last = err.strip().splitlines()[-1]
+        assert last.startswith("error: database ") and f"PID {first.pid}" in last, err
+        assert "Traceback" not in err and "cavewalk dashboard" not in out, "it never started serving"
+        assert first.poll() is None, "the first server runs on"
+    finally:
+        first.kill()  # kill -9: the lock goes with the process
+        first.wait(timeout=30)
+    third = serve()
+    try:
+        assert third.stdout is not None
+        started = any(line.startswith("database:") for line in third.stdout)
+        assert started, "a free database serves again"
+    finally:
+        third.kill()
+        third.wait(timeout=30)
+
+
+def _bad_database(tmp_path: Path, kind: str) -> Path:
+    """A database file that cannot serve: another program's, a newer cavewalk's, cut short."""
+    import shutil
+    import sqlite3
+
+    from app.db.migrate import prepare_database
+
+    db = tmp_path / f"{kind}.db"
+    if kind == "foreign":
+        con = sqlite3.connect(db)
+        con.execute("create table participants (x)")
+        con.execute("insert into participants values (1)")
+        con.commit()
+        con.close()
+        return db
+    good = tmp_path / "good.db"
+    prepare_database(good)
+    if kind == "future":
+        shutil.copy(good, db)
+        con = sqlite3.connect(db)
+        con.execute("update alembic_version set version_num = '0099_from_the_future'")
+        con.commit()
+        con.close()
+    elif kind == "truncated":
+        data = good.read_bytes()
+        db.write_bytes(data[: len(data) // 3])
+    return db
+
+
+@pytest.mark.parametrize(
+    ("kind", "match"),
+    [
+        ("foreign", "is not a cavewalk database (it has the tables participants"),
+        ("future", "cannot be migrated"),
+        ("truncated", "malformed"),
+    ],
+)
+def test_a_database_that_cannot_serve_is_one_message_and_left_unchanged(
+    kind: str, match: str, tmp_path: Path
+) -> None:
+    db = _bad_database(tmp_path, kind)
+    before = db.read_bytes()
+    result = CliRunner().invoke(cli, ["serve", "--db", str(db), "--port", str(_free_port()),
+                                      "--viser-port", str(_free_port())])
+    assert isinstance(result.exception, CavewalkError), result.output
+    assert match in str(result.exception) and str(db) in str(result.exception)
+    assert db.read_bytes() == before, "a refused database is not touched"
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not hasattr(os, "geteuid") or os.geteuid() != 0 or shutil.which("setpriv") is None,
+                    reason="root ignores file modes: drops to nobody with setpriv")
+@pytest.mark.parametrize("where", ["file", "folder"])
+def test_a_read_only_database_is_one_message(where: str) -> None:
+    """As nobody (root writes anything): a database file, or its folder, the user cannot write."""
+    import tempfile
+
+    from app.db.migrate import prepare_database
+
+    top = Path(tempfile.mkdtemp(prefix="cavewalk-ro-"))  # /tmp: nobody can reach it (pytest's is 0700)
+    try:
+        folder = top / "ro"
+        folder.mkdir()
+        db = folder / "study.db"
+        prepare_database(db)
+        db.chmod(0o444 if where == "file" else 0o644)
+        top.chmod(0o755)
+        folder.chmod(0o777 if where == "file" else 0o555)
+        cmd = [shutil.which("setpriv") or "setpriv", "--reuid=65534", "--regid=65534", "--clear-groups",
+               sys.executable, "-m", "app.cli", "serve", "--db", str(db), "--port", str(_free_port()),
+               "--viser-port", str(_free_port())]
+        env = {**os.environ, "HOME": str(top), "PYTHONDONTWRITEBYTECODE": "1"}
+        proc = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=120, env=env)
+        assert proc.returncode == 2, proc.stderr
+        last = proc.stderr.strip().splitlines()[-1]
+        assert last.startswith("error:") and str(db) in last and "Traceback" not in proc.stderr, proc.stderr
+        assert "readonly" in last or "read-only" in last or "ermission denied" in last, last
+        assert "cavewalk dashboard" not in proc.stdout, "it never started serving"
+    finally:
+        folder.chmod(0o755)
+        shutil.rmtree(top)

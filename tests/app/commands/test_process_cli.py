@@ -145,3 +145,61 @@ def test_missing_model_is_a_clear_error(
     err = capsys.readouterr().err
     assert rc == 2 and "cavewalk models prepare" in err, err
     assert not out.exists()
+
+
+def truncated_copy(video: Path, out: Path, keep: float) -> None:
+    """``video`` remuxed with its index first (faststart), then cut to ``keep`` of its bytes: the
+    container still reports every frame, the decoder runs out part-way (a copy cut short)."""
+    import av
+
+    full = out.with_suffix(".full.mp4")
+    with av.open(str(video)) as src, av.open(str(full), "w", options={"movflags": "faststart"}) as dst:
+        stream = dst.add_stream_from_template(src.streams.video[0])
+        for packet in src.demux(src.streams.video[0]):
+            if packet.dts is not None:
+                packet.stream = stream
+                dst.mux(packet)
+    data = full.read_bytes()
+    out.write_bytes(data[: int(len(data) * keep)])
+
+
+@pytest.mark.slow
+def test_a_truncated_video_is_reported_with_the_frames_each_view_had(
+    demo_data: DemoData, pose_model_path: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """Issue 15: a cut-short video said '100 frames', wrote 55 and exited 0 without a word."""
+    import cv2
+
+    cut = tmp_path / "cam03.mp4"
+    truncated_copy(demo_data.videos["cam03"], cut, 0.55)
+    cap = cv2.VideoCapture(str(cut))
+    reported = int(cap.get(cv2.CAP_PROP_FRAME_COUNT))
+    really = 0
+    while cap.grab():
+        really += 1
+    cap.release()
+    assert reported == 100 and 10 < really < 90, (reported, really)
+    videos = {**demo_data.videos, "cam03": cut}
+    out = tmp_path / "r.jsonl"
+    monkeypatch.setenv("CAVEWALK_POSE__MODEL", str(pose_model_path))
+    args = [a for cam, path in videos.items() for a in ("--video", f"{cam}={path}")]
+    rc = cavewalk(["process", *args, "--calibration", str(demo_data.calibration), "--out", str(out)],
+                  monkeypatch)
+    err = capsys.readouterr().err
+    assert rc == 0, "frames were written: the run is not a failure"
+    assert len(out.read_text().splitlines()) == really, "one line per multi-view frame written"
+    warning = next(line for line in err.splitlines() if line.startswith("warning:"))
+    assert f"ran out after {really} multi-view frames" in warning and "100 their files report" in warning
+    assert f"cam03: {really} frames (its file reports 100: it ends at frame {really})" in warning, warning
+    for cam in ("cam01", "cam02", "cam04"):
+        assert f"{cam}: 100 frames;" in warning or f"{cam}: 100 frames." in warning, warning
+
+    empty = tmp_path / "empty.mp4"
+    truncated_copy(demo_data.videos["cam03"], empty, 0.03)  # the index and no frame
+    out.write_text("previous\n")
+    rc = cavewalk(["process", "--video", f"cam01={demo_data.videos['cam01']}", "--video", f"cam03={empty}",
+                   "--calibration", str(demo_data.calibration), "--out", str(out)], monkeypatch)
+    err = capsys.readouterr().err
+    assert rc == 2 and "error:" in err and "Traceback" not in err, err
+    assert out.read_text() == "previous\n", "nothing processed, nothing replaced"
