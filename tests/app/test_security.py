@@ -166,13 +166,14 @@ def test_races_on_duplicate_codes_and_session_starts_have_exactly_one_winner(tmp
             codes = race(12, lambda _i: h.post(f"{api}/participants", json={"code": "P07"}).status_code)
             assert sorted(codes) == [201] + [409] * 11, codes
             pid = h.get(f"{api}/participants").json()[0]["id"]
-            sids = [h.post(f"{api}/sessions", json={"participant_id": pid, "condition": c}).json()["id"]
-                    for c in ("CC", "EC")]
-            same = race(8, lambda _i: h.post(f"{api}/sessions/{sids[0]}/start").status_code)
+            others = [h.post(f"{api}/participants", json={"code": c}).json()["id"] for c in ("P08", "P09")]
+            sid = h.post(f"{api}/sessions", json={"participant_id": pid, "condition": "CC"}).json()["id"]
+            same = race(8, lambda _i: h.post(f"{api}/sessions/{sid}/start").status_code)
             assert sorted(same) == [200] + [409] * 7, same
-            assert h.post(f"{api}/sessions/{sids[0]}/stop").status_code == 200
-            sid3 = h.post(f"{api}/sessions", json={"participant_id": pid, "condition": "CC"}).json()["id"]
-            both = race(8, lambda i: h.post(f"{api}/sessions/{(sids[1], sid3)[i % 2]}/start").status_code)
+            assert h.post(f"{api}/sessions/{sid}/stop").status_code == 200
+            sids = [h.post(f"{api}/sessions", json={"participant_id": p, "condition": "CC"}).json()["id"]
+                    for p in others]
+            both = race(8, lambda i: h.post(f"{api}/sessions/{sids[i % 2]}/start").status_code)
             assert sorted(both) == [200] + [409] * 7, f"one session runs at a time: {both}"
             running = [x for x in h.get(f"{api}/sessions").json() if x["status"] == "running"]
             assert len(running) == 1

@@ -20,7 +20,11 @@ from app.schemas.questionnaires import ParticipantSubmission
 from app.study.questionnaires import QuestionnaireError, instrument_definitions, score
 from app.study.session_script import session_script
 
-router = APIRouter(prefix="/participant", tags=["participant page"])
+router = APIRouter(
+    prefix="/participant",
+    tags=["participant page"],
+    responses={401: {"description": "The participant link is missing, wrong or no longer valid"}},
+)
 
 _DENIED = "this link is not valid (any more): ask the experimenter for a new one"
 
