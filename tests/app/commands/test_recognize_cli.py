@@ -88,7 +88,7 @@ def _bad_files(tmp: Path) -> dict[str, tuple[Path, str]]:
     np.savez(badfps, joints=np.zeros((10, 17, 3)), fps=0.0)
     return {
         "missing": (tmp / "nope.npz", "not found"),
-        "text": (text, "not a readable NPZ"),
+        "text": (text, "not an NPZ file"),  # issue 15: it said "pickled (object) data"
         "wrong": (wrong, r"\(T, 17, 3\)"),
         "nofps": (nofps, "'fps'"),
         "empty": (empty, "no frames"),
