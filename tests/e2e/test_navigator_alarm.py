@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import time
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -53,10 +54,13 @@ def test_navigator_walks_out_alarm_fallback_and_summary(tmp_path: Path, artifact
     base = make_settings(tmp_path)
     settings = base.model_copy(
         update={
-            "sim": base.sim.model_copy(
-                update={"script": script, "bystanders": 0, "false_detection_rate": 0.0}
+            "sim": replace(
+                base.sim,
+                script=script,
+                bystanders=0,
+                faults=replace(base.sim.faults, false_detection_rate=0.0),
             ),
-            "navigator": base.navigator.model_copy(update={"manual_grace_s": 1.0, "hold_s": 0.5}),
+            "navigator": replace(base.navigator, manual_grace_s=1.0, hold_s=0.5),
         }
     )
     with Served(settings) as srv:

@@ -4,6 +4,7 @@ newest step's displacement in words."""
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -21,7 +22,7 @@ def test_the_step_strip_shows_feet_gate_and_the_newest_step(tmp_path: Path, arti
     if not Path(CHROMIUM).exists():
         pytest.fail(f"{CHROMIUM} missing: apt-get install -y chromium chromium-driver")
     s = make_settings(tmp_path)
-    settings = s.model_copy(update={"recognition": s.recognition.model_copy(update={"gate": True})})
+    settings = s.model_copy(update={"recognition": replace(s.recognition, gate=True)})
     with Served(settings) as served, sync_playwright() as pw:
         status = served.wait_status(lambda st: bool(st.get("action") and st["action"].get("steps")))
         steps = status["action"]["steps"]
