@@ -3,7 +3,8 @@
 The lifespan migrates the SQLite database to the newest Alembic revision, starts
 the event-log writer, the one viser server (the 3D view) and the pipeline owner,
 and stops them all in reverse order on shutdown. The dashboard (``frontend/``) is
-served at ``/``, the API under ``/api/v1``, OpenAPI at ``/docs``.
+served at ``/``, the API under ``/api/v1``, OpenAPI at ``/docs``, the 3D view at ``/viewer/``
+(proxied from the loopback-only viser server, :mod:`app.api.viewer_proxy`).
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from app.api.limits import BodySizeLimit
 from app.api.main import api_router
 from app.api.openapi import install_docs
 from app.api.origin import SameOriginGuard, allowed_host_names
+from app.api.viewer_proxy import router as viewer_router
 from app.core.config import Settings, get_settings
 from app.db.engine import DatabaseLock, make_engine, make_session_factory
 from app.db.migrate import upgrade
@@ -164,6 +166,7 @@ def create_app(
     install_error_handlers(app)
     app.include_router(api_router)
     install_docs(app)
+    app.include_router(viewer_router)  # the 3D view at /viewer/, behind the token (issue 15 D8)
     install_api_fallback(app)  # after every API route, before the static mount at /
     app.add_middleware(JsonBodyGuard)
     if settings.server.cors_origins:

@@ -29,6 +29,8 @@ log = logging.getLogger(__name__)
 F32 = NDArray[np.float32]
 
 NAVIGATOR_COLOR = (255, 140, 0)
+#: where the viser server listens; the app proxies it to the network (app/api/viewer_proxy.py)
+VISER_HOST = "127.0.0.1"
 
 
 def user_color(user_id: int) -> tuple[int, int, int]:
@@ -152,13 +154,13 @@ class Viewer:
         import viser
 
         with contextlib.redirect_stdout(io.StringIO()):  # viser prints a banner whatever verbose says
-            server = viser.ViserServer(
-                host=settings.server.host, port=settings.server.viser_port, verbose=False
-            )
+            # loopback only, whatever server.host is: the network reaches the view through the app's
+            # /viewer/ proxy, behind the operator token (app/api/viewer_proxy.py, issue 15 D8)
+            server = viser.ViserServer(host=VISER_HOST, port=settings.server.viser_port, verbose=False)
         viewer = cls(server=server, cave=settings.cave.geometry())
         viewer._build_static()
         viewer.show_cameras(cameras if cameras is not None else _default_cameras(settings))
-        log.info("3D view on http://%s:%d", settings.server.host, viewer.port)
+        log.info("3D view on http://%s:%d (and at /viewer/ of the app)", VISER_HOST, viewer.port)
         return viewer
 
     @property

@@ -86,7 +86,7 @@ def run_server(
     shown = "localhost" if server.host in ("127.0.0.1", "localhost") else server.host
     typer.echo(f"cavewalk dashboard: http://{shown}:{server.port}/  (API docs: /docs)")
     if server.viser:
-        typer.echo(f"3D view:            http://{shown}:{server.viser_port}/")
+        typer.echo(f"3D view:            http://{shown}:{server.port}/viewer/")  # proxied, behind the token
     typer.echo(f"database:           {paths.db}")
     if token is not None:
         source = "from the settings" if settings.server.token else "generated for this run"

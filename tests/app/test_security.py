@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import asyncio
 import hmac
 import socket
 import threading
 from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import Any
 
 import httpx
 import pytest
@@ -171,8 +173,10 @@ def test_races_on_duplicate_codes_and_session_starts_have_exactly_one_winner(tmp
             same = race(8, lambda _i: h.post(f"{api}/sessions/{sid}/start").status_code)
             assert sorted(same) == [200] + [409] * 7, same
             assert h.post(f"{api}/sessions/{sid}/stop").status_code == 200
-            sids = [h.post(f"{api}/sessions", json={"participant_id": p, "condition": "CC"}).json()["id"]
-                    for p in others]
+            sids = [
+                h.post(f"{api}/sessions", json={"participant_id": p, "condition": "CC"}).json()["id"]
+                for p in others
+            ]
             both = race(8, lambda i: h.post(f"{api}/sessions/{sids[i % 2]}/start").status_code)
             assert sorted(both) == [200] + [409] * 7, f"one session runs at a time: {both}"
             running = [x for x in h.get(f"{api}/sessions").json() if x["status"] == "running"]
@@ -212,8 +216,12 @@ def test_every_route_but_health_answers_401_without_the_token(tmp_path: Path) ->
             target = target.replace("{participant_id}", "1").replace("{session_id}", "1")
             target = target.replace("{run_id}", "1")
             for method in ops:
-                r = c.request(method.upper(), target, headers={"content-type": "application/json"},
-                              content="{}" if method in ("post", "put", "patch") else None)
+                r = c.request(
+                    method.upper(),
+                    target,
+                    headers={"content-type": "application/json"},
+                    content="{}" if method in ("post", "put", "patch") else None,
+                )
                 expected = 200 if path == "/api/v1/health" else 401
                 assert r.status_code == expected, f"{method.upper()} {path}: {r.status_code}"
                 checked += 1
@@ -224,3 +232,106 @@ def test_every_route_but_health_answers_401_without_the_token(tmp_path: Path) ->
         with pytest.raises(WebSocketDisconnect) as info, c.websocket_connect("/api/v1/ws/live") as ws:
             ws.receive_json()
         assert info.value.code == 1008
+
+
+# --- the 3D view (issue 15 D8): viser on loopback only, proxied at /viewer/ behind the token ---
+
+VIEW_TOKEN = "lab-token-3d"
+SEEN_PERSON = {
+    "navigator": 7,
+    "action": {"label": "forward", "yaw_deg": 10.0},
+    "extra": {"people3d": [{"user_id": 7, "joints": [[0.1 * i, 0.0, 0.1 * i] for i in range(17)]}]},
+}
+
+
+def viser_messages(raw: bytes) -> list[dict[str, Any]]:
+    """The messages of one viser WebSocket frame (zstd-compressed msgpack after a 16-byte header)."""
+    import msgspec
+    import zstandard
+
+    size, compressed = int.from_bytes(raw[:8], "little"), int.from_bytes(raw[8:16], "little")
+    inner = zstandard.ZstdDecompressor().decompress(raw[16 : 16 + compressed], max_output_size=size)
+    return list(msgspec.msgpack.decode(inner)["messages"])
+
+
+async def scene_names(url: str, headers: dict[str, str], until: str, timeout_s: float = 60.0) -> set[str]:
+    """Connect like the viser client does and collect scene-node names until ``until`` arrives.
+
+    The deadline only bounds a hung server: the scene is replayed at once on connect."""
+    import viser
+    import websockets
+
+    names: set[str] = set()
+    async with websockets.connect(url, subprotocols=[f"viser-v{viser.__version__}"],  # type: ignore[list-item]
+                                  additional_headers=headers, max_size=None) as ws:  # fmt: skip
+        deadline = asyncio.get_running_loop().time() + timeout_s
+        while until not in names:
+            left = deadline - asyncio.get_running_loop().time()
+            assert left > 0, f"{until} never arrived; names seen: {sorted(names)[:30]}"
+            raw = await asyncio.wait_for(ws.recv(), left)
+            assert isinstance(raw, bytes)
+            names |= {str(m["name"]) for m in viser_messages(raw) if isinstance(m.get("name"), str)}
+    return names
+
+
+async def refused(url: str, headers: dict[str, str] | None = None) -> int:
+    """The HTTP status a WebSocket handshake is refused with (it must be refused: nothing is received)."""
+    import viser
+    import websockets
+
+    try:
+        async with websockets.connect(url, subprotocols=[f"viser-v{viser.__version__}"],  # type: ignore[list-item]
+                                      additional_headers=headers or {}) as ws:  # fmt: skip
+            raw = await asyncio.wait_for(ws.recv(), 30)
+    except websockets.InvalidStatus as exc:
+        return int(exc.response.status_code)
+    raise AssertionError(f"the handshake was accepted and sent {len(raw)} bytes")
+
+
+def test_the_3d_view_beyond_loopback_needs_the_token(tmp_path: Path) -> None:
+    import psutil
+
+    from app.api.viewer_proxy import COOKIE
+
+    settings = make_settings(tmp_path, viser=True, host="0.0.0.0", token=VIEW_TOKEN)
+    with Served(settings, pipeline_factory=None, autostart=None) as s:
+        viewer = s.app.state.viewer
+        assert viewer is not None
+        viewer.update(SEEN_PERSON)
+        listening = {c.laddr.ip for c in psutil.net_connections("inet")
+                     if c.status == psutil.CONN_LISTEN and c.laddr.port == viewer.port}  # fmt: skip
+        assert listening == {"127.0.0.1"}, f"viser must listen on loopback only, not {listening}"
+        page = f"{s.base}/viewer/"
+        ws_url = f"ws://127.0.0.1:{settings.server.port}/viewer"
+        assert httpx.get(page, timeout=60).status_code == 401
+        assert httpx.get(f"{page}?token=wrong", timeout=60).status_code == 401
+        assert httpx.get(f"{s.base}/api/v1/info", timeout=60).status_code == 401
+        info = httpx.get(f"{s.base}/api/v1/info", headers={"Authorization": f"Bearer {VIEW_TOKEN}"}).json()
+        assert info["viewer_url"] == "/viewer/"
+        r = httpx.get(f"{page}?token={VIEW_TOKEN}", timeout=60)
+        assert r.status_code == 200 and "<title>Viser</title>" in r.text, "viser's own page, through the app"
+        cookie = r.cookies[COOKIE]
+        assert VIEW_TOKEN not in cookie and "httponly" in r.headers["set-cookie"].lower()
+        assert "samesite=strict" in r.headers["set-cookie"].lower()
+
+        assert asyncio.run(refused(ws_url)) == 403, "no token: refused before anything is sent"
+        assert asyncio.run(refused(f"{ws_url}?token=wrong")) == 403
+        assert asyncio.run(refused(ws_url, {"Cookie": f"{COOKIE}=forged"})) == 403
+        assert asyncio.run(refused(ws_url, {"Cookie": f"{COOKIE}={cookie}",
+                                            "Origin": "http://evil.example"})) == 403  # fmt: skip
+        for headers, url in (({"Cookie": f"{COOKIE}={cookie}"}, ws_url),
+                             ({}, f"{ws_url}?token={VIEW_TOKEN}"),
+                             ({"Authorization": f"Bearer {VIEW_TOKEN}"}, f"{ws_url}/")):  # fmt: skip
+            names = asyncio.run(scene_names(url, headers, until="/people/7/joints"))
+            assert {"/navigator/arrow", "/cameras/cam01"} <= names, sorted(names)
+
+
+def test_the_3d_view_on_loopback_is_open_through_the_proxy(tmp_path: Path) -> None:
+    settings = make_settings(tmp_path, viser=True)
+    with Served(settings, pipeline_factory=None, autostart=None) as s:
+        s.app.state.viewer.update(SEEN_PERSON)
+        r = httpx.get(f"{s.base}/viewer", timeout=60, follow_redirects=True)
+        assert r.status_code == 200 and "<title>Viser</title>" in r.text
+        url = f"ws://127.0.0.1:{settings.server.port}/viewer"
+        names = asyncio.run(scene_names(url, {}, "/people/7/joints"))
+        assert "/navigator/arrow" in names

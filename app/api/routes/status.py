@@ -15,7 +15,8 @@ router = APIRouter(tags=["status"])
 
 
 class DashboardInfo(BaseModel):
-    viser_port: int | None
+    viser_port: int | None  # the viser server's own port, on loopback only
+    viewer_url: str | None  # the 3D view for the dashboard: the app's proxy, behind the token
     cameras: list[str]
     walls: list[str]
     live_rate_hz: float
@@ -42,6 +43,7 @@ def get_status(conn: HTTPConnection) -> StatusPublic:
 def info(settings: SettingsDep, viewer: ViewerDep, pipeline: PipelineDep) -> DashboardInfo:
     return DashboardInfo(
         viser_port=viewer.port if viewer is not None else None,
+        viewer_url="/viewer/" if viewer is not None else None,
         cameras=[c.name for c in settings.cameras],
         walls=[w.name for w in settings.cave.geometry().walls],
         live_rate_hz=settings.server.live_rate_hz,
