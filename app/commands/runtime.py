@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import signal
 import sys
 import threading
@@ -118,12 +119,15 @@ def bench_cmd(
     if json_out is not None and json_out.exists() and json_out.is_dir():
         raise InputError(f"--json {json_out} is a folder")
     scenarios = _scenarios(source, flat_out)
-    report: dict[str, Any] = {"machine": machine_info(), "duration_s": duration, "warmup_s": warmup,
+    settings = get_settings()
+    report: dict[str, Any] = {"machine": machine_info(settings.pose, settings.pose_model_path),
+                              "duration_s": duration, "warmup_s": warmup,
                               "scenarios": {}}
     for sc in scenarios:
         typer.echo(f"== {sc.name}: {sc.notes}", err=True)
         report["scenarios"][sc.name] = run_scenario(sc, duration, warmup_s=warmup,
                                                     progress=lambda m: typer.echo(m, err=True))
+    report["machine"]["load_avg_end"] = [round(v, 2) for v in os.getloadavg()]
     _print_report(report)
     if json_out is not None:
         json_out.parent.mkdir(parents=True, exist_ok=True)
@@ -163,7 +167,14 @@ def _scenarios(source: str, flat_out: bool) -> list[Scenario]:
 
 def _print_report(report: dict[str, Any]) -> None:
     m = report["machine"]
-    typer.echo(f"machine: {m['cpus']} CPUs, load {m['load_avg']}, python {m['python']}")
+    typer.echo(f"machine: {m['cpus']} CPUs, load {m['load_avg']} at the start, {m.get('load_avg_end')} at "
+               f"the end, python {m['python']}")
+    typer.echo(f"cpu: {m['summary']}")
+    if "execution_provider" in m:
+        pose = m["pose"]
+        typer.echo(f"pose: {m['execution_provider']}, {pose['precision']}, crop model "
+                   f"{'on' if pose['crop_model_file'] else 'off'}, crops up to {pose['roi_long_side']} px, "
+                   f"threads {pose['threads'] or 'auto'}, parallel {pose['parallel'] or 'auto'}")
     for name, r in report["scenarios"].items():
         lat = r["latency_ms"]
         typer.echo(f"{name}: {r['processed_fps']:.1f} multi-view frames/s, dropped {r['dropped_frames']} "

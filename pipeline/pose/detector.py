@@ -48,6 +48,22 @@ class PoseBatch:
     decode_s: float
 
 
+def session_providers(config: PoseConfig, warn: bool = False) -> list[str]:
+    """The onnxruntime execution providers a session of ``config`` asks for, in order: those of
+    ``config.providers`` installed here, then the CPU one (always there)."""
+    import onnxruntime as ort
+
+    available = set(ort.get_available_providers())
+    providers = [PROVIDERS[p] for p in config.providers if PROVIDERS[p] in available]
+    missing = [p for p in config.providers if PROVIDERS[p] not in available]
+    if missing and warn:
+        log.warning("onnxruntime providers %s are not available here; using %s",
+                    missing, providers or ["CPUExecutionProvider"])
+    if "CPUExecutionProvider" not in providers:
+        providers.append("CPUExecutionProvider")
+    return providers
+
+
 def load_session(config: PoseConfig, path: Path) -> Any:
     """An onnxruntime session for the model file ``path``; ModelError with the fix when it cannot load."""
     import onnxruntime as ort
@@ -63,14 +79,7 @@ def load_session(config: PoseConfig, path: Path) -> Any:
     if config.intra_op_threads:
         opts.intra_op_num_threads = config.intra_op_threads
         opts.inter_op_num_threads = 1
-    available = set(ort.get_available_providers())
-    providers = [PROVIDERS[p] for p in config.providers if PROVIDERS[p] in available]
-    missing = [p for p in config.providers if PROVIDERS[p] not in available]
-    if missing:
-        log.warning("onnxruntime providers %s are not available here; using %s",
-                    missing, providers or ["CPUExecutionProvider"])
-    if "CPUExecutionProvider" not in providers:
-        providers.append("CPUExecutionProvider")
+    providers = session_providers(config, warn=True)
     try:
         session = ort.InferenceSession(str(path), opts, providers=providers)
     except Exception as exc:  # onnxruntime raises its own exception types

@@ -23,6 +23,8 @@ import psutil
 
 from pipeline.emitter.receiver import open_receiver_socket, receive
 from pipeline.errors import SourceError
+from pipeline.machine import machine_facts
+from pipeline.pose.config import PoseConfig
 from pipeline.runtime.metrics import percentiles
 from pipeline.runtime.pipeline import Pipeline
 
@@ -185,11 +187,30 @@ def _summary(values: list[float]) -> dict[str, float]:
     return {"mean": round(float(arr.mean()), 1), "max": round(float(arr.max()), 1)}
 
 
-def machine_info() -> dict[str, Any]:
-    return {
+def machine_info(pose: PoseConfig | None = None, model_path: Path | None = None) -> dict[str, Any]:
+    """The machine a benchmark ran on: the CPU (model, AVX2/AVX-512/VNNI/AMX, cores), the load,
+    onnxruntime's version and, for the pose stage of ``pose``, the execution provider it runs on
+    and the model files (see :func:`pipeline.machine.machine_facts`)."""
+    facts = machine_facts()
+    out: dict[str, Any] = {
         "cpus": os.cpu_count(),
         "load_avg": [round(v, 2) for v in os.getloadavg()],
         "memory_gb": round(psutil.virtual_memory().total / 1e9, 1),
         "python": platform.python_version(),
         "platform": platform.platform(),
+        "cpu": facts.as_dict(),
+        "summary": facts.summary(),
+        "onnxruntime": facts.onnxruntime,
     }
+    if pose is not None and facts.onnxruntime is not None:
+        from pipeline.pose.detector import session_providers
+
+        out["execution_provider"] = session_providers(pose)[0]
+        out["pose"] = {"precision": pose.precision, "crop_model": pose.crop_model, "roi": pose.roi,
+                       "roi_long_side": pose.roi_long_side, "input_long_side": pose.input_long_side,
+                       "threads": pose.threads, "parallel": pose.parallel,
+                       "model": str(model_path) if model_path is not None else None,
+                       "crop_model_file": (str(pose.crop_model_file(model_path))
+                                           if model_path is not None and pose.crop_model_file(model_path)
+                                           else None)}
+    return out

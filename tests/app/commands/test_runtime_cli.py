@@ -14,6 +14,7 @@ import psutil
 import pytest
 
 from pipeline.emitter import EmitterConfig, LocomotionCommand, UdpEmitter
+from pipeline.machine import machine_facts
 from tests.pipeline.runtime.live import children_alive, shm_segments
 
 ROOT = Path(__file__).resolve().parents[3]
@@ -122,6 +123,13 @@ def test_bench_sim_writes_json(tmp_path: Path) -> None:
     assert sim["cpu_percent"]["mean"] > 0 and sim["rss_mb"]["max"] > 0
     assert sim["receiver"]["invalid"] == 0 and sim["receiver"]["by_type"].get("heartbeat", 0) >= 1
     assert report["machine"]["cpus"] >= 1
+    cpu = report["machine"]["cpu"]  # the machine the figures came from (issue 17 item 1)
+    facts = machine_facts()
+    assert cpu["cpu_model"] == facts.cpu_model and cpu["extensions"] == list(facts.extensions)
+    assert cpu["logical_cores"] == facts.logical_cores and cpu["onnxruntime"] == facts.onnxruntime
+    assert report["machine"]["execution_provider"] == "CPUExecutionProvider"
+    assert report["machine"]["pose"]["precision"] in ("fp32", "int8")
+    assert f"cpu: {facts.summary()}" in proc.stdout and "pose: CPUExecutionProvider" in proc.stdout
     assert "sim_60fps:" in proc.stdout and "end_to_end" in proc.stdout
 
 
