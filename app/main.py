@@ -105,6 +105,7 @@ def create_app(
         else:
             built, reason = (pipeline_factory or None), "no pipeline in this app"
         watch = LocomotionWatch(events)
+        watch.start()  # raises and logs the alarm even when no status is polled
         pipeline = PipelineService(
             built, events, sinks=(watch, *((viewer,) if viewer else ())), rate_hz=settings.server.live_rate_hz
         )
@@ -141,6 +142,7 @@ def create_app(
             yield
         finally:
             planner.close()
+            watch.close()
             session_timer.close()
             calibration.close()
             pipeline.close()

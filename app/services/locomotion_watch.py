@@ -6,6 +6,10 @@ navigator with an action (the emitter sends one per frame then). During a runnin
 gap longer than ``threshold_s`` raises the alarm: the dashboard shows it (``alarm`` in the live
 status) and the session's log gets an ``alarm`` event when it is raised and when it clears, so the
 session's summary can say how long it ran without commands.
+
+The rule is also checked on the watch's own clock (:meth:`LocomotionWatch.start`, four times a
+second), so the alarm is raised and logged when nobody polls the status: with no dashboard open, or
+with the pipeline stopped or crashed during a running session (then no snapshots arrive at all).
 """
 
 from __future__ import annotations
@@ -71,6 +75,32 @@ class LocomotionWatch:
         self._snapshot: Mapping[str, Any] | None = None
         self._snapshot_at = 0.0
         self._alarm: dict[str, Any] | None = None
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+
+    # -- its own clock -----------------------------------------------------------------
+    def start(self, period_s: float = 0.25) -> None:
+        """Check the rule every ``period_s`` on a daemon thread until :meth:`close`."""
+        if self._thread is not None:
+            return
+        self._stop.clear()
+        self._thread = threading.Thread(
+            target=self._tick, args=(period_s,), name="locomotion-watch", daemon=True
+        )
+        self._thread.start()
+
+    def close(self) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=2)
+            self._thread = None
+
+    def _tick(self, period_s: float) -> None:
+        while not self._stop.wait(period_s):
+            try:
+                self.current()
+            except Exception:  # the loop boundary: a failed check must not end the watch
+                log.exception("locomotion watch check failed")
 
     # -- the sink ----------------------------------------------------------------------
     def update(self, snapshot: Mapping[str, Any]) -> None:

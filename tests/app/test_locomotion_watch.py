@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 from typing import Any
+
+from fastapi.testclient import TestClient
 
 from app.db.engine import make_engine, make_session_factory
 from app.db.migrate import upgrade
@@ -63,3 +66,19 @@ def test_alarm_after_two_seconds_without_commands_and_its_events(tmp_path: Path)
     assert [r.payload["state"] for r in rows] == ["raised", "cleared"]
     assert rows[1].payload["gap_s"] == 5.2
     engine.dispose()
+
+
+def test_the_alarm_is_logged_with_nobody_polling_the_status(client: TestClient) -> None:
+    """A running session with no pipeline and no dashboard open: the watch's own clock logs it."""
+    pid = client.post("/api/v1/participants", json={"code": "P09"}).json()["id"]
+    sid = client.post("/api/v1/sessions", json={"participant_id": pid, "condition": "EC"}).json()["id"]
+    assert client.post(f"/api/v1/sessions/{sid}/start").status_code == 200
+    deadline = time.monotonic() + 30  # > 2 s of silence, plus a loaded machine's slack
+    alarms: list[dict[str, Any]] = []
+    while time.monotonic() < deadline and not alarms:
+        time.sleep(0.25)
+        events = client.get(f"/api/v1/sessions/{sid}/events").json()  # the log, not the live status
+        alarms = [e for e in events if e["kind"] == "alarm"]
+    assert alarms, "no alarm event although nothing was sent for more than 2 s"
+    payload = alarms[0]["payload"]
+    assert payload["state"] == "raised" and payload["reason"] == "the pipeline is not running"
