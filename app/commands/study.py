@@ -13,6 +13,7 @@ from app.db.engine import make_engine, make_session_factory
 from app.db.migrate import upgrade
 from app.study.data import load_study
 from app.study.report import write_report
+from app.study.summary import session_rows
 from pipeline.errors import InputError
 
 app = typer.Typer(name="study", help="The user study.", no_args_is_help=True)
@@ -50,6 +51,7 @@ def report(
         upgrade(engine)  # an older database is read as the app would: migrated in place first
         with make_session_factory(engine)() as session:
             data = load_study(session)
+            sessions = session_rows(session)
     finally:
         engine.dispose()
     typer.echo(
@@ -62,6 +64,6 @@ def report(
         settings.study.analysis,
         settings.study.design,
         progress=typer.echo,
+        sessions=sessions,
     )
     typer.echo(f"report: {out / 'report.md'} ({len(written)} files)")
-

@@ -20,6 +20,7 @@ from app.study.analysis import MEASURES, AnalysisConfig, analyse
 from app.study.data import StudyData
 from app.study.design import DesignConfig, design_summary
 from app.study.figures import FORMATS, GROUPS, study_figure
+from app.study.summary import SESSION_COLUMNS
 from pipeline.errors import InputError
 
 log = logging.getLogger(__name__)
@@ -183,9 +184,7 @@ def markdown_report(analysis: Mapping[str, Any], design: Mapping[str, Any], figu
     ]
     if analysis.get("exclusions"):
         lines.append("Excluded by the operator:")
-        lines += [
-            f"- {e['kind']} {e['id']} ({e['code']}): {e['reason']}" for e in analysis["exclusions"]
-        ]
+        lines += [f"- {e['kind']} {e['id']} ({e['code']}): {e['reason']}" for e in analysis["exclusions"]]
         lines.append("")
     if analysis["excluded"]:
         lines.append("Left out of the paired tests (one condition only):")
@@ -246,6 +245,7 @@ def write_report(
     analysis_config: AnalysisConfig | None = None,
     design_config: DesignConfig | None = None,
     progress: Callable[[str], None] | None = None,
+    sessions: Sequence[Mapping[str, Any]] | None = None,
 ) -> list[Path]:
     """Write figures (PNG + SVG), tables (CSV), the whole analysis (JSON) and report.md into ``out_dir``."""
     try:
@@ -274,6 +274,8 @@ def write_report(
             figures.append(name)
     put("measures.csv", to_csv(measure_rows(analysis), MEASURE_COLUMNS))
     put("responses_long.csv", export_csv(data))
+    if sessions is not None:  # each session's summary (run time, time without a navigator, alarms)
+        put("sessions.csv", to_csv(sessions, SESSION_COLUMNS))
     put(
         "completeness.csv",
         to_csv(

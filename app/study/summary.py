@@ -11,7 +11,7 @@ from typing import Any
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
-from app.db.models import Event
+from app.db.models import Event, Participant, StudySession
 from app.db.study_repository import get_session
 
 
@@ -103,3 +103,51 @@ def session_summary(db: Session, session_id: int) -> dict[str, Any]:
     out["locomotion_gap_s"] = round(out["locomotion_gap_s"], 1)
     out["actions_s"] = {k: round(v, 1) for k, v in actions.items()}
     return out
+
+
+#: the columns of sessions.csv: one row per session, its summary flattened (``action_<label>_s``)
+SESSION_COLUMNS: tuple[str, ...] = (
+    "session_id",
+    "participant_code",
+    "condition",
+    "planned_index",
+    "status",
+    "started_at",
+    "duration_s",
+    "without_navigator_s",
+    "without_navigator_fraction",
+    "locomotion_alarms",
+    "locomotion_gap_s",
+    "navigator_changes",
+    "questionnaires",
+    "corrections",
+    "overrides",
+    "stopped_by",
+    "action_still_s",
+    "action_forward_s",
+    "action_left_s",
+    "action_right_s",
+)
+
+
+def session_rows(db: Session) -> list[dict[str, Any]]:
+    """Every session's summary as one flat row (sessions.csv), in session order."""
+    rows: list[dict[str, Any]] = []
+    query = (
+        select(StudySession, Participant.code)
+        .join(Participant, Participant.id == StudySession.participant_id)
+        .order_by(StudySession.id)
+    )
+    for session, code in db.execute(query).all():
+        summary = session_summary(db, session.id)
+        row = {k: v for k, v in summary.items() if k != "actions_s"}
+        row.update(
+            participant_code=code,
+            condition=session.condition,
+            planned_index=session.planned_index,
+            started_at=session.started_at.isoformat() if session.started_at else None,
+        )
+        for label, seconds in summary["actions_s"].items():
+            row[f"action_{label}_s"] = seconds
+        rows.append(row)
+    return rows

@@ -60,6 +60,8 @@ export function mountAnalysis(element) {
     {},
     el("a", { href: withToken("/api/v1/export.csv"), download: "cavewalk-study.csv" }, "CSV (long format)"),
     " · ",
+    el("a", { href: withToken("/api/v1/export/sessions.csv"), download: "cavewalk-sessions.csv" }, "sessions CSV"),
+    " · ",
     el("a", { href: withToken("/api/v1/analysis.json"), download: "cavewalk-analysis.json" }, "analysis JSON"),
   );
   const correction = el(

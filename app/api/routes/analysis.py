@@ -18,7 +18,8 @@ from app.study.analysis import AnalysisConfig, analyse
 from app.study.data import load_events, load_study
 from app.study.design import design_summary
 from app.study.figures import FORMATS, GROUPS, study_figure, timeline_figure
-from app.study.report import export_csv
+from app.study.report import export_csv, to_csv
+from app.study.summary import SESSION_COLUMNS, session_rows
 
 router = APIRouter(tags=["analysis"])
 
@@ -93,6 +94,21 @@ def get_timeline(
     events = load_events(db, session_id, kind="action")
     title = f"session {session_id} ({session.condition}): actions over time"
     return Response(timeline_figure(events, title, fmt), media_type=FORMATS[fmt])
+
+
+@router.get(
+    "/export/sessions.csv",
+    response_class=Response,
+    responses={200: {"content": {"text/csv": {}}, "description": "One row per session: its summary."}},
+)
+def get_sessions_export(db: SessionDep) -> Response:
+    """Every session's summary: run time, time without a navigator, locomotion alarms and gaps,
+    navigator changes, seconds per action, questionnaires and corrections."""
+    return Response(
+        to_csv(session_rows(db), SESSION_COLUMNS),
+        media_type="text/csv; charset=utf-8",
+        headers={"Content-Disposition": 'attachment; filename="cavewalk-sessions.csv"'},
+    )
 
 
 @router.get(

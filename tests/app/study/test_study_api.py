@@ -261,6 +261,7 @@ def test_report_command(study: TestClient, tmp_path: Path) -> None:
         "tlx.svg",
         "measures.csv",
         "responses_long.csv",
+        "sessions.csv",
         "analysis.json",
         "report.md",
     } <= names
@@ -269,6 +270,24 @@ def test_report_command(study: TestClient, tmp_path: Path) -> None:
     measures = list(csv.DictReader((out / "measures.csv").open()))
     assert len(measures) == 17 and measures[0]["measure"] == "ssq_total_post" and measures[0]["n"] == "5"
     assert json.loads((out / "analysis.json").read_text())["analysis"]["excluded"] == ["P06"]
+    sessions = list(csv.DictReader((out / "sessions.csv").open()))
+    assert len(sessions) == 11 and {r["participant_code"] for r in sessions} == {c for c, *_ in PLAN} | {
+        "P06"
+    }
+
+
+def test_sessions_csv_carries_each_sessions_summary(study: TestClient) -> None:
+    r = study.get(f"{API}/export/sessions.csv")
+    assert r.status_code == 200 and r.headers["content-type"].startswith("text/csv"), r.text
+    rows = list(csv.DictReader(io.StringIO(r.text)))
+    assert len(rows) == 11, "5 participants x 2 sessions + P06's first"
+    for row in rows:
+        summary = study.get(f"{API}/sessions/{row['session_id']}/summary").json()
+        assert row["status"] == summary["status"] == "stopped"
+        assert float(row["duration_s"]) == summary["duration_s"] and summary["duration_s"] >= 0
+        assert float(row["without_navigator_s"]) == summary["without_navigator_s"], "no pipeline: all of it"
+        assert int(row["questionnaires"]) == summary["questionnaires"] >= 4
+        assert row["condition"] in ("CC", "EC") and row["started_at"]
 
 
 def _bad_db(tmp_path: Path, kind: str) -> Path:
