@@ -3,7 +3,7 @@
 // times; start/stop; exclusions and deletions with a reason. Selecting a session hands it on at once
 // (the questionnaire form, the session panel and the script follow it).
 
-import { get, post, del, toast, el } from "../api.js";
+import { get, post, patch, del, toast, el } from "../api.js";
 
 const fmtTime = (iso) => (iso ? new Date(iso).toLocaleString([], { dateStyle: "short", timeStyle: "short" }) : "–");
 
@@ -58,6 +58,19 @@ export function mountStudy({ onSelectSession }) {
     await refresh();
   }
 
+  async function rename(p) {
+    const code = window.prompt(`Corrected code for ${p.code}:`, p.code);
+    if (code === null || code.trim() === "" || code.trim() === p.code) return;
+    const reason = reasonFor(`rename ${p.code} to ${code.trim()}`);
+    if (reason === null) return;
+    try {
+      await patch(`/participants/${p.id}`, { code: code.trim(), reason });
+    } catch (err) {
+      toast(`rename ${p.code}: ${err.message}`);
+    }
+    await refresh();
+  }
+
   async function refresh() {
     const [participants, all] = await Promise.all([get("/participants"), get("/sessions")]);
     sessions = all;
@@ -74,6 +87,7 @@ export function mountStudy({ onSelectSession }) {
           el(
             "td",
             {},
+            el("button", { class: "secondary participant-rename", title: "correct the code (with a reason)", onclick: () => rename(p) }, "rename"),
             out
               ? el("button", { class: "secondary", onclick: () => withReason(`include ${p.code} again`, "POST", `/participants/${p.id}/include`) }, "include")
               : el("button", { class: "danger participant-exclude", onclick: () => withReason(`exclude ${p.code}`, "POST", `/participants/${p.id}/exclude`) }, "exclude"),

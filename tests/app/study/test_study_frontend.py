@@ -201,3 +201,30 @@ def test_scripted_session_on_the_participant_page(server: str, artifacts_dir: Pa
     assert replaced["entered_by"] == "participant" and replaced["scores"]["G1"] == 4
     tlx = next(q for q in entries if q["instrument"] == "nasa_tlx")
     assert tlx["answers"] == TLX and tlx["scores"]["weighted_tlx"] == pytest.approx(670 / 15, abs=1e-3)
+
+
+def test_a_participant_code_is_corrected_on_the_dashboard_with_a_reason(server: str) -> None:
+    """The rename button asks for the corrected code, then the reason; the audit trail keeps both."""
+    from playwright.sync_api import expect, sync_playwright
+
+    api = f"{server}/api/v1"
+    pid = httpx.post(f"{api}/participants", json={"code": "Q017"}).json()["id"]
+    answers = iter(["Q071", "typo at sign-up"])
+    with sync_playwright() as pw:
+        browser = pw.chromium.launch(
+            executable_path=CHROMIUM, args=["--headless", "--no-sandbox", "--disable-gpu"]
+        )
+        try:
+            page = browser.new_page(viewport=OPERATOR)
+            page.on("dialog", lambda d: d.accept(next(answers)))
+            page.goto(server)
+            row = page.locator("#participant-table tbody tr", has_text="Q017")
+            row.locator("button.participant-rename").click()
+            expect(page.locator("#participant-table tbody")).to_contain_text("Q071", timeout=20_000)
+            expect(page.locator("#participant-table tbody")).not_to_contain_text("Q017")
+        finally:
+            browser.close()
+    assert httpx.get(f"{api}/participants/{pid}").json()["code"] == "Q071"
+    trail = httpx.get(f"{api}/audit", params={"entity": "participant", "entity_id": pid}).json()
+    assert trail and trail[0]["reason"] == "typo at sign-up", trail
+    assert trail[0]["before"]["code"] == "Q017" and trail[0]["after"]["code"] == "Q071", trail
