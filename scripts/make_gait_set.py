@@ -2,12 +2,14 @@
 """Write a set of labelled skeleton sequences from the gait model (pipeline.sim.gait).
 
     python scripts/make_gait_set.py --out DIR --seed S --count N --duration-s D [--fps F]
-        [--noise-m 0.012] [--dropout 0.02] [--plot]
+        [--noise-m 0.012] [--dropout 0.02] [--preset default|in-place] [--plot]
 
 Sequence i uses the seed derived from (S, i), so sets made with different S do not share
 sequences. Each file ``gait_S_i.npz`` is a SPEC skeleton NPZ with ``labels``, ``tags``,
 ``contacts`` and ``source="gait"``; ``index.json`` lists the files with their body height
-and frames per label. ``--plot`` also writes a PNG per file (ankle heights, labels, tags).
+and frames per label. ``--preset in-place`` draws only stepping in place and what people do
+standing between bouts (pipeline.sim.gait.IN_PLACE_MIX). ``--plot`` also writes a PNG per
+file (ankle heights, labels, tags).
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from pipeline.sim.gait import GaitConfig, simulate_routine
+from pipeline.sim.gait import IN_PLACE_MIX, IN_PLACE_SIDE_KINDS, GaitConfig, simulate_routine
 from pipeline.skeleton import J, save_npz
 
 
@@ -66,6 +68,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--fps", type=float, default=30.0)
     ap.add_argument("--noise-m", type=float, default=0.0)
     ap.add_argument("--dropout", type=float, default=0.0)
+    ap.add_argument("--preset", choices=("default", "in-place"), default="default")
     ap.add_argument("--plot", action="store_true")
     args = ap.parse_args(argv)
     if args.count < 1:
@@ -78,6 +81,11 @@ def main(argv: list[str] | None = None) -> int:
         config = GaitConfig(
             fps=args.fps, duration_s=args.duration_s, noise_m=args.noise_m, dropout=args.dropout
         )
+        if args.preset == "in-place":
+            config = GaitConfig(
+                fps=args.fps, duration_s=args.duration_s, noise_m=args.noise_m, dropout=args.dropout,
+                mix=IN_PLACE_MIX, side_kinds=IN_PLACE_SIDE_KINDS,
+            )
     except ValueError as exc:
         ap.error(str(exc))
     args.out.mkdir(parents=True, exist_ok=True)
@@ -104,7 +112,7 @@ def main(argv: list[str] | None = None) -> int:
     (args.out / "index.json").write_text(json.dumps({
         "source": "gait", "seed": args.seed, "config": {
             "fps": config.fps, "duration_s": config.duration_s, "noise_m": config.noise_m,
-            "dropout": config.dropout,
+            "dropout": config.dropout, "preset": args.preset,
         }, "files": index,
     }, indent=1))
     print(f"{args.count} sequences in {args.out}; frames per label: "

@@ -6,8 +6,9 @@ Layout, under ``<cache_dir>/data/sources/``::
     sources.json            per source: dir, use, licence(s), origin, clips, frames per label
     mocap-<package>/*.npz   the real clips of one package (pipeline.mocap), all of one ``use``
     gait/*.npz              the second motion model (pipeline.sim.gait), training set
-    gait-heldout/*.npz      the gait model with other seeds, 1.2 cm noise and 2 % dropped joints,
-                            bodies 1.48-1.98 m (never trained on: an evaluation set)
+    gait-heldout/*.npz      the gait model's in-place preset (marching, side steps out-and-back and
+                            step-touch, gestures, turns, standing) with other seeds, 1.2 cm noise,
+                            2 % dropped joints, bodies 1.48-1.98 m (never trained on: evaluation)
 
 ``use``: ``train`` (may be trained on and held out by leave-one-source-out), or ``eval``
 (held-out evaluation only: never pass it to ``train_action.py``). A source folder never mixes
@@ -21,7 +22,7 @@ import json
 import shutil
 from collections import Counter
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -46,6 +47,7 @@ class GaitSet:
     noise_m: float = 0.0
     dropout: float = 0.0
     height_m: tuple[float, float] = (1.40, 2.05)
+    preset: str = "default"  # "default" (every behaviour) or "in-place" (pipeline.sim.gait.IN_PLACE_MIX)
 
     def __post_init__(self) -> None:
         if self.count < 1 or not self.duration_s > 0:
@@ -57,7 +59,13 @@ class GaitSet:
 GAIT_SETS = {
     "gait": GaitSet(count=24, duration_s=60.0, seed=GAIT_TRAIN_SEED),
     "gait-heldout": GaitSet(
-        count=12, duration_s=60.0, seed=GAIT_HELDOUT_SEED, noise_m=0.012, dropout=0.02, height_m=(1.48, 1.98)
+        count=12,
+        duration_s=60.0,
+        seed=GAIT_HELDOUT_SEED,
+        noise_m=0.012,
+        dropout=0.02,
+        height_m=(1.48, 1.98),
+        preset="in-place",
     ),
 }
 GAIT_USE = {"gait": "train", "gait-heldout": "eval"}
@@ -74,7 +82,7 @@ def _frames_per_label(labels: list[str]) -> dict[str, int]:
 
 def write_gait_set(folder: Path, spec: GaitSet, progress: Callable[[str], None]) -> dict[str, Any]:
     """The set's NPZs in ``folder`` (made again only when the set's settings changed)."""
-    from pipeline.sim.gait import BodyConfig, GaitConfig, simulate_routine
+    from pipeline.sim.gait import IN_PLACE_MIX, IN_PLACE_SIDE_KINDS, BodyConfig, GaitConfig, simulate_routine
 
     stamp = {
         "count": spec.count,
@@ -83,7 +91,8 @@ def write_gait_set(folder: Path, spec: GaitSet, progress: Callable[[str], None])
         "noise_m": spec.noise_m,
         "dropout": spec.dropout,
         "height_m": list(spec.height_m),
-        "v": 1,
+        "preset": spec.preset,
+        "v": 2,
     }
     index_path = folder / "index.json"
     if index_path.is_file():
@@ -99,6 +108,8 @@ def write_gait_set(folder: Path, spec: GaitSet, progress: Callable[[str], None])
         dropout=spec.dropout,
         body=BodyConfig(height_min_m=spec.height_m[0], height_max_m=spec.height_m[1]),
     )
+    if spec.preset == "in-place":
+        config = replace(config, mix=IN_PLACE_MIX, side_kinds=IN_PLACE_SIDE_KINDS)
     files = []
     for i in range(spec.count):
         seed = int(np.random.SeedSequence([spec.seed, i]).generate_state(1)[0])

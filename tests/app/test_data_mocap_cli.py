@@ -83,3 +83,5 @@ def test_data_sources_writes_one_folder_per_named_source(
     nan_share = np.mean([np.isnan(s.joints_m[..., 0]).mean() for s in held])
     assert 0.01 < nan_share < 0.03  # 2 % of the joints dropped
     assert manifest["gait-heldout"]["settings"]["noise_m"] == 0.012
+    assert manifest["gait-heldout"]["settings"]["preset"] == "in-place"
+    assert not {t for s in held for t in (s.tags or ())} & {"walk", "run", "kneel", "squat", "jump"}

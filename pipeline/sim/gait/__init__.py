@@ -22,6 +22,9 @@ from pipeline.sim.gait.anthropometry import Body, BodyConfig, make_body, sample_
 from pipeline.sim.gait.routine import (
     BEHAVIOURS,
     DEFAULT_MIX,
+    IN_PLACE_MIX,
+    IN_PLACE_SIDE_KINDS,
+    SIDE_KINDS,
     SOURCE,
     GaitConfig,
     GaitTake,
@@ -32,6 +35,9 @@ from pipeline.sim.gait.routine import (
 __all__ = [
     "BEHAVIOURS",
     "DEFAULT_MIX",
+    "IN_PLACE_MIX",
+    "IN_PLACE_SIDE_KINDS",
+    "SIDE_KINDS",
     "SOURCE",
     "Body",
     "BodyConfig",

@@ -48,6 +48,20 @@ DEFAULT_MIX: tuple[tuple[str, float], ...] = (
 )
 BEHAVIOURS = tuple(name for name, _ in DEFAULT_MIX)
 SIDE_KINDS = ("side-step-out-back", "step-together", "step-touch", "shuffle")
+# Stepping in place and what a person does standing between bouts: marching, side steps out and
+# back or step-touch, gestures, turns and looking around (no walking, running or deep postures).
+IN_PLACE_MIX: tuple[tuple[str, float], ...] = (
+    ("march", 4.0),
+    ("side", 4.0),
+    ("stand", 1.0),
+    ("wave", 0.6),
+    ("point", 0.4),
+    ("stretch", 0.3),
+    ("look-around", 0.5),
+    ("turn", 1.0),
+    ("weight-shift", 0.4),
+)
+IN_PLACE_SIDE_KINDS = ("side-step-out-back", "step-touch")
 
 
 @dataclass(frozen=True, slots=True)
@@ -63,6 +77,7 @@ class GaitConfig:
     knee_lift_m: tuple[float, float] = (0.03, 0.30)
     side_width_m: tuple[float, float] = (0.08, 0.45)
     pause_prob: float = 0.25  # chance of a 0.2-1.0 s pause after a step of a bout
+    side_kinds: tuple[str, ...] = SIDE_KINDS  # the kinds of side step drawn from
     noise_m: float = 0.0  # Gaussian noise added to every joint coordinate
     dropout: float = 0.0  # share of joints set to NaN
 
@@ -74,6 +89,10 @@ class GaitConfig:
         unknown = [name for name, _ in self.mix if name not in BEHAVIOURS]
         if unknown:
             raise ValueError(f"unknown behaviours {unknown}; known: {list(BEHAVIOURS)}")
+        if not self.side_kinds or any(k not in SIDE_KINDS for k in self.side_kinds):
+            raise ValueError(
+                f"side_kinds must be a non-empty subset of {list(SIDE_KINDS)}, got {self.side_kinds}"
+            )
         if not any(w > 0 for _, w in self.mix) or any(w < 0 for _, w in self.mix):
             raise ValueError("mix weights must be >= 0 with at least one > 0")
         for name in ("cadence", "knee_lift_m", "side_width_m"):
@@ -208,7 +227,7 @@ class _Routine:
 
     def side_params(self) -> SideParams:
         rng, cfg = self.rng, self.config
-        kind = str(rng.choice(SIDE_KINDS))
+        kind = str(rng.choice(cfg.side_kinds))
         direction = int(rng.integers(2))
         width = rng.uniform(*cfg.side_width_m)
         cycles = int(rng.integers(1, 7))

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from pipeline.sim.gait.anthropometry import Body
-from pipeline.sim.gait.kinematics import Ch
+from pipeline.sim.gait.kinematics import Ch, forward
 from pipeline.sim.gait.stepping import abduction_for_offset
 from pipeline.sim.gait.track import DEG, F64, Track, bump, flat_ankle, ramp
 
@@ -41,11 +41,15 @@ def crouch(track: Track, rng: np.random.Generator, deep: bool) -> None:
     knee = hip + (rng.uniform(25, 40) if deep else rng.uniform(12, 30)) * DEG
     heels_up = deep and rng.random() < 0.35
     pitch = -rng.uniform(10, 25) * DEG if heels_up else 0.0
+    lean = hip * rng.uniform(0.35, 0.6)
     for side in (0, 1):
         _legs(row, side, hip, knee, pitch)
-        row[Ch.SHOULDER_FLEX_L + side] = rng.uniform(0, 80) * DEG
+        # Shoulder flexion is relative to the trunk. Deep down, the arms reach forward of the
+        # vertical (a counterweight; hanging, the hands would go through the floor).
+        arm = lean + rng.uniform(20, 80) * DEG if deep else rng.uniform(0, 80) * DEG
+        row[Ch.SHOULDER_FLEX_L + side] = arm
         row[Ch.ELBOW_L + side] = rng.uniform(10, 70) * DEG
-    row[Ch.TRUNK_LEAN] = hip * rng.uniform(0.35, 0.6)
+    row[Ch.TRUNK_LEAN] = lean
     row[Ch.HEAD_PITCH] = rng.uniform(-20, 25) * DEG
     _pose_and_back(track, row, rng, "squat" if deep else "crouch", rng.uniform(0.4, 3.0), "stand-up")
 
@@ -248,6 +252,17 @@ def turn(track: Track, body: Body, rng: np.random.Generator, angle: float | None
     track.ease(final, 0.2, tag="turn")
 
 
+KNEE_CLEARANCE_M = 0.04  # kneeling: the knee joint centre above the floor (half a knee's depth)
+
+
+def _knee_clearance(body: Body, row: F64, side: int) -> float:
+    """Height of ``side``'s knee centre above the lowest sole point of the pose ``row`` (both
+    feet down, so that sole point is on the floor)."""
+    rel = forward(body, row[None])
+    floor = float(min(rel.heel[0, :, 2].min(), rel.ball[0, :, 2].min()))
+    return float(rel.knee[0, side, 2]) - floor
+
+
 def kneel(track: Track, body: Body, rng: np.random.Generator) -> None:
     """Kneeling on one knee: step back, go down, stay, come up, step in (tag ``kneel``)."""
     start = track.last
@@ -259,8 +274,16 @@ def kneel(track: Track, body: Body, rng: np.random.Generator) -> None:
     step(track, body, back, rng.uniform(0.5, 0.8), 0.04, stepped, "kneel")
     down = stepped.copy()
     f_hip = rng.uniform(75, 95) * DEG
-    _legs(down, front, f_hip, f_hip + rng.uniform(0, 15) * DEG)
+    f_extra = rng.uniform(0, 15) * DEG
     _legs(down, back, rng.uniform(-10, 10) * DEG, rng.uniform(90, 110) * DEG, -rng.uniform(45, 70) * DEG)
+    # The kneeling knee rests on the floor, its centre a knee's half-thickness above it: open the
+    # front leg (which holds the pelvis up) until it is.
+    for _ in range(12):
+        _legs(down, front, f_hip, f_hip + f_extra)
+        if _knee_clearance(body, down, back) >= KNEE_CLEARANCE_M:
+            break
+        f_hip -= 3 * DEG
+        f_extra = max(0.0, f_extra - 2 * DEG)
     down[Ch.TRUNK_LEAN] = rng.uniform(0, 20) * DEG
     down[Ch.SHOULDER_FLEX_L + front] = rng.uniform(0, 40) * DEG
     track.ease(down, rng.uniform(0.8, 1.6), tag="kneel")
