@@ -82,7 +82,14 @@ def _frames_per_label(labels: list[str]) -> dict[str, int]:
 
 def write_gait_set(folder: Path, spec: GaitSet, progress: Callable[[str], None]) -> dict[str, Any]:
     """The set's NPZs in ``folder`` (made again only when the set's settings changed)."""
-    from pipeline.sim.gait import IN_PLACE_MIX, IN_PLACE_SIDE_KINDS, BodyConfig, GaitConfig, simulate_routine
+    from pipeline.sim.gait import (
+        IN_PLACE_MIX,
+        IN_PLACE_SIDE_KINDS,
+        MODEL_VERSION,
+        BodyConfig,
+        GaitConfig,
+        simulate_routine,
+    )
 
     stamp = {
         "count": spec.count,
@@ -92,6 +99,7 @@ def write_gait_set(folder: Path, spec: GaitSet, progress: Callable[[str], None])
         "dropout": spec.dropout,
         "height_m": list(spec.height_m),
         "preset": spec.preset,
+        "model_version": MODEL_VERSION,
         "v": 2,
     }
     index_path = folder / "index.json"

@@ -22,6 +22,8 @@ from pipeline.sim.gait.track import DEG, Style, Track, neutral, sample_style
 from pipeline.skeleton import J, SkeletonSequence
 
 SOURCE = "gait"
+# Bumped whenever the same seed and settings would give other motion (sets on disk are remade).
+MODEL_VERSION = 2
 
 # Behaviour -> relative weight (how often it is chosen).
 DEFAULT_MIX: tuple[tuple[str, float], ...] = (
