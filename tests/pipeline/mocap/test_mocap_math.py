@@ -152,8 +152,8 @@ def test_bout_rule_labels_first_lift_off_to_last_touch_down() -> None:
 
 def test_catalogue_is_valid_and_bad_entries_are_refused() -> None:
     clips = load_catalogue()
-    assert len(clips) == 24 and all(c.package in PACKAGES for c in clips)
-    assert {c.format for c in clips} == {"deepmimic", "c3d-pig", "acclaim"}
+    assert len(clips) == 27 and all(c.package in PACKAGES for c in clips)
+    assert {c.format for c in clips} == {"deepmimic", "c3d-pig", "acclaim", "gaitkit-json"}
     assert {c.use for c in clips if c.package != "pybullet"} == {"train"}
     assert {c.rule.label for c in clips if c.rule.rule == "bout"} == {"forward"}
     with pytest.raises(InputError, match="lacks"):

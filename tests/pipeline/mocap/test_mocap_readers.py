@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import struct
 
 import numpy as np
@@ -11,6 +12,7 @@ from pipeline.errors import InputError
 from pipeline.mocap import acclaim
 from pipeline.mocap.c3d import read_c3d
 from pipeline.mocap.fetch import belt_velocity, load_catalogue
+from pipeline.mocap.landmarks import read_landmarks
 from pipeline.mocap.markers import pig_to_coco
 from pipeline.skeleton import J
 
@@ -284,3 +286,30 @@ def test_catalogue_has_the_new_sources_with_their_licences() -> None:
     assert clips["gaitalytics-treadmill-walk"].treadmill
     assert clips["cmu-01-01-jumps"].skeleton == "demo/test.asf"
     assert "CMU" in clips["cmu-01-01-jumps"].licence
+
+
+def _landmark_file(frames: list[dict[str, list[float]]], valid: list[bool] | None = None) -> str:
+    rows = [{"frame_index": i, "landmark_positions": f, "is_valid": True if valid is None else valid[i]}
+            for i, f in enumerate(frames)]  # fmt: skip
+    return json.dumps({"fps": 100.0, "n_frames": len(rows), "angle_frames": rows})
+
+
+def test_gaitkit_landmarks_axes_units_and_gaps() -> None:
+    base = {  # mm, +Y up in the file, walking along +X, the right side at +Z
+        "left_hip": [0, 900, -80], "right_hip": [0, 900, 80], "left_knee": [0, 500, -80],
+        "right_knee": [0, 500, 80], "left_ankle": [0, 80, -80], "right_ankle": [0, 80, 80],
+        "left_heel": [-50, 30, -80], "right_heel": [-50, 30, 80], "left_toe": [150, 20, -80],
+        "right_toe": [150, 20, 80], "left_shoulder": [0, 1400, -180], "right_shoulder": [0, 0, 0],
+    }  # fmt: skip
+    text = _landmark_file([base, base, base], valid=[True, False, True])
+    joints, feet, pelvis, fps = read_landmarks(text, "y")
+    assert fps == 100.0 and joints.shape == (3, 17, 3) and feet.shape == (3, 6, 3)
+    assert np.allclose(joints[0, J["l_hip"]], [0.0, 0.08, 0.9])  # y up -> CAVE z; file z -> CAVE -y
+    assert np.allclose(joints[0, J["r_ankle"]], [0.0, -0.08, 0.08]) and np.allclose(pelvis[0], [0, 0, 0.9])
+    assert np.isnan(joints[0, J["r_shoulder"]]).all()  # (0, 0, 0) is "absent"
+    assert np.isnan(joints[1]).all()  # an invalid frame
+    assert np.isnan(joints[:, [J["nose"], J["l_wrist"], J["r_elbow"]]]).all()  # not in the files
+    with pytest.raises(InputError, match="up_axis"):
+        read_landmarks(text, "x")
+    with pytest.raises(InputError, match="not a gaitkit landmark file"):
+        read_landmarks("{}", "y")
