@@ -36,10 +36,12 @@ from app.services.calibration import CalibrationService
 from app.services.event_log import EventWriter
 from app.services.live import PipelineFacade, PipelineService, SourceName
 from app.services.locomotion_watch import LocomotionWatch
-from app.services.pipeline_factory import runtime_factory
+from app.services.pipeline_factory import runtime_factory, simulator_factory
 from app.services.planner import PlannerService
+from app.services.recorder import RecorderService
 from app.services.session_timer import SessionTimer
 from app.viewer import Viewer
+from pipeline.calibration.io import calibration_to_dict
 
 log = logging.getLogger(__name__)
 
@@ -62,6 +64,21 @@ def operator_token(settings: Settings) -> str | None:
     if not is_loopback(settings.server.host):
         return secrets.token_urlsafe(24)
     return None
+
+
+def _recording_source(pipeline: PipelineService) -> str | None:
+    """The running pipeline's source (None when it is not running: nothing to record)."""
+    snap = pipeline.snapshot()
+    return snap.get("source") if snap.get("state") in ("running", "starting") else None
+
+
+def _sim_calibration(settings: Settings) -> dict[str, object] | None:
+    """The simulator's virtual cameras as a calibration (a simulator take's calibration.json)."""
+    try:
+        return calibration_to_dict(simulator_factory(settings).cameras)
+    except Exception:
+        log.exception("the simulator's cameras could not be written with the take")
+        return None
 
 
 def create_app(
@@ -124,6 +141,11 @@ def create_app(
         app.state.calibration = calibration
         app.state.planner = planner = PlannerService(settings)
         app.state.watch = watch
+        recorder = RecorderService(settings, factory, events, source=lambda: _recording_source(pipeline),
+                                   sim_calibration=lambda: _sim_calibration(settings))
+        recorder.recover()  # a take the last server left recording is kept as incomplete
+        pipeline.add_result_sink(recorder)
+        app.state.recorder = recorder
         session_timer = SessionTimer(factory, events)
         app.state.session_timer = session_timer
         if running is not None:  # its run time goes on (or is over) across a restart
@@ -142,6 +164,7 @@ def create_app(
             yield
         finally:
             planner.close()
+            recorder.close()
             watch.close()
             session_timer.close()
             calibration.close()

@@ -23,6 +23,7 @@ from app.api.routes import (
     sessions,
     status,
     study,
+    takes,
 )
 
 api_router = APIRouter(prefix="/api/v1")
@@ -39,3 +40,4 @@ api_router.include_router(sessions.router, dependencies=[TokenDep])
 api_router.include_router(live.router, dependencies=[TokenDep])
 api_router.include_router(study.router, dependencies=[TokenDep])
 api_router.include_router(analysis.router, dependencies=[TokenDep])
+api_router.include_router(takes.router, dependencies=[TokenDep])

@@ -46,6 +46,7 @@ from pipeline.pose.config import PoseConfig
 from pipeline.recognition.recognizer import RecognizerConfig
 from pipeline.runtime.config import RuntimeConfig
 from pipeline.sim.world import SimConfig
+from pipeline.takes.config import TakesConfig
 from pipeline.tracking.ocsort import OCSortConfig
 from pipeline.triangulation.config import (
     AssociationParams,
@@ -201,6 +202,7 @@ class Settings(BaseSettings):
     sim: SimConfig = SimConfig()
     calibration: CalibrationConfig = CalibrationConfig()
     planner: PlannerConfig = PlannerConfig()
+    takes: TakesConfig = TakesConfig()
 
     @model_validator(mode="before")
     @classmethod

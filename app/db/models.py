@@ -182,6 +182,37 @@ class CalibrationRun(Base):
     active: Mapped[bool] = mapped_column(Boolean, default=False, nullable=False)
 
 
+TAKE_STATUSES = ("recording", "complete", "incomplete")
+
+
+class Take(Base):
+    """A recorded take (SPEC.md "Takes"): its folder in the takes data folder and what it holds.
+
+    ``uid`` is the take's folder name and the id in its ``take.json``; ``files`` maps each file
+    name to its bytes and sha256; ``status`` is ``recording`` until it ends, then ``complete``,
+    or ``incomplete`` when the server stopped during it and the next start recovered it.
+    """
+
+    __tablename__ = "takes"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    uid: Mapped[str] = mapped_column(String(64), unique=True, nullable=False)
+    folder: Mapped[str] = mapped_column(Text, nullable=False)
+    status: Mapped[str] = mapped_column(String(16), default="recording", nullable=False)
+    participant_code: Mapped[str | None] = mapped_column(String(32), nullable=True, index=True)
+    session_id: Mapped[int | None] = mapped_column(ForeignKey("study_sessions.id"), nullable=True, index=True)
+    protocol: Mapped[str | None] = mapped_column(String(64), nullable=True)
+    source: Mapped[str | None] = mapped_column(String(16), nullable=True)
+    started_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow, nullable=False)
+    ended_at: Mapped[datetime | None] = mapped_column(UTCDateTime(), nullable=True)
+    duration_s: Mapped[float | None] = mapped_column(Float, nullable=True)
+    frames: Mapped[int] = mapped_column(Integer, default=0, nullable=False)
+    margin_s: Mapped[float | None] = mapped_column(Float, nullable=True)
+    calibration_run_id: Mapped[int | None] = mapped_column(Integer, nullable=True)
+    files: Mapped[dict[str, Any]] = mapped_column(JSON, default=dict, nullable=False)
+    notes: Mapped[str] = mapped_column(Text, default="", nullable=False)
+
+
 __all__ = [
     "AUDIT_ACTIONS",
     "CALIBRATION_STATUSES",
@@ -198,5 +229,7 @@ __all__ = [
     "ParticipantLink",
     "QuestionnaireResponse",
     "StudySession",
+    "TAKE_STATUSES",
+    "Take",
     "utcnow",
 ]

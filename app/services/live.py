@@ -205,6 +205,15 @@ class PipelineService:
         self._thread: threading.Thread | None = None
         self.unavailable_reason = "" if factory else "the pipeline runtime is not available"
         self._rebuild = False
+        self._result_sinks: tuple[Any, ...] = ()
+
+    def add_result_sink(self, sink: Any) -> None:
+        """``sink.on_result(FrameResult)`` for every fused frame of this and every later pipeline."""
+        with self._lock:
+            self._result_sinks = (*self._result_sinks, sink)
+            add = getattr(self._pipeline, "add_sink", None)
+            if add is not None:
+                add(sink)
 
     def calibration_changed(self) -> None:
         """A new calibration is active: the next start builds the pipeline with its cameras."""
@@ -232,6 +241,9 @@ class PipelineService:
                     self._pipeline = self._factory()
                 except ImportError as exc:
                     raise PipelineUnavailable(f"the pipeline cannot be built: {exc}") from exc
+                add = getattr(self._pipeline, "add_sink", None)
+                for sink in self._result_sinks if add is not None else ():
+                    add(sink)
             # (re)start: the pipeline validates first, so a bad request leaves the running one as it was;
             # it reports its own state changes as events
             self._pipeline.start(source, videos)

@@ -119,6 +119,7 @@ class Pipeline:
         self._events: deque[PipelineEvent] = deque(maxlen=EVENT_LOG_SIZE)
         self._last_action: str | None = None
         self._snapshots: dict[str, tuple[float, bytes]] = {}
+        self._sinks: tuple[Any, ...] = ()  # after-fusion sinks with on_result(FrameResult) (the take recorder)
         emitter = emitter or EmitterConfig()
         self.emitter = UdpEmitter(emitter, list(workstations), emitter.osc_endpoints or None)
         self.emitter.set_state("stopped")
@@ -340,6 +341,11 @@ class Pipeline:
         run.last_source_index = max(run.last_source_index, det.source_index)
         run.metrics.frame(sent, {k: v * 1000.0 for k, v in ms.items()}, 0)
         run.latest = fused
+        for sink in self._sinks:  # each returns at once (queues its own work)
+            try:
+                sink.on_result(result)
+            except Exception:
+                log.exception("result sink %r failed", sink)
         with self._lock:
             if self._run is run and self._state in ("starting", "error"):
                 self._state = "running"
@@ -489,6 +495,16 @@ class Pipeline:
         self.emitter.set_endpoints(list(endpoints))
         with self._lock:
             self._event("state", f"workstations: {endpoints}", {"workstations": [list(e) for e in endpoints]})
+
+    def add_sink(self, sink: Any) -> None:
+        """Hand every fused ``FrameResult`` to ``sink.on_result`` (in the collector thread; it must not block)."""
+        with self._lock:
+            if sink not in self._sinks:
+                self._sinks = (*self._sinks, sink)
+
+    def remove_sink(self, sink: Any) -> None:
+        with self._lock:
+            self._sinks = tuple(s for s in self._sinks if s is not sink)
 
     def drain_events(self) -> list[PipelineEvent]:
         with self._lock:

@@ -1,0 +1,83 @@
+"""Takes: record from the running pipeline, list, read their files; the shipped protocols."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated
+
+from fastapi import APIRouter, Depends, HTTPException, status
+from fastapi.requests import HTTPConnection
+from fastapi.responses import FileResponse
+
+from app.api.deps import IdPath, SessionDep
+from app.db.take_repository import get_take, list_takes
+from app.schemas.takes import ProtocolPublic, RecordingPublic, TakeCreate, TakePublic
+from app.services.recorder import TakeRequest
+from pipeline.takes.protocol import load_protocol, shipped_protocols
+
+if TYPE_CHECKING:
+    from app.services.recorder import RecorderService
+
+
+def get_recorder(conn: HTTPConnection) -> RecorderService:
+    service: RecorderService = conn.app.state.recorder
+    return service
+
+
+RecorderDep = Annotated["RecorderService", Depends(get_recorder)]
+
+router = APIRouter(tags=["takes"])
+
+
+@router.get("/protocols", response_model=list[ProtocolPublic])
+def protocols() -> list[ProtocolPublic]:
+    out = []
+    for stem, path in shipped_protocols().items():
+        p = load_protocol(path).to_dict()
+        out.append(ProtocolPublic(file=stem, **p))
+    return out
+
+
+@router.get("/takes", response_model=list[TakePublic])
+def takes(db: SessionDep, participant_code: str | None = None) -> list[TakePublic]:
+    return [TakePublic.model_validate(t) for t in list_takes(db, participant_code)]
+
+
+@router.post(
+    "/takes",
+    response_model=TakePublic,
+    status_code=status.HTTP_201_CREATED,
+    responses={409: {"description": "The pipeline is not running, or a take is recording"}},
+)
+def start_take(body: TakeCreate, recorder: RecorderDep) -> TakePublic:
+    row = recorder.start(TakeRequest(**body.model_dump()))
+    return TakePublic.model_validate(row)
+
+
+@router.get("/takes/current", response_model=RecordingPublic)
+def current_take(recorder: RecorderDep) -> RecordingPublic:
+    cur = recorder.current()
+    return RecordingPublic(recording=False) if cur is None else RecordingPublic(recording=True, **cur)
+
+
+@router.get("/takes/{take_id}", response_model=TakePublic)
+def take(take_id: IdPath, db: SessionDep) -> TakePublic:
+    return TakePublic.model_validate(get_take(db, take_id))
+
+
+@router.post("/takes/{take_id}/stop", response_model=TakePublic,
+             responses={409: {"description": "The take is not recording"}})
+def stop_take(take_id: IdPath, recorder: RecorderDep) -> TakePublic:
+    return TakePublic.model_validate(recorder.stop(take_id))
+
+
+@router.get("/takes/{take_id}/files/{name:path}", response_class=FileResponse,
+            responses={404: {"description": "No such take, or no such file in it"}})
+def take_file(take_id: IdPath, name: str, db: SessionDep) -> FileResponse:
+    row = get_take(db, take_id)
+    if name not in (row.files or {}) and name != "take.json":  # only the files the index lists
+        raise HTTPException(status.HTTP_404_NOT_FOUND, f"take {take_id} has no file {name!r}")
+    path = Path(row.folder) / name
+    if not path.is_file():
+        raise HTTPException(status.HTTP_404_NOT_FOUND, f"take {take_id}: {name} is missing from its folder")
+    return FileResponse(path, filename=Path(name).name)

@@ -1,0 +1,84 @@
+"""Request and response models of takes and protocols."""
+
+from __future__ import annotations
+
+from datetime import datetime
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from app.schemas.participants import MAX_ID, ParticipantCode, StrictRequest
+from app.schemas.text import Notes
+
+TakeStatus = Literal["recording", "complete", "incomplete"]
+
+
+class TakeCreate(StrictRequest):
+    participant_code: ParticipantCode | None = None
+    session_id: int | None = Field(None, ge=1, le=MAX_ID, description="The study session it belongs to.")
+    protocol: str | None = Field(None, max_length=64, description="A shipped protocol (GET /protocols).")
+    protocol_toml: str | None = Field(None, max_length=20000, description="Or a protocol's TOML text.")
+    duration_s: float | None = Field(None, gt=0, description="Default: the protocol's length.")
+    margin_s: float | None = Field(None, description="Reaction margin after each label change, [0, 5] s.")
+    lead_s: float | None = Field(None, description="Margin before each label change, [0, 5] s.")
+    notes: Notes = ""
+
+
+class TakePublic(BaseModel):
+    model_config = ConfigDict(from_attributes=True)
+
+    id: int
+    uid: str
+    status: TakeStatus
+    participant_code: str | None
+    session_id: int | None
+    protocol: str | None
+    source: str | None
+    started_at: datetime
+    ended_at: datetime | None
+    duration_s: float | None
+    frames: int
+    margin_s: float | None
+    calibration_run_id: int | None
+    files: dict[str, Any]
+    notes: str
+
+
+class PromptPublic(BaseModel):
+    index: int
+    steps: int
+    text: str
+    label: str
+    tag: str
+    remaining_s: float
+    next: str | None
+
+
+class RecordingPublic(BaseModel):
+    """The take being recorded (``recording`` false and the rest null when none is)."""
+
+    recording: bool
+    take_id: int | None = None
+    uid: str | None = None
+    elapsed_s: float | None = None
+    duration_s: float | None = None
+    frames: int | None = None
+    dropped: int | None = None
+    protocol: str | None = None
+    prompt: PromptPublic | None = None
+
+
+class ProtocolStep(BaseModel):
+    what: str
+    duration_s: float
+    label: str
+    text: str
+    tag: str
+
+
+class ProtocolPublic(BaseModel):
+    name: str
+    file: str
+    description: str
+    duration_s: float
+    steps: list[ProtocolStep]
