@@ -24,6 +24,7 @@ from app.commands import (
     plan,
     process,
     recognize,
+    record,
     runtime,
     serve,
     simulate,
@@ -70,6 +71,7 @@ cli.add_typer(study.app)  # cavewalk study report
 cli.add_typer(runtime.app)  # cavewalk receive, cavewalk bench
 cli.add_typer(simulate.app)  # cavewalk simulate
 cli.add_typer(plan.app)  # cavewalk plan
+cli.add_typer(record.app)  # cavewalk record
 
 
 def main() -> None:

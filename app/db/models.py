@@ -221,6 +221,7 @@ __all__ = [
     "PARTICIPANT_CODE_PATTERN",
     "PHASES",
     "SESSION_STATUSES",
+    "TAKE_STATUSES",
     "AuditEntry",
     "Base",
     "CalibrationRun",
@@ -229,7 +230,6 @@ __all__ = [
     "ParticipantLink",
     "QuestionnaireResponse",
     "StudySession",
-    "TAKE_STATUSES",
     "Take",
     "utcnow",
 ]

@@ -114,8 +114,15 @@ class RecorderService:
                     manifest = {"files": {}, "frames": 0, "duration_s": 0.0}
                     row.notes = (row.notes + f"\nrecovery failed: {exc}").strip()
                 finish_take_row(db, row.id, manifest, "incomplete")
-                self._events.record("take", {"state": "recovered", "take_id": row.id, "uid": row.uid,
-                                             "frames": manifest.get("frames", 0)})
+                self._events.record(
+                    "take",
+                    {
+                        "state": "recovered",
+                        "take_id": row.id,
+                        "uid": row.uid,
+                        "frames": manifest.get("frames", 0),
+                    },
+                )
                 out.append(row.id)
         if out:
             log.warning("recovered %d take(s) the last server left unfinished: %s", len(out), out)
@@ -172,22 +179,43 @@ class RecorderService:
                 folder = self.folder / uid
                 spans: list[LabelSpan] = label_spans(protocol, margin, lead) if protocol is not None else []
                 row = create_take(
-                    db, uid=uid, folder=str(folder), status="recording", participant_code=code,
-                    session_id=req.session_id, protocol=protocol.name if protocol else None, source=source,
-                    started_at=now, margin_s=margin if protocol else None,
+                    db,
+                    uid=uid,
+                    folder=str(folder),
+                    status="recording",
+                    participant_code=code,
+                    session_id=req.session_id,
+                    protocol=protocol.name if protocol else None,
+                    source=source,
+                    started_at=now,
+                    margin_s=margin if protocol else None,
                     calibration_run_id=run.id if run is not None and source != "simulator" else None,
-                    files={}, notes=req.notes,
+                    files={},
+                    notes=req.notes,
                 )
                 take_id = row.id
             manifest = {
-                "id": uid, "take_id": take_id, "participant_code": code, "session_id": req.session_id,
-                "source": source, "margin_s": margin, "lead_s": lead, "notes": req.notes,
-                "calibration_id": row.calibration_run_id, "model": model_identity(self.settings.recognition.model_path),
+                "id": uid,
+                "take_id": take_id,
+                "participant_code": code,
+                "session_id": req.session_id,
+                "source": source,
+                "margin_s": margin,
+                "lead_s": lead,
+                "notes": req.notes,
+                "calibration_id": row.calibration_run_id,
+                "model": model_identity(self.settings.recognition.model_path),
                 "settings": settings_snapshot(self.settings),
             }
             recorder = TakeRecorder(
-                folder, manifest, self.config, protocol=protocol, spans=spans, duration_s=duration,
-                calibration=calibration, on_done=lambda m, tid=take_id: self._finished(tid, m),
+                folder,
+                manifest,
+                self.config,
+                protocol=protocol,
+                spans=spans,
+                duration_s=duration,
+                calibration=calibration,
+                on_done=lambda m, tid=take_id: self._finished(tid, m),
             )
             try:
                 recorder.start()
@@ -197,8 +225,16 @@ class RecorderService:
                     db.commit()
                 raise
             self._current, self._current_id = recorder, take_id
-        self._events.record("take", {"state": "started", "take_id": take_id, "uid": uid,
-                                     "protocol": row.protocol, "participant": code})
+        self._events.record(
+            "take",
+            {
+                "state": "started",
+                "take_id": take_id,
+                "uid": uid,
+                "protocol": row.protocol,
+                "participant": code,
+            },
+        )
         return row
 
     def stop(self, take_id: int) -> Take:
@@ -216,8 +252,16 @@ class RecorderService:
         status = "complete" if manifest.get("complete") else "incomplete"
         with self._factory() as db:
             finish_take_row(db, take_id, manifest, status)
-        self._events.record("take", {"state": status, "take_id": take_id, "uid": manifest.get("id"),
-                                     "frames": manifest.get("frames"), "duration_s": manifest.get("duration_s")})
+        self._events.record(
+            "take",
+            {
+                "state": status,
+                "take_id": take_id,
+                "uid": manifest.get("id"),
+                "frames": manifest.get("frames"),
+                "duration_s": manifest.get("duration_s"),
+            },
+        )
 
     # ------------------------------------------------------------------------------- the sink
     def on_result(self, result: FrameResult) -> None:
@@ -234,16 +278,31 @@ class RecorderService:
             return None
         prompt = recorder.prompt()
         out: dict[str, Any] = {
-            "take_id": take_id, "uid": recorder.folder.name, "elapsed_s": round(recorder.elapsed_s(), 2),
-            "duration_s": recorder.duration_s, "frames": recorder.written, "dropped": recorder.dropped,
-            "protocol": recorder.protocol.name if recorder.protocol else None, "prompt": None,
+            "take_id": take_id,
+            "uid": recorder.folder.name,
+            "elapsed_s": round(recorder.elapsed_s(), 2),
+            "duration_s": recorder.duration_s,
+            "frames": recorder.written,
+            "dropped": recorder.dropped,
+            "protocol": recorder.protocol.name if recorder.protocol else None,
+            "prompt": None,
         }
         if prompt is not None:
             index, step, remaining = prompt
-            nxt = recorder.protocol.steps[index + 1] if recorder.protocol and index + 1 < len(recorder.protocol.steps) else None
-            out["prompt"] = {"index": index, "steps": len(recorder.protocol.steps) if recorder.protocol else 0,
-                             "text": step.text, "label": step.label, "tag": step.tag,
-                             "remaining_s": round(remaining, 2), "next": nxt.text if nxt else None}
+            nxt = (
+                recorder.protocol.steps[index + 1]
+                if recorder.protocol and index + 1 < len(recorder.protocol.steps)
+                else None
+            )
+            out["prompt"] = {
+                "index": index,
+                "steps": len(recorder.protocol.steps) if recorder.protocol else 0,
+                "text": step.text,
+                "label": step.label,
+                "tag": step.tag,
+                "remaining_s": round(remaining, 2),
+                "next": nxt.text if nxt else None,
+            }
         return out
 
     def close(self) -> None:

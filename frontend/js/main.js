@@ -62,6 +62,8 @@ async function main() {
   // panels of other areas, each its own module
   const planner = await optionalModule(() => import("./panels/planner.js"), "planner.js");
   if (planner) planner.mountPlanner(document.getElementById("planner-mount"));
+  const takes = await optionalModule(() => import("./panels/takes.js"), "takes.js");
+  if (takes) takes.mountTakes(document.getElementById("recording-panel"));
   connect();
   return study;
 }

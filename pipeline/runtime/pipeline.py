@@ -119,7 +119,7 @@ class Pipeline:
         self._events: deque[PipelineEvent] = deque(maxlen=EVENT_LOG_SIZE)
         self._last_action: str | None = None
         self._snapshots: dict[str, tuple[float, bytes]] = {}
-        self._sinks: tuple[Any, ...] = ()  # after-fusion sinks with on_result(FrameResult) (the take recorder)
+        self._sinks: tuple[Any, ...] = ()  # after-fusion sinks: on_result(FrameResult) (the take recorder)
         emitter = emitter or EmitterConfig()
         self.emitter = UdpEmitter(emitter, list(workstations), emitter.osc_endpoints or None)
         self.emitter.set_state("stopped")
@@ -497,7 +497,7 @@ class Pipeline:
             self._event("state", f"workstations: {endpoints}", {"workstations": [list(e) for e in endpoints]})
 
     def add_sink(self, sink: Any) -> None:
-        """Hand every fused ``FrameResult`` to ``sink.on_result`` (in the collector thread; it must not block)."""
+        """Hand every fused ``FrameResult`` to ``sink.on_result`` (collector thread: it must not block)."""
         with self._lock:
             if sink not in self._sinks:
                 self._sinks = (*self._sinks, sink)

@@ -123,9 +123,16 @@ def read_spans(path: Path) -> list[LabelSpan]:
         for i, row in enumerate(csv.DictReader(f)):
             try:
                 uid = row.get("user_id") or ""
-                out.append(LabelSpan(float(row["t_start"]), float(row["t_end"]), row["label"],
-                                     int(uid) if uid.strip() else None, row.get("source") or "protocol",
-                                     row.get("tag") or ""))
+                out.append(
+                    LabelSpan(
+                        float(row["t_start"]),
+                        float(row["t_end"]),
+                        row["label"],
+                        int(uid) if uid.strip() else None,
+                        row.get("source") or "protocol",
+                        row.get("tag") or "",
+                    )
+                )
             except (KeyError, TypeError, ValueError) as exc:
                 raise InputError(f"{path}: row {i + 2}: {exc}") from None
     return out
@@ -136,8 +143,16 @@ def spans_csv(spans: list[LabelSpan]) -> bytes:
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(LABEL_COLUMNS)
     for s in spans:
-        w.writerow([f"{s.t_start:.3f}", f"{s.t_end:.3f}", s.label, "" if s.user_id is None else s.user_id,
-                    s.source, s.tag])
+        w.writerow(
+            [
+                f"{s.t_start:.3f}",
+                f"{s.t_end:.3f}",
+                s.label,
+                "" if s.user_id is None else s.user_id,
+                s.source,
+                s.tag,
+            ]
+        )
     return buf.getvalue().encode("utf-8")
 
 
@@ -158,7 +173,9 @@ def skeleton_arrays(frames: list[dict[str, Any]], spans: list[LabelSpan]) -> dic
     file is also a plain SPEC skeleton NPZ."""
     T = len(frames)
     t = np.array([float(f["t"]) if f.get("t") is not None else math.nan for f in frames], dtype=np.float64)
-    nav = np.array([-1 if f.get("navigator") is None else int(f["navigator"]) for f in frames], dtype=np.int64)
+    nav = np.array(
+        [-1 if f.get("navigator") is None else int(f["navigator"]) for f in frames], dtype=np.int64
+    )
     users: dict[int, NDArray[np.float32]] = {}
     for i, f in enumerate(frames):
         for p in f.get("people3d") or ():
@@ -183,7 +200,9 @@ def skeleton_arrays(frames: list[dict[str, Any]], spans: list[LabelSpan]) -> dic
         labels = np.full(T, "ignore", dtype="<U8")
         for i in range(T):
             for s in spans:
-                if s.t_start <= t[i] < s.t_end and (s.user_id == uid or (s.user_id is None and nav[i] == uid)):
+                if s.t_start <= t[i] < s.t_end and (
+                    s.user_id == uid or (s.user_id is None and nav[i] == uid)
+                ):
                     labels[i] = s.label
         out[f"labels_{uid}"] = labels
     main = participant_of(frames)
@@ -212,8 +231,9 @@ def file_table(folder: Path) -> dict[str, dict[str, Any]]:
     return out
 
 
-def finish_take(folder: Path, *, complete: bool, end_unix: float | None = None,
-                manifest: dict[str, Any] | None = None) -> dict[str, Any]:
+def finish_take(
+    folder: Path, *, complete: bool, end_unix: float | None = None, manifest: dict[str, Any] | None = None
+) -> dict[str, Any]:
     """Build ``skeletons.npz``, list the files with their checksums and write the final manifest."""
     folder = Path(folder)
     manifest = dict(manifest if manifest is not None else load_manifest(folder))
@@ -222,16 +242,18 @@ def finish_take(folder: Path, *, complete: bool, end_unix: float | None = None,
     write_skeletons(folder, frames, spans)
     ts = [float(f["t"]) for f in frames if f.get("t") is not None]
     duration = max(ts) if ts else 0.0
-    manifest.update({
-        "complete": bool(complete),
-        "status": "complete" if complete else "incomplete",
-        "frames": len(frames),
-        "duration_s": round(duration, 3),
-        "end_unix": end_unix if end_unix is not None else (manifest.get("start_unix", 0.0) + duration),
-        "participant_user_id": participant_of(frames),
-        "cut_last_line": cut,
-        "files": file_table(folder),
-    })
+    manifest.update(
+        {
+            "complete": bool(complete),
+            "status": "complete" if complete else "incomplete",
+            "frames": len(frames),
+            "duration_s": round(duration, 3),
+            "end_unix": end_unix if end_unix is not None else (manifest.get("start_unix", 0.0) + duration),
+            "participant_user_id": participant_of(frames),
+            "cut_last_line": cut,
+            "files": file_table(folder),
+        }
+    )
     write_json(folder / MANIFEST, manifest)
     return manifest
 

@@ -60,9 +60,13 @@ class Step:
 
     def __post_init__(self) -> None:
         if self.label not in ACTIONS:
-            raise InputError(f"step {self.what!r}: unknown label {self.label!r}; expected one of {list(ACTIONS)}")
+            raise InputError(
+                f"step {self.what!r}: unknown label {self.label!r}; expected one of {list(ACTIONS)}"
+            )
         if not (math.isfinite(self.duration_s) and 0 < self.duration_s <= MAX_STEP_S):
-            raise InputError(f"step {self.what!r}: duration must be in (0, {MAX_STEP_S:g}] s, got {self.duration_s}")
+            raise InputError(
+                f"step {self.what!r}: duration must be in (0, {MAX_STEP_S:g}] s, got {self.duration_s}"
+            )
 
 
 @dataclass(frozen=True, slots=True)
@@ -124,7 +128,12 @@ def parse_step(item: Any, where: str) -> Step:
         unknown = sorted(set(item) - {"what", "duration_s", "label", "text"})
         if unknown:
             raise InputError(f"{where}: unknown step keys {unknown} (known: what, duration_s, label, text)")
-        what, duration, label, text = item.get("what"), item.get("duration_s"), item.get("label"), item.get("text")
+        what, duration, label, text = (
+            item.get("what"),
+            item.get("duration_s"),
+            item.get("label"),
+            item.get("text"),
+        )
         if not isinstance(what, str) or not re.fullmatch(r"[a-z][a-z0-9_-]*", what):
             raise InputError(f"{where}: 'what' must be a lower-case word, got {what!r}")
         if isinstance(duration, bool) or not isinstance(duration, int | float):
@@ -144,7 +153,9 @@ def parse_step(item: Any, where: str) -> Step:
         label = what
     tag = "" if what in ACTIONS else what
     if text is None:
-        text = DEFAULT_TEXT[what] if what in ACTIONS else what.replace("-", " ").replace("_", " ").capitalize()
+        text = (
+            DEFAULT_TEXT[what] if what in ACTIONS else what.replace("-", " ").replace("_", " ").capitalize()
+        )
     return Step(what=what, duration_s=float(duration), label=label, text=text, tag=tag)
 
 
@@ -155,7 +166,9 @@ def parse_protocol(data: dict[str, Any], where: str = "protocol") -> Protocol:
         raise InputError(f"{where}: unknown keys {unknown} (known: name, description, steps)")
     name = data.get("name")
     if not isinstance(name, str) or not _NAME_OK.match(name):
-        raise InputError(f"{where}: 'name' must be 1-64 letters, digits, spaces, '.', '_' or '-', got {name!r}")
+        raise InputError(
+            f"{where}: 'name' must be 1-64 letters, digits, spaces, '.', '_' or '-', got {name!r}"
+        )
     description = data.get("description", "")
     if not isinstance(description, str):
         raise InputError(f"{where}: 'description' must be a string")
@@ -221,8 +234,10 @@ class LabelSpan:
 
 
 def check_margin(margin_s: float, name: str = "margin_s") -> float:
-    if isinstance(margin_s, bool) or not isinstance(margin_s, int | float) or not (
-        math.isfinite(margin_s) and 0 <= margin_s <= 5.0
+    if (
+        isinstance(margin_s, bool)
+        or not isinstance(margin_s, int | float)
+        or not (math.isfinite(margin_s) and 0 <= margin_s <= 5.0)
     ):
         raise InputError(f"{name} must be a number of seconds in [0, 5], got {margin_s!r}")
     return float(margin_s)

@@ -29,6 +29,9 @@ from pipeline.takes.protocol import LabelSpan, Protocol, Step
 
 log = logging.getLogger(__name__)
 
+#: How long after its end a take waits for frames captured before it (they lag by the latency).
+END_GRACE_S = 0.5
+
 
 class TakeRecorder:
     """Writes one take into ``folder`` (which must not exist yet) as the frames come."""
@@ -78,14 +81,16 @@ class TakeRecorder:
             raise InputError(f"take folder already exists: {self.folder}")
         self.folder.mkdir(parents=True)
         self.t0, self.t0_unix = self._clock(), time.time()
-        self._manifest.update({
-            "complete": False,
-            "status": "recording",
-            "start_unix": self.t0_unix,
-            "planned_duration_s": self.duration_s,
-            "protocol": self.protocol.to_dict() if self.protocol is not None else None,
-            "files": {},
-        })
+        self._manifest.update(
+            {
+                "complete": False,
+                "status": "recording",
+                "start_unix": self.t0_unix,
+                "planned_duration_s": self.duration_s,
+                "protocol": self.protocol.to_dict() if self.protocol is not None else None,
+                "files": {},
+            }
+        )
         if self._calibration is not None:
             write_json(self.folder / CALIBRATION, self._calibration)
         if self._spans:
@@ -149,7 +154,8 @@ class TakeRecorder:
                     batch = list(self._frames)
                     self._frames.clear()
                     stopping = self._stopping
-                over = self.duration_s is not None and self.elapsed_s() >= self.duration_s
+                # frames captured before the end still come through the pipeline: wait a moment for them
+                over = self.duration_s is not None and self.elapsed_s() >= self.duration_s + END_GRACE_S
                 for result in batch:
                     self._write(result)
                 now = self._clock()
@@ -196,8 +202,12 @@ class TakeRecorder:
             self._manifest["dropped_frames"] = self.dropped
             if self.error:
                 self._manifest["error"] = self.error
-            self._final = finish_take(self.folder, complete=self.error is None,
-                                      end_unix=self.t0_unix + self.elapsed_s(), manifest=self._manifest)
+            self._final = finish_take(
+                self.folder,
+                complete=self.error is None,
+                end_unix=self.t0_unix + self.elapsed_s(),
+                manifest=self._manifest,
+            )
         except Exception as exc:
             log.exception("finishing take %s failed", self.folder.name)
             self.error = self.error or f"finishing the take failed: {exc}"

@@ -44,7 +44,9 @@ def wait_take(base: str, take_id: int, timeout_s: float = 40) -> dict:
 
 def test_a_protocol_take_from_the_simulator_is_written_indexed_and_labelled(served: Served) -> None:
     base = f"{served.base}/api/v1"
-    r = httpx.post(f"{base}/takes", json={"participant_code": "P07", "protocol_toml": PROTOCOL, "margin_s": 0.4})
+    r = httpx.post(
+        f"{base}/takes", json={"participant_code": "P07", "protocol_toml": PROTOCOL, "margin_s": 0.4}
+    )
     assert r.status_code == 201, r.text
     take = r.json()
     assert take["status"] == "recording" and take["protocol"] == "short" and take["source"] == "simulator"
@@ -76,7 +78,7 @@ def test_a_protocol_take_from_the_simulator_is_written_indexed_and_labelled(serv
         nav = npz["navigator"].tolist()
         t = npz["t"].tolist()
     expected = frame_labels(t, label_spans(parse_protocol_text(PROTOCOL), 0.4))
-    assert [lab if n == uid else "ignore" for lab, n in zip(expected, nav)] == labels
+    assert [lab if n == uid else "ignore" for lab, n in zip(expected, nav, strict=True)] == labels
     assert labels[t.index(next(x for x in t if 2.5 < x < 4.9))] == "forward"
     assert labels[t.index(next(x for x in t if 2.0 <= x < 2.4))] == "ignore", "the reaction margin"
     # the file route serves the listed files only
@@ -98,7 +100,9 @@ def test_a_protocol_take_from_the_simulator_is_written_indexed_and_labelled(serv
         ({}, 422, "needs a duration_s or a protocol"),
     ],
 )
-def test_bad_take_requests_are_refused_and_store_nothing(served: Served, body: dict, status: int, match: str) -> None:
+def test_bad_take_requests_are_refused_and_store_nothing(
+    served: Served, body: dict, status: int, match: str
+) -> None:
     base = f"{served.base}/api/v1"
     before = httpx.get(f"{base}/takes").json()
     folder = served.settings.paths.db.parent / "takes"
@@ -111,8 +115,11 @@ def test_bad_take_requests_are_refused_and_store_nothing(served: Served, body: d
 
 def test_unknown_take_ids_are_404(served: Served) -> None:
     base = f"{served.base}/api/v1"
-    for r in (httpx.get(f"{base}/takes/4242"), httpx.post(f"{base}/takes/4242/stop"),
-              httpx.get(f"{base}/takes/4242/files/take.json")):
+    for r in (
+        httpx.get(f"{base}/takes/4242"),
+        httpx.post(f"{base}/takes/4242/stop"),
+        httpx.get(f"{base}/takes/4242/files/take.json"),
+    ):
         assert r.status_code == 404 and "4242" in r.json()["detail"], r.text
 
 
@@ -125,7 +132,9 @@ def test_a_take_stopped_early_is_complete_and_a_stopped_take_cannot_stop_again(s
     assert 0.5 < r.json()["duration_s"] < 5 and "labels.csv" not in r.json()["files"]
     again = httpx.post(f"{base}/takes/{take['id']}/stop")
     assert again.status_code == 409 and "not recording" in again.json()["detail"]
-    assert [t["uid"] for t in httpx.get(f"{base}/takes", params={"participant_code": "P08"}).json()] == [take["uid"]]
+    assert [t["uid"] for t in httpx.get(f"{base}/takes", params={"participant_code": "P08"}).json()] == [
+        take["uid"]
+    ]
 
 
 def test_shipped_protocols_parse_and_are_listed(served: Served) -> None:

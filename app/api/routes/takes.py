@@ -65,14 +65,20 @@ def take(take_id: IdPath, db: SessionDep) -> TakePublic:
     return TakePublic.model_validate(get_take(db, take_id))
 
 
-@router.post("/takes/{take_id}/stop", response_model=TakePublic,
-             responses={409: {"description": "The take is not recording"}})
+@router.post(
+    "/takes/{take_id}/stop",
+    response_model=TakePublic,
+    responses={409: {"description": "The take is not recording"}},
+)
 def stop_take(take_id: IdPath, recorder: RecorderDep) -> TakePublic:
     return TakePublic.model_validate(recorder.stop(take_id))
 
 
-@router.get("/takes/{take_id}/files/{name:path}", response_class=FileResponse,
-            responses={404: {"description": "No such take, or no such file in it"}})
+@router.get(
+    "/takes/{take_id}/files/{name:path}",
+    response_class=FileResponse,
+    responses={404: {"description": "No such take, or no such file in it"}},
+)
 def take_file(take_id: IdPath, name: str, db: SessionDep) -> FileResponse:
     row = get_take(db, take_id)
     if name not in (row.files or {}) and name != "take.json":  # only the files the index lists

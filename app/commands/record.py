@@ -1,0 +1,250 @@
+"""``cavewalk record``: a take, from a running server (``--url``) or from a pipeline it runs itself."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import signal
+import threading
+import time
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+from app.core.config import Settings, get_settings
+from app.services.pipeline_factory import build_pipeline, simulator_factory
+from app.services.recorder import model_identity, settings_snapshot
+from pipeline.calibration.io import calibration_to_dict, load_calibration
+from pipeline.errors import InputError, SourceError
+from pipeline.takes.files import MANIFEST
+from pipeline.takes.protocol import (
+    Protocol,
+    check_margin,
+    label_spans,
+    load_protocol,
+    parse_protocol_text,
+    shipped_protocols,
+)
+from pipeline.takes.recorder import TakeRecorder
+
+app = typer.Typer()
+
+
+def _protocol_arg(value: str | None) -> tuple[Protocol | None, str | None, str | None]:
+    """(protocol, shipped name, TOML text) of ``--protocol`` (a file or a shipped protocol's name)."""
+    if value is None:
+        return None, None, None
+    path = Path(value)
+    if path.suffix == ".toml" or path.exists():
+        if not path.is_file():
+            raise InputError(f"--protocol: file not found: {path}")
+        text = path.read_text(encoding="utf-8")
+        return parse_protocol_text(text, str(path)), None, text
+    shipped = shipped_protocols()
+    if value not in shipped:
+        raise InputError(
+            f"--protocol: {value!r} is neither a .toml file nor a shipped protocol ({', '.join(shipped)})"
+        )
+    return load_protocol(shipped[value]), value, None
+
+
+def _stop_on_signals(stop: threading.Event) -> None:
+    def handler(_signum: int, _frame: Any) -> None:
+        stop.set()
+
+    signal.signal(signal.SIGINT, handler)
+    signal.signal(signal.SIGTERM, handler)
+
+
+def _check_out(out: Path) -> None:
+    if out.exists():
+        raise InputError(f"--out {out} already exists; a take goes into a new folder")
+    if out.parent.exists() and not out.parent.is_dir():
+        raise InputError(f"--out {out}: {out.parent} is not a directory")
+
+
+# ------------------------------------------------------------------------------ from a server
+def _record_remote(
+    url: str, token: str | None, body: dict[str, Any], out: Path, stop: threading.Event
+) -> dict:
+    import httpx
+
+    headers = {"Authorization": f"Bearer {token}"} if token else {}
+    api = url.rstrip("/") + "/api/v1"
+    with httpx.Client(headers=headers, timeout=30) as client:
+        try:
+            r = client.post(f"{api}/takes", json=body)
+        except httpx.HTTPError as exc:
+            raise SourceError(f"cannot reach the server at {url}: {exc}") from None
+        if r.status_code != 201:
+            raise InputError(f"the server refused the take ({r.status_code}): {_detail(r)}")
+        take = r.json()
+        typer.echo(f"recording take {take['id']} ({take['uid']}) on {url}", err=True)
+        last_text = None
+        while True:
+            row = client.get(f"{api}/takes/{take['id']}").json()
+            if row["status"] != "recording":
+                break
+            if stop.is_set():
+                client.post(f"{api}/takes/{take['id']}/stop")
+                continue
+            cur = client.get(f"{api}/takes/current").json()
+            prompt = cur.get("prompt") if cur.get("take_id") == take["id"] else None
+            if prompt and prompt["text"] != last_text:
+                last_text = prompt["text"]
+                typer.echo(f"  [{prompt['index'] + 1}/{prompt['steps']}] {prompt['text']}", err=True)
+            stop.wait(0.25)
+        out.mkdir(parents=True)
+        for name in [*row["files"], MANIFEST]:
+            got = client.get(f"{api}/takes/{take['id']}/files/{name}")
+            if got.status_code != 200:
+                raise SourceError(f"could not fetch {name} of take {take['id']}: {_detail(got)}")
+            info = row["files"].get(name)
+            if info and hashlib.sha256(got.content).hexdigest() != info["sha256"]:
+                raise SourceError(f"{name} of take {take['id']} does not match its sha256")
+            (out / name).parent.mkdir(parents=True, exist_ok=True)
+            (out / name).write_bytes(got.content)
+        return json.loads((out / MANIFEST).read_text())
+
+
+def _detail(r: Any) -> str:
+    try:
+        return str(r.json().get("detail"))
+    except ValueError:
+        return r.text[:200]
+
+
+# ------------------------------------------------------------------------------- on its own
+def _record_local(
+    settings: Settings,
+    source: str,
+    videos: dict[str, Path],
+    calibration: Path | None,
+    protocol: Protocol | None,
+    duration: float | None,
+    margin: float,
+    participant: str | None,
+    out: Path,
+    stop: threading.Event,
+) -> dict:
+    cameras = load_calibration(calibration) if calibration else None
+    sim = simulator_factory(settings)
+    pipeline = build_pipeline(settings, cameras, sim)
+    cal = calibration_to_dict(cameras) if cameras else calibration_to_dict(sim.cameras)
+    manifest = {
+        "id": out.name,
+        "take_id": None,
+        "participant_code": participant,
+        "session_id": None,
+        "source": source,
+        "margin_s": margin,
+        "lead_s": settings.takes.lead_s,
+        "notes": "",
+        "calibration_id": str(calibration) if calibration else None,
+        "model": model_identity(settings.recognition.model_path),
+        "settings": settings_snapshot(settings),
+    }
+    spans = label_spans(protocol, margin, settings.takes.lead_s) if protocol else []
+    recorder = TakeRecorder(
+        out, manifest, settings.takes, protocol=protocol, spans=spans, duration_s=duration, calibration=cal
+    )
+    try:
+        pipeline.start(source, videos or None)  # type: ignore[arg-type]
+        deadline = time.monotonic() + 120
+        while pipeline.status().frame_index < 0:  # the first fused frame: the pipeline is up
+            if stop.wait(0.2) or time.monotonic() > deadline:
+                raise SourceError(
+                    f"the pipeline gave no frame ({pipeline.status().last_error or 'starting'})"
+                )
+        recorder.start()
+        pipeline.add_sink(recorder)
+        typer.echo(f"recording {out} from {source}", err=True)
+        last = None
+        while not recorder.wait(0.25):
+            if stop.is_set():
+                break
+            p = recorder.prompt()
+            if p is not None and p[0] != last:
+                last = p[0]
+                typer.echo(f"  [{p[0] + 1}/{len(protocol.steps) if protocol else 0}] {p[1].text}", err=True)
+        return recorder.stop()
+    finally:
+        pipeline.remove_sink(recorder)
+        pipeline.close()
+
+
+@app.command("record")
+def record_cmd(
+    out: Annotated[Path, typer.Option("--out", help="The take's folder (must not exist yet).")],
+    duration: Annotated[
+        float | None, typer.Option("--duration", help="Seconds (default: the protocol's).")
+    ] = None,
+    protocol: Annotated[
+        str | None,
+        typer.Option(
+            "--protocol",
+            help="A protocol TOML file, or a shipped protocol's name (four-actions, no-intent, teach).",
+        ),
+    ] = None,
+    margin: Annotated[
+        float | None, typer.Option("--margin", help="Reaction margin after each label change, s.")
+    ] = None,
+    participant: Annotated[str | None, typer.Option("--participant", help="The participant's code.")] = None,
+    url: Annotated[
+        str | None, typer.Option("--url", help="Record on this running server (http://host:port).")
+    ] = None,
+    token: Annotated[str | None, typer.Option("--token", help="The server's operator token.")] = None,
+    source: Annotated[
+        str, typer.Option("--source", help="Without --url: simulator, cameras or videos.")
+    ] = "simulator",
+    video: Annotated[list[str] | None, typer.Option("--video", help="NAME=PATH (the videos source).")] = None,
+    calibration: Annotated[
+        Path | None, typer.Option("--calibration", help="Cameras of the videos/cameras.")
+    ] = None,
+) -> None:
+    """Record a take: 3D skeletons with user ids, 2D detections, the recogniser's outputs, the
+    navigator, timestamps, calibration and settings, labelled by the protocol."""
+    settings = get_settings()
+    _check_out(out)
+    proto, shipped_name, toml_text = _protocol_arg(protocol)
+    if duration is None and proto is None:
+        raise InputError("give --duration or --protocol")
+    if duration is not None and not 0 < duration <= settings.takes.max_duration_s:
+        raise InputError(f"--duration must be in (0, {settings.takes.max_duration_s:g}] s, got {duration}")
+    margin_s = check_margin(settings.takes.margin_s if margin is None else margin, "--margin")
+    stop = threading.Event()
+    _stop_on_signals(stop)
+    if url is not None:
+        body = {
+            "participant_code": participant,
+            "protocol": shipped_name,
+            "protocol_toml": toml_text,
+            "duration_s": duration,
+            "margin_s": margin_s,
+        }
+        manifest = _record_remote(url, token, {k: v for k, v in body.items() if v is not None}, out, stop)
+    else:
+        if source not in ("simulator", "cameras", "videos"):
+            raise InputError(f"--source must be simulator, cameras or videos, got {source!r}")
+        videos = {}
+        for item in video or []:
+            name, sep, path = item.partition("=")
+            if not sep or not name or not path:
+                raise InputError(f"--video must be NAME=PATH, got {item!r}")
+            videos[name] = Path(path)
+        if source == "videos" and not videos:
+            raise InputError("--source videos needs --video NAME=PATH for each camera")
+        if videos and source != "videos":
+            raise InputError("--video is only for --source videos")
+        if calibration is not None and not calibration.is_file():
+            raise InputError(f"--calibration: file not found: {calibration}")
+        manifest = _record_local(
+            settings, source, videos, calibration, proto, duration, margin_s, participant, out, stop
+        )
+    typer.echo(json.dumps({k: manifest.get(k) for k in ("id", "status", "frames", "duration_s")}))
+    typer.echo(
+        f"take written to {out} ({manifest.get('status')}, {manifest.get('frames')} frames, "
+        f"{manifest.get('duration_s')} s)",
+        err=True,
+    )
