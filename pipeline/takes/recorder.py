@@ -29,8 +29,9 @@ from pipeline.takes.protocol import LabelSpan, Protocol, Step
 
 log = logging.getLogger(__name__)
 
-#: How long after its end a take waits for frames captured before it (they lag by the latency).
-END_GRACE_S = 0.5
+#: The longest a take waits after its end for frames captured before it (they lag by the pipeline's
+#: latency); the first frame captured after the end ends it at once.
+END_GRACE_S = 2.0
 
 
 class TakeRecorder:
@@ -74,6 +75,7 @@ class TakeRecorder:
         self.written = 0
         self.dropped = 0
         self.error: str | None = None
+        self._past_end = False
 
     # ------------------------------------------------------------------------------ lifecycle
     def start(self) -> None:
@@ -155,7 +157,9 @@ class TakeRecorder:
                     self._frames.clear()
                     stopping = self._stopping
                 # frames captured before the end still come through the pipeline: wait a moment for them
-                over = self.duration_s is not None and self.elapsed_s() >= self.duration_s + END_GRACE_S
+                over = self.duration_s is not None and (
+                    self._past_end or self.elapsed_s() >= self.duration_s + END_GRACE_S
+                )
                 for result in batch:
                     self._write(result)
                 now = self._clock()
@@ -178,8 +182,11 @@ class TakeRecorder:
 
     def _write(self, result: FrameResult) -> None:
         t = result.timestamp_s - self.t0
-        if t < 0 or (self.duration_s is not None and t >= self.duration_s):
-            return  # captured before the take started, or after it ended
+        if t < 0:
+            return  # captured before the take started
+        if self.duration_s is not None and t >= self.duration_s:
+            self._past_end = True  # every frame captured before the end has come (they come in order)
+            return
         rec = frame_record(result)
         rec["t"] = round(t, 6)
         rec["ts"] = round(self.t0_unix + t, 6)
