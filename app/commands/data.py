@@ -11,7 +11,7 @@ from app.core.config import get_settings
 from pipeline.demo_data import fetch_demo
 from pipeline.errors import InputError
 from pipeline.mocap import fetch_mocap
-from pipeline.mocap.sources import GAIT_SETS, write_sources
+from pipeline.mocap.sources import GAIT_SETS, SIM_SETS, write_sources
 
 app = typer.Typer(name="data", help="Demo data.", no_args_is_help=True)
 
@@ -35,14 +35,17 @@ def mocap() -> None:
 @app.command("sources")
 def sources(
     gait_count: int = typer.Option(
-        None, "--gait-count", help="routines per gait-model set (default: 24 for gait, 12 for gait-heldout)"
+        None,
+        "--gait-count",
+        help="routines per generated set (default: gait 24, gait-heldout 12, still 36, still-heldout 12)",
     ),
     gait_duration: float = typer.Option(
-        None, "--gait-duration", help="seconds per gait-model routine (default 60)"
+        None, "--gait-duration", help="seconds per generated routine (default: 60 gait, 40 still)"
     ),
 ) -> None:
     """Every named source as a folder of labelled NPZs, for --source NAME=DIR of the training and
-    evaluation scripts: the real mocap clips per package, and the gait model's train and held-out sets."""
+    evaluation scripts: the real mocap clips per package, the gait model's and our simulator's still
+    library's train and held-out sets."""
     if gait_count is not None and gait_count < 1:
         raise InputError(f"--gait-count must be at least 1, got {gait_count}")
     if gait_duration is not None and not (0 < gait_duration <= 3600):
@@ -51,7 +54,13 @@ def sources(
         name: replace(spec, count=gait_count or spec.count, duration_s=gait_duration or spec.duration_s)
         for name, spec in GAIT_SETS.items()
     }
-    manifest = write_sources(get_settings().paths.cache_dir, progress=typer.echo, gait_sets=sets)
+    sims = {
+        name: replace(spec, count=gait_count or spec.count, duration_s=gait_duration or spec.duration_s)
+        for name, spec in SIM_SETS.items()
+    }
+    manifest = write_sources(
+        get_settings().paths.cache_dir, progress=typer.echo, gait_sets=sets, sim_sets=sims
+    )
     typer.echo("sources (train: may be trained on; eval: held-out evaluation only):")
     for name, m in manifest.items():
         fpl = ", ".join(f"{k} {v / m['fps']:.0f} s" for k, v in m["frames_per_label"].items() if v)

@@ -56,6 +56,8 @@ def test_data_sources_writes_one_folder_per_named_source(
         "mocap-gaitkit",
         "gait",
         "gait-heldout",
+        "still",
+        "still-heldout",
     }
     for name, m in manifest.items():
         assert f"{name}={m['dir']}  [{m['use']}]" in res.output
@@ -85,4 +87,8 @@ def test_data_sources_writes_one_folder_per_named_source(
     assert 0.01 < nan_share < 0.03  # 2 % of the joints dropped
     assert manifest["gait-heldout"]["settings"]["noise_m"] == 0.012
     assert manifest["gait-heldout"]["settings"]["preset"] == "in-place"
+    assert manifest["still-heldout"]["use"] == "eval" and manifest["still"]["use"] == "train"
+    still = from_folder(manifest["still"]["dir"], source="still")
+    assert len(still) == 2 and all((s.labels == ACTIONS.index("still")).all() for s in still)
+    assert manifest["still"]["frames_per_label"]["still"] == sum(len(s.labels) for s in still)
     assert not {t for s in held for t in (s.tags or ())} & {"walk", "run", "kneel", "squat", "jump"}
