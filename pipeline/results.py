@@ -10,6 +10,7 @@ from typing import IO, Any
 
 import numpy as np
 
+from pipeline.head.tracker import HeadEstimate
 from pipeline.recognition.types import ActionEstimate
 from pipeline.tracking.types import TrackedView
 from pipeline.triangulation.types import Person3D
@@ -25,6 +26,7 @@ class FrameResult:
     people3d: 3D skeletons with user ids.
     navigator: user_id of the primary navigator, or None.
     action: the navigator's command, or None when there is no navigator.
+    heads: the navigator's head estimate (issue 20; empty when unknown or turned off).
     """
 
     frame_index: int
@@ -33,6 +35,7 @@ class FrameResult:
     people3d: tuple[Person3D, ...] = ()
     navigator: int | None = None
     action: ActionEstimate | None = None
+    heads: tuple[HeadEstimate, ...] = ()
     extra: dict[str, Any] = field(default_factory=dict)
 
 

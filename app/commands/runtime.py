@@ -73,6 +73,9 @@ def receive_cmd(
             typer.echo(f"#{msg['seq']:>6} locomotion user {msg['user_id']} {msg['action']:<8} "
                        f"conf {msg['confidence']:.2f} yaw {msg['yaw_deg']:7.1f} speed "
                        f"{msg['speed_mps']:.2f} pos {msg['position_m']}")
+        elif msg["type"] == "head":
+            typer.echo(f"#{msg['seq']:>6} head user {msg['user_id']} pos {msg['position_m']} forward "
+                       f"{msg['forward']} up {msg['up']} predicted {msg['predicted_ms']:.0f} ms")
         else:
             typer.echo(f"#{msg['seq']:>6} heartbeat {msg['state']}")
 

@@ -41,6 +41,7 @@ from pipeline.calibration.config import CalibrationConfig
 from pipeline.cave import CaveGeometry, Wall, box_cave
 from pipeline.emitter.udp import EmitterConfig, parse_endpoint
 from pipeline.errors import ConfigError
+from pipeline.head.config import HeadConfig
 from pipeline.planner.config import PlannerConfig
 from pipeline.pose.config import PoseConfig
 from pipeline.recognition.recognizer import RecognizerConfig
@@ -197,6 +198,7 @@ class Settings(BaseSettings):
     tracks3d: Tracks3DParams = Tracks3DParams()
     navigator: NavigatorConfig = NavigatorConfig()
     recognition: RecognizerConfig = RecognizerConfig()
+    head: HeadConfig = HeadConfig()
     runtime: RuntimeConfig = RuntimeConfig()
     emitter: EmitterConfig = EmitterConfig()
     sim: SimConfig = SimConfig()

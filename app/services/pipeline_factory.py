@@ -31,11 +31,12 @@ def simulator_factory(settings: Settings, sim: SimConfig | None = None) -> SimWo
 
 
 def fusion_factory(settings: Settings, cameras: list[Camera] | None) -> FusionFactory:
-    """Tracking, triangulation, navigator and recognition from their sections."""
+    """Tracking, triangulation, navigator, recognition and head pose from their sections."""
     reconstruction = ReconstructionConfig(settings.triangulation, settings.association, settings.tracks3d)
     return FusionFactory(cameras=tuple(cameras) if cameras else None, camera_names=(),
                          tracking=settings.tracking, reconstruction=reconstruction,
-                         navigator=settings.navigator, recognition=settings.recognition)
+                         navigator=settings.navigator, recognition=settings.recognition,
+                         head=settings.head)
 
 
 def build_pipeline(settings: Settings, cameras: list[Camera] | None = None,

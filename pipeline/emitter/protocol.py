@@ -5,10 +5,12 @@ One UTF-8 JSON object per datagram::
     {"v": 1, "type": "locomotion", "seq", "ts", "user_id", "action", "confidence",
      "yaw_deg", "speed_mps", "position_m": [x, y, z]}
     {"v": 1, "type": "heartbeat", "seq", "ts", "state"}
+    {"v": 1, "type": "head", "seq", "ts", "user_id", "position_m": [x, y, z],
+     "forward": [x, y, z], "up": [x, y, z], "predicted_ms"}          (additive, issue 20)
 
-``ts`` is Unix time in seconds: for ``locomotion`` the capture time of the camera
+``ts`` is Unix time in seconds: for ``locomotion`` and ``head`` the capture time of the camera
 frames the command was computed from (so a receiver sees the age of what it gets),
-for ``heartbeat`` the time it was sent.
+for ``heartbeat`` the time it was sent. A ``head`` pose is for ``ts + predicted_ms``.
 """
 
 from __future__ import annotations
@@ -16,10 +18,13 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from pipeline.errors import InputError
 from pipeline.skeleton import ACTIONS
+
+if TYPE_CHECKING:
+    from pipeline.head.tracker import HeadPose
 
 PROTOCOL_VERSION = 1
 STATES = ("stopped", "starting", "running", "error")
@@ -29,6 +34,9 @@ MAX_DATAGRAM_BYTES = 1400  # stays inside one Ethernet frame
 _LOCOMOTION_KEYS = {"v", "type", "seq", "ts", "user_id", "action", "confidence", "yaw_deg",
                     "speed_mps", "position_m"}
 _HEARTBEAT_KEYS = {"v", "type", "seq", "ts", "state"}
+_HEAD_KEYS = {"v", "type", "seq", "ts", "user_id", "position_m", "forward", "up", "predicted_ms"}
+OSC_HEAD_ADDRESS = "/cave/head"  # + "/{user_id}"
+UNIT_TOLERANCE = 0.01  # forward and up are unit vectors to within this
 
 
 @dataclass(frozen=True, slots=True)
@@ -100,6 +108,43 @@ def osc_locomotion_message(cmd: LocomotionCommand, ts_unix: float, address: str 
     return bytes(builder.build().dgram)
 
 
+def _vector(values: Any, nd: int) -> list[float]:
+    return [_finite(v, nd) for v in values]
+
+
+def head_message(pose: HeadPose, seq: int, ts_unix: float) -> dict[str, Any]:
+    """The ``head`` datagram of a :class:`pipeline.head.tracker.HeadPose` (``ts_unix``: the
+    capture time of its frames as Unix seconds)."""
+    return {
+        "v": PROTOCOL_VERSION,
+        "type": "head",
+        "seq": int(seq),
+        "ts": round(float(ts_unix), 6),
+        "user_id": int(pose.user_id),
+        "position_m": _vector(pose.position_m, 4),
+        "forward": _vector(pose.forward, 5),
+        "up": _vector(pose.up, 5),
+        "predicted_ms": _finite(max(pose.predicted_ms, 0.0), 2),
+    }
+
+
+#: OSC type tags of ``/cave/head/{user_id}``: user_id, x, y, z, forward x, y, z, up x, y, z,
+#: predicted_ms (float32), ts (64-bit double, Unix seconds, as in ``/cave/locomotion``).
+OSC_HEAD_TYPES = "i" + "f" * 10 + "d"
+
+
+def osc_head_message(pose: HeadPose, ts_unix: float) -> bytes:
+    """The OSC message ``/cave/head/{user_id}`` carrying ``pose`` (types :data:`OSC_HEAD_TYPES`)."""
+    from pythonosc.osc_message_builder import OscMessageBuilder
+
+    values: list[Any] = [int(pose.user_id), *_vector(pose.position_m, 4), *_vector(pose.forward, 5),
+                         *_vector(pose.up, 5), _finite(max(pose.predicted_ms, 0.0), 2), float(ts_unix)]
+    builder = OscMessageBuilder(address=f"{OSC_HEAD_ADDRESS}/{int(pose.user_id)}")
+    for tag, value in zip(OSC_HEAD_TYPES, values, strict=True):
+        builder.add_arg(value, arg_type=tag)
+    return bytes(builder.build().dgram)
+
+
 def encode(message: dict[str, Any]) -> bytes:
     data = json.dumps(message, separators=(",", ":"), allow_nan=False).encode("utf-8")
     if len(data) > MAX_DATAGRAM_BYTES:
@@ -136,9 +181,10 @@ def validate_datagram(data: bytes | str | dict[str, Any]) -> dict[str, Any]:
     if msg.get("v") != PROTOCOL_VERSION:
         raise InputError(f"v: expected {PROTOCOL_VERSION}, got {msg.get('v')!r}")
     kind = msg.get("type")
-    keys = {"locomotion": _LOCOMOTION_KEYS, "heartbeat": _HEARTBEAT_KEYS}.get(kind)  # type: ignore[arg-type]
+    keys = {"locomotion": _LOCOMOTION_KEYS, "heartbeat": _HEARTBEAT_KEYS,
+            "head": _HEAD_KEYS}.get(kind)  # type: ignore[arg-type]
     if keys is None:
-        raise InputError(f"type: expected 'locomotion' or 'heartbeat', got {kind!r}")
+        raise InputError(f"type: expected 'locomotion', 'heartbeat' or 'head', got {kind!r}")
     if missing := keys - msg.keys():
         raise InputError(f"{kind}: missing keys {sorted(missing)}")
     if extra := msg.keys() - keys:
@@ -150,6 +196,8 @@ def validate_datagram(data: bytes | str | dict[str, Any]) -> dict[str, Any]:
         if msg["state"] not in STATES:
             raise InputError(f"state: expected one of {STATES}, got {msg['state']!r}")
         return msg
+    if kind == "head":
+        return _validate_head(msg)
     _integer(msg, "user_id", 0)
     if msg["action"] not in ACTIONS:
         raise InputError(f"action: expected one of {ACTIONS}, got {msg['action']!r}")
@@ -159,9 +207,31 @@ def validate_datagram(data: bytes | str | dict[str, Any]) -> dict[str, Any]:
         raise InputError(f"yaw_deg: expected a number in [-180, 180], got {msg['yaw_deg']!r}")
     if _number(msg, "speed_mps") < 0:
         raise InputError(f"speed_mps: expected a number >= 0, got {msg['speed_mps']!r}")
-    pos = msg["position_m"]
-    if not isinstance(pos, list) or len(pos) != 3:
-        raise InputError(f"position_m: expected [x, y, z], got {pos!r}")
-    for i in range(3):
-        _number({f"position_m[{i}]": pos[i]}, f"position_m[{i}]")
+    _xyz(msg, "position_m")
+    return msg
+
+
+def _xyz(msg: dict[str, Any], key: str) -> list[float]:
+    vec = msg[key]
+    if not isinstance(vec, list) or len(vec) != 3:
+        raise InputError(f"{key}: expected [x, y, z], got {vec!r}")
+    return [_number({f"{key}[{i}]": vec[i]}, f"{key}[{i}]") for i in range(3)]
+
+
+def _validate_head(msg: dict[str, Any]) -> dict[str, Any]:
+    """The checks of a ``head`` datagram after the common ones."""
+    _integer(msg, "user_id", 0)
+    _xyz(msg, "position_m")
+    unit = {}
+    for key in ("forward", "up"):
+        vec = _xyz(msg, key)
+        norm = math.sqrt(sum(v * v for v in vec))
+        if abs(norm - 1.0) > UNIT_TOLERANCE:
+            raise InputError(f"{key}: expected a unit vector, got length {norm:.4f}")
+        unit[key] = vec
+    dot = sum(a * b for a, b in zip(unit["forward"], unit["up"], strict=True))
+    if abs(dot) > UNIT_TOLERANCE:
+        raise InputError(f"forward and up: expected perpendicular vectors, got cos {dot:.4f}")
+    if _number(msg, "predicted_ms") < 0:
+        raise InputError(f"predicted_ms: expected a number >= 0, got {msg['predicted_ms']!r}")
     return msg

@@ -4,13 +4,15 @@
 navigator is tracked); a new command goes out at once, and a background thread
 repeats the current one so that ``locomotion`` arrives at ``rate_hz`` on average while
 a navigator is tracked (see FRESH_GAP / REPEAT_GAP), and sends a ``heartbeat`` every
-``heartbeat_s`` always.
+``heartbeat_s`` always. Each ``locomotion`` is followed by a ``head`` datagram per head estimate
+submitted with its command (issue 20), predicted to the moment it is sent (``HeadConfig``).
 ``seq`` counts per destination. Unicast, broadcast and multicast addresses all work
 (the socket has SO_BROADCAST and a multicast TTL).
 """
 
 from __future__ import annotations
 
+import functools
 import ipaddress
 import logging
 import socket
@@ -22,11 +24,15 @@ from dataclasses import dataclass
 from pipeline.emitter.protocol import (
     LocomotionCommand,
     encode,
+    head_message,
     heartbeat_message,
     locomotion_message,
+    osc_head_message,
     osc_locomotion_message,
 )
 from pipeline.errors import InputError
+from pipeline.head.config import HeadConfig
+from pipeline.head.tracker import HeadEstimate, HeadPose
 
 log = logging.getLogger(__name__)
 
@@ -103,6 +109,10 @@ def resolve_endpoint(host: str, port: int) -> Endpoint:
     return str(infos[0][4][0]), int(port)
 
 
+def _encode_head(pose: HeadPose, ts_unix: float, seq: int) -> bytes:
+    return encode(head_message(pose, seq, ts_unix))
+
+
 def is_multicast(address: str) -> bool:
     try:
         return ipaddress.ip_address(address).is_multicast
@@ -115,8 +125,10 @@ class UdpEmitter:
 
     def __init__(self, config: EmitterConfig, endpoints: list[Endpoint] | None = None,
                  osc_endpoints: list[Endpoint] | None = None,
-                 on_sent: Callable[[float], None] | None = None) -> None:
+                 on_sent: Callable[[float], None] | None = None, head: HeadConfig | None = None) -> None:
         self.config = config
+        self.head = head or HeadConfig()
+        self._heads: tuple[HeadEstimate, ...] = ()
         self._lock = threading.Lock()
         self._sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self._sock.setsockopt(socket.SOL_SOCKET, socket.SO_BROADCAST, 1)
@@ -167,10 +179,12 @@ class UdpEmitter:
             self._state = state
 
     # -- sending --------------------------------------------------------------------------
-    def submit(self, command: LocomotionCommand | None) -> None:
-        """The newest navigator command (None = no navigator): sent now, then repeated at the rate."""
+    def submit(self, command: LocomotionCommand | None, heads: tuple[HeadEstimate, ...] = ()) -> None:
+        """The newest navigator command (None = no navigator) and the navigators' head estimates:
+        sent now, then repeated at the rate (each head predicted afresh for each send)."""
         with self._lock:
             self._command = command
+            self._heads = tuple(heads) if self.head.enabled else ()
             if command is None:
                 return
             now = time.monotonic()
@@ -206,13 +220,20 @@ class UdpEmitter:
     def _send_locomotion(self, cmd: LocomotionCommand, now: float) -> None:
         ts = cmd.timestamp_s + self._offset
         self._send(lambda seq: encode(locomotion_message(cmd, seq, ts)))
-        osc = osc_locomotion_message(cmd, ts) if self._osc else b""
+        osc = [osc_locomotion_message(cmd, ts)] if self._osc else []
+        for est in self._heads:
+            pose = est.predict(self.head.horizon_s(now - est.timestamp_s))
+            ts_head = est.timestamp_s + self._offset
+            self._send(functools.partial(_encode_head, pose, ts_head))
+            if self._osc:
+                osc.append(osc_head_message(pose, ts_head))
         for ep in self._osc:
-            try:
-                self._sock.sendto(osc, ep)
-            except OSError as exc:
-                self.errors += 1
-                log.debug("OSC send failed: %s", exc)
+            for data in osc:
+                try:
+                    self._sock.sendto(data, ep)
+                except OSError as exc:
+                    self.errors += 1
+                    log.debug("OSC send failed: %s", exc)
         self._last_loco = now
 
     def _send_heartbeat(self, now: float) -> None:

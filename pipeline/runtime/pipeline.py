@@ -121,7 +121,8 @@ class Pipeline:
         self._snapshots: dict[str, tuple[float, bytes]] = {}
         self._sinks: tuple[Any, ...] = ()  # after-fusion sinks: on_result(FrameResult) (the take recorder)
         emitter = emitter or EmitterConfig()
-        self.emitter = UdpEmitter(emitter, list(workstations), emitter.osc_endpoints or None)
+        self.emitter = UdpEmitter(emitter, list(workstations), emitter.osc_endpoints or None,
+                                  head=self.fusion.head)
         self.emitter.set_state("stopped")
         self.emitter.start()
 
@@ -323,7 +324,7 @@ class Pipeline:
     def _on_result(self, run: _Run, fused: FusedFrame) -> None:
         result, det = fused.result, fused.detected
         cmd = _command(result)
-        self.emitter.submit(cmd)
+        self.emitter.submit(cmd, result.heads)
         sent = time.monotonic()
         ms = {
             "capture": det.detect_start_s - det.timestamp_s,

@@ -6,7 +6,7 @@ can hand a worker any other factory.
 
 - :class:`PoseStage` — the pose detector over all views of a multi-view frame, in ROI
   mode on crops around each view's predicted tracks, then OC-SORT per view.
-- :class:`Fusion` — association/triangulation, navigator choice, recognition (and the
+- :class:`Fusion` — association/triangulation, navigator choice, recognition, head pose (and the
   tracking itself for the simulator, whose detections skip the pose stage).
 """
 
@@ -24,6 +24,8 @@ from numpy.typing import NDArray
 from pipeline.camera import Camera
 from pipeline.cave import CaveGeometry
 from pipeline.errors import ModelError
+from pipeline.head.config import HeadConfig
+from pipeline.head.tracker import HeadEstimate, HeadTracker
 from pipeline.pose.config import PoseConfig
 from pipeline.pose.detector import PoseDetector
 from pipeline.pose.roi import RoiScheduler
@@ -119,8 +121,10 @@ class Fusion:
     """
 
     def __init__(self, tracker: Tracker | None, reconstructor: Reconstructor | None,
-                 selector: Selector | None, recognizer: Recognizer | None) -> None:
+                 selector: Selector | None, recognizer: Recognizer | None,
+                 heads: HeadTracker | None = None) -> None:
         self.tracker = tracker
+        self.heads = heads
         self.reconstructor = reconstructor
         self.selector = selector
         self.recognizer = recognizer
@@ -167,7 +171,10 @@ class Fusion:
             person = next((p for p in people if p.user_id == navigator), None)
             if person is not None:
                 action = self.recognizer.update(person.joints_m, frame.timestamp_s)
-        return FrameResult(frame.frame_index, frame.timestamp_s, tracked, people, navigator, action)
+        heads: tuple[HeadEstimate, ...] = ()
+        if self.heads is not None and navigator is not None:
+            heads = self.heads.update(people, frame.timestamp_s, users=(navigator,))
+        return FrameResult(frame.frame_index, frame.timestamp_s, tracked, people, navigator, action, heads)
 
 
 @dataclass(frozen=True, slots=True)
@@ -183,10 +190,11 @@ class FusionFactory:
     reconstruction: ReconstructionConfig = field(default_factory=ReconstructionConfig)
     navigator: NavigatorConfig = field(default_factory=NavigatorConfig)
     recognition: RecognizerConfig | None = field(default_factory=RecognizerConfig)  # None: no actions
+    head: HeadConfig = field(default_factory=HeadConfig)
 
     def __call__(self) -> Fusion:
         tracker = MultiViewTracker(list(self.camera_names), self.tracking)
-        reconstructor = selector = recognizer = None
+        reconstructor = selector = recognizer = heads = None
         if self.cameras is not None:
             try:
                 from pipeline.triangulation.navigator import NavigatorSelector
@@ -195,12 +203,13 @@ class FusionFactory:
                 raise ModelError(f"the triangulation stage is not available: {exc}") from exc
             reconstructor = Reconstructor(list(self.cameras), self.reconstruction)
             selector = NavigatorSelector(self.navigator)
+            heads = HeadTracker(self.head) if self.head.enabled else None
             if self.recognition is not None:
                 try:
                     recognizer = ActionRecognizer.from_config(self.recognition)
                 except ModelError as exc:  # 3D and the navigator still serve without actions
                     log.warning("no action recognition: %s", exc)
-        return Fusion(tracker, reconstructor, selector, recognizer)  # type: ignore[arg-type]
+        return Fusion(tracker, reconstructor, selector, recognizer, heads)  # type: ignore[arg-type]
 
 
 # ---------------------------------------------------------------------------------- simulator

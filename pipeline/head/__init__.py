@@ -1,0 +1,23 @@
+"""Head pose for the walls (issue 20 item 3): each navigator's head position and forward/up
+vectors from the 3D skeleton, with short-horizon prediction to make up for the latency.
+
+- :mod:`pipeline.head.config`: :class:`HeadConfig`, the settings' ``[head]`` section.
+- :mod:`pipeline.head.pose`: the pure geometry: a rigid face template fitted to the face
+  keypoints (:func:`head_pose_from_joints`), rotation helpers, angle errors.
+- :mod:`pipeline.head.tracker`: :class:`HeadTracker`, per-user filtering and velocities, and
+  :meth:`HeadEstimate.predict`, the constant-velocity extrapolation.
+"""
+
+from pipeline.head.config import HeadConfig
+from pipeline.head.pose import HeadFrame, angle_deg, head_pose_from_joints
+from pipeline.head.tracker import HeadEstimate, HeadPose, HeadTracker
+
+__all__ = [
+    "HeadConfig",
+    "HeadEstimate",
+    "HeadFrame",
+    "HeadPose",
+    "HeadTracker",
+    "angle_deg",
+    "head_pose_from_joints",
+]
