@@ -13,6 +13,7 @@ from app.core.config import load_settings, set_settings
 from pipeline.mocap import fetch_mocap, mocap_dir
 from pipeline.mocap.sources import load_sources
 from pipeline.recognition.corpus import from_folder
+from pipeline.recognition.prepare import SourceSpec
 from pipeline.skeleton import ACTIONS, J, load_npz
 
 pytestmark = pytest.mark.slow
@@ -61,6 +62,8 @@ def test_data_sources_writes_one_folder_per_named_source(
     }
     for name, m in manifest.items():
         assert f"{name}={m['dir']}  [{m['use']}]" in res.output
+        spec = SourceSpec.parse(f"{name}={m['dir']}")  # the training scripts' --source NAME=DIR
+        assert spec.name == name and spec.folder is not None and spec.folder.is_dir()
         assert m["licences"] and all(m["licences"])
     assert manifest["mocap-pybullet"]["use"] == "eval" and manifest["gait-heldout"]["use"] == "eval"
     assert (
