@@ -53,7 +53,7 @@ class C3DPoints:
 def _dec_to_ieee(raw: bytes) -> NDArray[np.float32]:
     """DEC (VAX F) float32s to IEEE: swap the 16-bit halves, then divide by 4."""
     words = np.frombuffer(raw, dtype="<u2").reshape(-1, 2)[:, ::-1].copy()
-    return np.frombuffer(words.tobytes(), dtype="<f4") / np.float32(4.0)
+    return (np.frombuffer(words.tobytes(), dtype="<f4") / np.float32(4.0)).astype(np.float32)
 
 
 class _Fmt:
@@ -179,9 +179,10 @@ def read_c3d(data: bytes, name: str = "c3d") -> C3DPoints:
     vals = (fmt.f32(raw) if is_float else fmt.i16(raw)).astype(np.float64)
     vals = vals.reshape(n_frames, -1)[:, : 4 * n_points].reshape(n_frames, n_points, 4)
     xyz = vals[..., :3] * (1.0 if is_float else abs(scale))
+    residual: NDArray[np.float64] | NDArray[np.int64]
     if is_float:
-        residual = np.trunc(vals[..., 3]).astype(np.int64)
-        residual = np.where(residual > 32767, residual - 65536, residual)
+        whole = np.trunc(vals[..., 3]).astype(np.int64)
+        residual = np.where(whole > 32767, whole - 65536, whole)
     else:
         residual = vals[..., 3]
     invalid = (residual < 0) | np.all(xyz == 0, axis=-1)

@@ -274,9 +274,14 @@ def convert_landmarks(
     return finish(*_resampled(t_src, joints, feet, pelvis), spec, contact_cfg)
 
 
-def _resampled(t_src: F64, *arrays: F64) -> tuple[F64, ...]:
+def _resampled(t_src: F64, joints: F64, feet: F64, pelvis: F64) -> tuple[F64, F64, F64]:
+    """Joints, foot points and pelvis resampled from the times ``t_src`` to :data:`FPS`."""
     t = resample_times(float(t_src[-1]), FPS)
-    return tuple(resample_linear(t_src, a, t) for a in arrays)
+    return (
+        resample_linear(t_src, joints, t),
+        resample_linear(t_src, feet, t),
+        resample_linear(t_src, pelvis, t),
+    )
 
 
 def belt_velocity(ankles: F64, fps: float, cfg: ContactConfig = ContactConfig()) -> F64:
