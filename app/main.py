@@ -142,7 +142,8 @@ def create_app(
         app.state.planner = planner = PlannerService(settings)
         app.state.watch = watch
         recorder = RecorderService(settings, factory, events, source=lambda: _recording_source(pipeline),
-                                   sim_calibration=lambda: _sim_calibration(settings))
+                                   sim_calibration=lambda: _sim_calibration(settings),
+                                   send_prompt=pipeline.send_prompt)
         recorder.recover()  # a take the last server left recording is kept as incomplete
         pipeline.add_result_sink(recorder)
         app.state.recorder = recorder

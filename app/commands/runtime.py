@@ -76,6 +76,9 @@ def receive_cmd(
         elif msg["type"] == "head":
             typer.echo(f"#{msg['seq']:>6} head user {msg['user_id']} pos {msg['position_m']} forward "
                        f"{msg['forward']} up {msg['up']} predicted {msg['predicted_ms']:.0f} ms")
+        elif msg["type"] == "prompt":
+            typer.echo(f"#{msg['seq']:>6} prompt {msg['label']:<8} {msg['remaining_s']:5.1f} s "
+                       f"{msg['text']}")
         else:
             typer.echo(f"#{msg['seq']:>6} heartbeat {msg['state']}")
 

@@ -207,6 +207,13 @@ class PipelineService:
         self._rebuild = False
         self._result_sinks: tuple[Any, ...] = ()
 
+    def send_prompt(self, text: str, label: str, remaining_s: float) -> None:
+        """A ``prompt`` datagram to the workstations (the recording protocol's instruction)."""
+        with self._lock:
+            emitter = getattr(self._pipeline, "emitter", None)
+        if emitter is not None and hasattr(emitter, "send_prompt"):
+            emitter.send_prompt(text, label, remaining_s)
+
     def add_result_sink(self, sink: Any) -> None:
         """``sink.on_result(FrameResult)`` for every fused frame of this and every later pipeline."""
         with self._lock:

@@ -15,6 +15,7 @@ import logging
 import re
 import secrets
 import threading
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from datetime import UTC, datetime
@@ -89,6 +90,8 @@ class RecorderService:
         events: EventWriter,
         source: Callable[[], str | None] = lambda: None,
         sim_calibration: Callable[[], dict[str, Any] | None] = lambda: None,
+        send_prompt: Callable[[str, str, float], None] | None = None,
+        prompt_period_s: float = 0.5,
     ) -> None:
         self.settings = settings
         self.config = settings.takes
@@ -100,6 +103,8 @@ class RecorderService:
         self._lock = threading.Lock()
         self._current: TakeRecorder | None = None
         self._current_id: int | None = None
+        self._send_prompt = send_prompt
+        self._prompt_period_s = prompt_period_s
 
     # ----------------------------------------------------------------------------- recovery
     def recover(self) -> list[int]:
@@ -225,6 +230,9 @@ class RecorderService:
                     db.commit()
                 raise
             self._current, self._current_id = recorder, take_id
+            if protocol is not None and self._send_prompt is not None:
+                prompts = threading.Thread(target=self._prompts, args=(recorder,), daemon=True)
+                prompts.start()
         self._events.record(
             "take",
             {
@@ -262,6 +270,23 @@ class RecorderService:
                 "duration_s": manifest.get("duration_s"),
             },
         )
+
+    def _prompts(self, recorder: TakeRecorder) -> None:
+        """The protocol's prompt to the workstations: at each new step, then every ``prompt_period_s``."""
+        last_index, last_sent = -1, 0.0
+        while not recorder.wait(0.05):
+            p = recorder.prompt()
+            if p is None:
+                continue
+            index, step, remaining = p
+            now = time.monotonic()
+            if index != last_index or now - last_sent >= self._prompt_period_s:
+                try:
+                    if self._send_prompt is not None:
+                        self._send_prompt(step.text, step.label, remaining)
+                except Exception:  # the loop boundary: the take goes on without its prompt
+                    log.exception("sending the prompt failed")
+                last_index, last_sent = index, now
 
     # ------------------------------------------------------------------------------- the sink
     def on_result(self, result: FrameResult) -> None:

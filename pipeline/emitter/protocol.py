@@ -35,6 +35,8 @@ _LOCOMOTION_KEYS = {"v", "type", "seq", "ts", "user_id", "action", "confidence",
                     "speed_mps", "position_m"}
 _HEARTBEAT_KEYS = {"v", "type", "seq", "ts", "state"}
 _HEAD_KEYS = {"v", "type", "seq", "ts", "user_id", "position_m", "forward", "up", "predicted_ms"}
+_PROMPT_KEYS = {"v", "type", "seq", "ts", "text", "label", "remaining_s"}  # additive (issue 18)
+MAX_PROMPT_CHARS = 200
 OSC_HEAD_ADDRESS = "/cave/head"  # + "/{user_id}"
 UNIT_TOLERANCE = 0.01  # forward and up are unit vectors to within this
 
@@ -112,6 +114,15 @@ def _vector(values: Any, nd: int) -> list[float]:
     return [_finite(v, nd) for v in values]
 
 
+def prompt_message(text: str, label: str, remaining_s: float, seq: int, ts_unix: float) -> dict[str, Any]:
+    """The participant's current instruction while a recording protocol runs (additive, issue 18)."""
+    if label not in ACTIONS:
+        raise ValueError(f"label must be one of {ACTIONS}, got {label!r}")
+    return {"v": PROTOCOL_VERSION, "type": "prompt", "seq": int(seq), "ts": round(float(ts_unix), 6),
+            "text": str(text)[:MAX_PROMPT_CHARS], "label": label,
+            "remaining_s": _finite(max(remaining_s, 0.0), 2)}
+
+
 def head_message(pose: HeadPose, seq: int, ts_unix: float) -> dict[str, Any]:
     """The ``head`` datagram of a :class:`pipeline.head.tracker.HeadPose` (``ts_unix``: the
     capture time of its frames as Unix seconds)."""
@@ -182,9 +193,9 @@ def validate_datagram(data: bytes | str | dict[str, Any]) -> dict[str, Any]:
         raise InputError(f"v: expected {PROTOCOL_VERSION}, got {msg.get('v')!r}")
     kind = msg.get("type")
     keys = {"locomotion": _LOCOMOTION_KEYS, "heartbeat": _HEARTBEAT_KEYS,
-            "head": _HEAD_KEYS}.get(kind)  # type: ignore[arg-type]
+            "head": _HEAD_KEYS, "prompt": _PROMPT_KEYS}.get(kind)  # type: ignore[arg-type]
     if keys is None:
-        raise InputError(f"type: expected 'locomotion', 'heartbeat' or 'head', got {kind!r}")
+        raise InputError(f"type: expected 'locomotion', 'heartbeat', 'head' or 'prompt', got {kind!r}")
     if missing := keys - msg.keys():
         raise InputError(f"{kind}: missing keys {sorted(missing)}")
     if extra := msg.keys() - keys:
@@ -198,6 +209,8 @@ def validate_datagram(data: bytes | str | dict[str, Any]) -> dict[str, Any]:
         return msg
     if kind == "head":
         return _validate_head(msg)
+    if kind == "prompt":
+        return _validate_prompt(msg)
     _integer(msg, "user_id", 0)
     if msg["action"] not in ACTIONS:
         raise InputError(f"action: expected one of {ACTIONS}, got {msg['action']!r}")
@@ -234,4 +247,16 @@ def _validate_head(msg: dict[str, Any]) -> dict[str, Any]:
         raise InputError(f"forward and up: expected perpendicular vectors, got cos {dot:.4f}")
     if _number(msg, "predicted_ms") < 0:
         raise InputError(f"predicted_ms: expected a number >= 0, got {msg['predicted_ms']!r}")
+    return msg
+
+
+def _validate_prompt(msg: dict[str, Any]) -> dict[str, Any]:
+    """The checks of a ``prompt`` datagram after the common ones."""
+    text = msg["text"]
+    if not isinstance(text, str) or not 0 < len(text) <= MAX_PROMPT_CHARS:
+        raise InputError(f"text: expected a string of 1-{MAX_PROMPT_CHARS} characters, got {text!r}")
+    if msg["label"] not in ACTIONS:
+        raise InputError(f"label: expected one of {ACTIONS}, got {msg['label']!r}")
+    if _number(msg, "remaining_s") < 0:
+        raise InputError(f"remaining_s: expected a number >= 0, got {msg['remaining_s']!r}")
     return msg

@@ -29,6 +29,7 @@ from pipeline.emitter.protocol import (
     locomotion_message,
     osc_head_message,
     osc_locomotion_message,
+    prompt_message,
 )
 from pipeline.errors import InputError
 from pipeline.head.config import HeadConfig
@@ -235,6 +236,12 @@ class UdpEmitter:
                     self.errors += 1
                     log.debug("OSC send failed: %s", exc)
         self._last_loco = now
+
+    def send_prompt(self, text: str, label: str, remaining_s: float) -> None:
+        """One ``prompt`` datagram to every workstation now (the recording protocol's instruction)."""
+        ts = time.time()
+        with self._lock:
+            self._send(lambda seq: encode(prompt_message(text, label, remaining_s, seq, ts)))
 
     def _send_heartbeat(self, now: float) -> None:
         ts = now + self._offset
