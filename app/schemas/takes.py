@@ -82,3 +82,22 @@ class ProtocolPublic(BaseModel):
     description: str
     duration_s: float
     steps: list[ProtocolStep]
+
+
+class LabelSpanIn(StrictRequest):
+    t_start: float = Field(ge=0)
+    t_end: float = Field(gt=0)
+    label: str = Field(max_length=16, description="still, forward, left, right or ignore")
+    user_id: int | None = Field(None, ge=0, le=MAX_ID, description="null: the navigator at each frame")
+    tag: str = Field("", max_length=64)
+    source: str = Field("operator", max_length=16)
+
+
+class LabelsUpdate(StrictRequest):
+    spans: list[LabelSpanIn] = Field(max_length=5000)
+
+
+class LabelsPublic(BaseModel):
+    take_id: int
+    duration_s: float | None
+    spans: list[dict[str, Any]]

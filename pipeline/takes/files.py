@@ -16,6 +16,7 @@ import json
 import math
 import os
 from collections import Counter
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -239,9 +240,15 @@ def finish_take(
     manifest = dict(manifest if manifest is not None else load_manifest(folder))
     frames, cut = read_frames(folder / FRAMES)
     spans = read_spans(folder / LABELS)
-    write_skeletons(folder, frames, spans)
     ts = [float(f["t"]) for f in frames if f.get("t") is not None]
     duration = max(ts) if ts else 0.0
+    if spans:  # the protocol's spans end where the take ended (it may stop early)
+        end = round(duration + (duration / (len(ts) - 1) if len(ts) > 1 else 0.05), 3)
+        clipped = [replace(sp, t_end=min(sp.t_end, end)) for sp in spans if sp.t_start < end]
+        if clipped != spans:
+            spans = clipped
+            write_spans(folder, spans)
+    write_skeletons(folder, frames, spans)
     manifest.update(
         {
             "complete": bool(complete),
@@ -267,3 +274,24 @@ def recover_take(folder: Path) -> dict[str, Any]:
     if not (folder / FRAMES).is_file():
         (folder / FRAMES).touch()
     return finish_take(folder, complete=False, manifest=manifest)
+
+
+def relabel_take(folder: Path, spans: list[LabelSpan]) -> dict[str, Any]:
+    """Replace a finished take's labels: ``labels.csv``, the labels in ``skeletons.npz``, the checksums.
+
+    Everything is checked and built in memory first; a bad take changes nothing.
+    """
+    folder = Path(folder)
+    manifest = load_manifest(folder)
+    if manifest.get("status") == "recording":
+        raise InputError(f"take {manifest.get('id')} is still recording")
+    frames, _cut = read_frames(folder / FRAMES)
+    buf = io.BytesIO()
+    np.savez_compressed(buf, **skeleton_arrays(frames, spans))  # type: ignore[arg-type]
+    labels_bytes = spans_csv(spans)
+    write_atomic(folder / LABELS, labels_bytes)
+    write_atomic(folder / SKELETONS, buf.getvalue())
+    manifest["files"] = file_table(folder)
+    manifest["labelled_by"] = "operator"
+    write_json(folder / MANIFEST, manifest)
+    return manifest

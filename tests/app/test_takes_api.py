@@ -150,3 +150,46 @@ def test_shipped_protocols_parse_and_are_listed(served: Served) -> None:
     assert {s["label"] for s in got["no-intent"]["steps"]} <= {"still", "forward"}
     assert got["teach"]["duration_s"] == 60
     assert load_protocol(Path("protocols/no-intent.toml")).steps[1].tag == "look-around"
+
+
+def _snapshot(folder: Path) -> dict[str, bytes]:
+    return {p.name: p.read_bytes() for p in sorted(folder.iterdir()) if p.is_file()}
+
+
+def test_labels_are_edited_in_place_and_bad_edits_change_nothing(served: Served) -> None:
+    base = f"{served.base}/api/v1"
+    take = httpx.post(f"{base}/takes", json={"protocol_toml": PROTOCOL, "duration_s": 4}).json()
+    done = wait_take(base, take["id"])
+    folder = served.settings.paths.db.parent / "takes" / done["uid"]
+    got = httpx.get(f"{base}/takes/{take['id']}/labels").json()
+    spans = got["spans"]
+    assert [s["label"] for s in spans] == ["still", "ignore", "forward"], spans
+    assert spans[-1]["t_end"] <= done["duration_s"] + 0.5, "the protocol's spans end with the take"
+    before = _snapshot(folder)
+    bad = [
+        ([{**spans[0], "label": "hop"}], 422, "unknown label 'hop'"),
+        ([{**spans[0], "t_end": 999}], 422, "past the take's end"),
+        ([{**spans[0], "t_start": 2, "t_end": 1}], 422, "t_start < t_end"),
+        ([{**spans[0], "colour": "red"}], 422, "colour"),
+    ]
+    for body, status, match in bad:
+        r = httpx.put(f"{base}/takes/{take['id']}/labels", json={"spans": body})
+        assert r.status_code == status and match in r.text, r.text
+    r = httpx.put(f"{base}/takes/4242/labels", json={"spans": spans})
+    assert r.status_code == 404 and "4242" in r.json()["detail"]
+    assert _snapshot(folder) == before, "a refused edit changes no file"
+    # relabel the forward span as left and move the boundary after the margin to 2.8 s
+    edited = [dict(s) for s in spans]
+    edited[1]["t_end"] = edited[2]["t_start"] = 2.8
+    edited[2]["label"] = "left"
+    r = httpx.put(f"{base}/takes/{take['id']}/labels", json={"spans": edited})
+    assert r.status_code == 200, r.text
+    assert check_files(folder) == [], "the checksums follow the edit"
+    row = httpx.get(f"{base}/takes/{take['id']}").json()
+    assert row["files"]["labels.csv"]["sha256"] == sha256_of(folder / "labels.csv")
+    with np.load(folder / "skeletons.npz") as npz:
+        uid = int(npz["user_id"])
+        t, labels, nav = npz["t"], npz[f"labels_{uid}"], npz["navigator"]
+    mine = nav == uid
+    assert set(labels[mine & (t >= 2.8)].tolist()) <= {"left"} and "forward" not in labels.tolist()
+    assert set(labels[mine & (t >= 2.0) & (t < 2.8)].tolist()) <= {"ignore"}

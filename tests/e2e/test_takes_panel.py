@@ -35,7 +35,7 @@ def test_record_a_take_from_the_dashboard(tmp_path: Path, artifacts_dir: Path) -
             )
             panel.locator("#take-participant").fill("PW1")
             panel.locator("#take-protocol").select_option("four-actions")
-            panel.locator("#take-duration").fill("3")
+            panel.locator("#take-duration").fill("7")
             panel.locator("#take-margin").fill("0.3")
             panel.locator("#take-start").click()
             expect(panel.locator("#take-state")).to_contain_text("recording take 1", timeout=10_000)
@@ -46,12 +46,43 @@ def test_record_a_take_from_the_dashboard(tmp_path: Path, artifacts_dir: Path) -
             expect(row).to_contain_text("PW1")
             expect(row).to_contain_text("four actions")
             panel.screenshot(path=str(artifacts_dir / "takes-panel.png"))
+            # the timeline label editor: drag the boundary after the margin, relabel the forward span
+            row.locator("button.take-labels").click()
+            track = panel.locator("#label-track")
+            expect(track.locator(".label-span")).to_have_count(3, timeout=10_000)
+            expect(track.locator(".label-handle")).to_have_count(2)
+            track.scroll_into_view_if_needed()
+            box = track.bounding_box()
+            assert box is not None
+            spans = httpx.get(f"{served.base}/api/v1/takes/1/labels").json()["spans"]
+            duration = max(spans[-1]["t_end"], 0.1)
+            handle = track.locator(".label-handle").nth(1).bounding_box()
+            assert handle is not None
+            page.mouse.move(handle["x"] + handle["width"] / 2, handle["y"] + handle["height"] / 2)
+            page.mouse.down()
+            target_t = 6.0
+            page.mouse.move(
+                box["x"] + box["width"] * target_t / duration, box["y"] + box["height"] / 2, steps=8
+            )
+            page.mouse.up()
+            expect(panel.locator("#label-info")).to_have_text("unsaved changes")
+            track.locator(".label-span").nth(2).click()
+            panel.locator("#label-choice").select_option("right")
+            panel.locator("#label-apply").click()
+            expect(track.locator(".label-span").nth(2)).to_have_attribute("data-label", "right")
+            panel.locator("#label-save").click()
+            expect(panel.locator("#label-info")).to_have_text("saved", timeout=10_000)
+            panel.screenshot(path=str(artifacts_dir / "takes-label-editor.png"))
             # a bad margin: one clear message, no take stored
             panel.locator("#take-margin").fill("9")
             panel.locator("#take-start").click()
             expect(page.locator("#toast")).to_contain_text("margin_s must be", timeout=10_000)
         finally:
             browser.close()
+        saved = httpx.get(f"{served.base}/api/v1/takes/1/labels").json()["spans"]
+        assert [x["label"] for x in saved] == ["still", "ignore", "right"], saved
+        assert abs(saved[1]["t_end"] - target_t) < 0.3 and saved[2]["t_start"] == saved[1]["t_end"], saved
+        assert saved[2]["source"] == "operator"
         takes = httpx.get(f"{served.base}/api/v1/takes").json()
         assert [(t["participant_code"], t["status"], t["margin_s"]) for t in takes] == [
             ("PW1", "complete", 0.3)

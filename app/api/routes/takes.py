@@ -10,10 +10,20 @@ from fastapi.requests import HTTPConnection
 from fastapi.responses import FileResponse
 
 from app.api.deps import IdPath, SessionDep
-from app.db.take_repository import get_take, list_takes
-from app.schemas.takes import ProtocolPublic, RecordingPublic, TakeCreate, TakePublic
+from app.db.errors import StateConflict
+from app.db.take_repository import get_take, list_takes, update_take_files
+from app.schemas.takes import (
+    LabelsPublic,
+    LabelsUpdate,
+    ProtocolPublic,
+    RecordingPublic,
+    TakeCreate,
+    TakePublic,
+)
 from app.services.recorder import TakeRequest
-from pipeline.takes.protocol import load_protocol, shipped_protocols
+from pipeline.errors import InputError
+from pipeline.takes.files import LABELS, read_spans, relabel_take
+from pipeline.takes.protocol import LabelSpan, load_protocol, shipped_protocols
 
 if TYPE_CHECKING:
     from app.services.recorder import RecorderService
@@ -87,3 +97,36 @@ def take_file(take_id: IdPath, name: str, db: SessionDep) -> FileResponse:
     if not path.is_file():
         raise HTTPException(status.HTTP_404_NOT_FOUND, f"take {take_id}: {name} is missing from its folder")
     return FileResponse(path, filename=Path(name).name)
+
+
+def _spans_out(spans: list[LabelSpan]) -> list[dict[str, object]]:
+    return [{"t_start": sp.t_start, "t_end": sp.t_end, "label": sp.label, "user_id": sp.user_id,
+             "source": sp.source, "tag": sp.tag} for sp in spans]
+
+
+@router.get("/takes/{take_id}/labels", response_model=LabelsPublic)
+def take_labels(take_id: IdPath, db: SessionDep) -> LabelsPublic:
+    row = get_take(db, take_id)
+    spans = read_spans(Path(row.folder) / LABELS)
+    return LabelsPublic(take_id=row.id, duration_s=row.duration_s, spans=_spans_out(spans))
+
+
+@router.put("/takes/{take_id}/labels", response_model=LabelsPublic,
+            responses={409: {"description": "The take is still recording"}})
+def set_take_labels(take_id: IdPath, body: LabelsUpdate, db: SessionDep) -> LabelsPublic:
+    """Replace the take's label spans (the timeline editor): labels.csv, the NPZ labels, the checksums."""
+    row = get_take(db, take_id)
+    if row.status == "recording":
+        raise StateConflict(f"take {take_id} is still recording; stop it before editing its labels")
+    limit = (row.duration_s or 0.0) + 1.0
+    spans = []
+    for i, sp in enumerate(body.spans):
+        if sp.t_end > limit:
+            raise InputError(f"span {i + 1}: t_end {sp.t_end} is past the take's end ({row.duration_s} s)")
+        try:
+            spans.append(LabelSpan(sp.t_start, sp.t_end, sp.label, sp.user_id, sp.source, sp.tag))
+        except InputError as exc:
+            raise InputError(f"span {i + 1}: {exc}") from None
+    manifest = relabel_take(Path(row.folder), spans)
+    update_take_files(db, take_id, manifest["files"])
+    return LabelsPublic(take_id=row.id, duration_s=row.duration_s, spans=_spans_out(spans))

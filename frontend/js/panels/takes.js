@@ -1,7 +1,7 @@
 // Takes: record a take from the running pipeline (participant, protocol, duration, reaction margin),
 // follow it (elapsed, frames, the participant's current prompt), stop it, and list the takes.
 
-import { get, post, toast, el, withToken } from "../api.js";
+import { get, post, put, toast, el, withToken } from "../api.js";
 
 function num(x, digits = 1) {
   return x === null || x === undefined ? "–" : Number(x).toFixed(digits);
@@ -23,7 +23,7 @@ export function mountTakes(root) {
   const promptLink = el("a", { id: "take-prompt-link", href: withToken("/prompt.html"), target: "_blank",
     rel: "noopener" }, "participant prompt page");
   const table = el("table", { id: "take-table" },
-    el("thead", {}, el("tr", {}, ...["id", "take", "participant", "protocol", "status", "s", "frames"]
+    el("thead", {}, el("tr", {}, ...["id", "take", "participant", "protocol", "status", "s", "frames", ""]
       .map((h) => el("th", {}, h)))),
     el("tbody"));
   root.replaceChildren(
@@ -32,6 +32,7 @@ export function mountTakes(root) {
       el("label", {}, "margin ", margin, " s"), start, stop),
     state, table,
   );
+  const editor = mountLabelEditor(root);
   let current = null;
 
   async function loadProtocols() {
@@ -50,7 +51,9 @@ export function mountTakes(root) {
     body.replaceChildren(...takes.slice().reverse().map((t) => el("tr", { dataset: { takeId: t.id, status: t.status } },
       el("td", {}, t.id), el("td", {}, t.uid), el("td", {}, t.participant_code || "–"),
       el("td", {}, t.protocol || "–"), el("td", { class: "status" }, t.status),
-      el("td", {}, num(t.duration_s)), el("td", {}, t.frames))));
+      el("td", {}, num(t.duration_s)), el("td", {}, t.frames),
+      el("td", {}, t.status === "recording" ? "" : el("button", { class: "take-labels",
+        onclick: () => editor.open(t) }, "labels")))));
   }
 
   async function poll() {
@@ -107,4 +110,123 @@ export function mountTakes(root) {
   poll();
   setInterval(poll, 500);
   return { refresh: refreshTable };
+}
+
+const LABELS = ["still", "forward", "left", "right", "ignore"];
+
+// The timeline label editor: the take's label spans on one track; drag the boundary between two
+// spans, select a span and relabel it, then save (PUT /takes/{id}/labels).
+function mountLabelEditor(root) {
+  const track = el("div", { id: "label-track", class: "label-track" });
+  const axis = el("div", { id: "label-axis", class: "label-axis" });
+  const choice = el("select", { id: "label-choice", "aria-label": "label" },
+    ...LABELS.map((l) => el("option", { value: l }, l)));
+  const apply = el("button", { id: "label-apply" }, "Relabel span");
+  const save = el("button", { id: "label-save", disabled: "" }, "Save labels");
+  const info = el("span", { id: "label-info" });
+  const title = el("h3", {}, "Labels");
+  const box = el("div", { id: "label-editor", hidden: "" }, title, track, axis,
+    el("div", { class: "row" }, choice, apply, save, info));
+  root.append(box);
+  let take = null;
+  let spans = [];
+  let duration = 1;
+  let selected = -1;
+
+  const pct = (t) => `${(100 * t) / duration}%`;
+
+  function render() {
+    track.replaceChildren();
+    spans.forEach((s, i) => {
+      const span = el("div", { class: `label-span${i === selected ? " selected" : ""}`,
+        dataset: { index: i, label: s.label }, title: `${s.label} ${num(s.t_start, 2)}–${num(s.t_end, 2)} s${s.tag ? ` (${s.tag})` : ""}` },
+        s.label);
+      span.style.left = pct(s.t_start);
+      span.style.width = pct(s.t_end - s.t_start);
+      span.addEventListener("click", () => {
+        selected = i;
+        choice.value = s.label;
+        render();
+      });
+      track.append(span);
+      const nextSpan = spans[i + 1];
+      if (nextSpan && Math.abs(nextSpan.t_start - s.t_end) < 1e-6) {
+        const handle = el("div", { class: "label-handle", dataset: { index: i },
+          title: "drag to move this boundary" });
+        handle.style.left = pct(s.t_end);
+        handle.addEventListener("pointerdown", (ev) => startDrag(ev, i, handle));
+        track.append(handle);
+      }
+    });
+    axis.textContent = `0 s … ${num(duration, 1)} s`;
+  }
+
+  function startDrag(ev, i, handle) {
+    ev.preventDefault();
+    handle.setPointerCapture(ev.pointerId);
+    const rect = track.getBoundingClientRect();
+    const move = (e) => {
+      const t = ((e.clientX - rect.left) / rect.width) * duration;
+      const lo = spans[i].t_start + 0.05;
+      const hi = spans[i + 1].t_end - 0.05;
+      const v = Math.round(Math.min(hi, Math.max(lo, t)) * 1000) / 1000;
+      spans[i].t_end = v;
+      spans[i + 1].t_start = v;
+      spans[i].source = "operator";
+      spans[i + 1].source = "operator";
+      dirty();
+      render();
+    };
+    const up = () => {
+      window.removeEventListener("pointermove", move);
+      window.removeEventListener("pointerup", up);
+    };
+    window.addEventListener("pointermove", move);
+    window.addEventListener("pointerup", up);
+  }
+
+  function dirty() {
+    save.disabled = false;
+    info.textContent = "unsaved changes";
+  }
+
+  apply.addEventListener("click", () => {
+    if (selected < 0) {
+      toast("select a span first");
+      return;
+    }
+    spans[selected].label = choice.value;
+    spans[selected].source = "operator";
+    dirty();
+    render();
+  });
+  save.addEventListener("click", async () => {
+    try {
+      const body = { spans: spans.map((s) => ({ t_start: s.t_start, t_end: s.t_end, label: s.label,
+        user_id: s.user_id, tag: s.tag || "", source: s.source || "operator" })) };
+      const got = await put(`/takes/${take.id}/labels`, body);
+      spans = got.spans;
+      save.disabled = true;
+      info.textContent = "saved";
+      render();
+    } catch (err) {
+      toast(`labels: ${err.message}`);
+    }
+  });
+
+  return {
+    async open(t) {
+      take = t;
+      const got = await get(`/takes/${t.id}/labels`);
+      spans = got.spans;
+      duration = Math.max(got.duration_s || 0, ...spans.map((s) => s.t_end), 0.1);
+      selected = -1;
+      title.textContent = `Labels of take ${t.id} (${t.uid})`;
+      box.hidden = false;
+      box.dataset.takeId = t.id;
+      save.disabled = true;
+      info.textContent = spans.length ? "" : "no labels (a take without a protocol)";
+      render();
+    },
+  };
 }
