@@ -29,6 +29,7 @@ from app.commands import (
     serve,
     simulate,
     study,
+    tune,
 )
 from app.core.config import load_settings, set_settings
 from app.core.logging import configure_logging
@@ -72,6 +73,7 @@ cli.add_typer(runtime.app)  # cavewalk receive, cavewalk bench
 cli.add_typer(simulate.app)  # cavewalk simulate
 cli.add_typer(plan.app)  # cavewalk plan
 cli.add_typer(record.app)  # cavewalk record
+cli.add_typer(tune.app)  # cavewalk tune
 
 
 def main() -> None:

@@ -125,3 +125,20 @@ def machine_facts(cpuinfo: Path = CPUINFO) -> MachineFacts:
         onnxruntime=ort_version,
         providers=providers,
     )
+
+
+def machine_fingerprint(cpuinfo: Path = CPUINFO) -> dict[str, Any]:
+    """What a result tuned to a machine must match (``cavewalk tune``): the CPU model, the core count
+    and onnxruntime's version; cheap (no onnxruntime import), for every settings load."""
+    from importlib import metadata
+
+    model: str | None = None
+    with contextlib.suppress(OSError):
+        model, _ = parse_cpuinfo(cpuinfo.read_text(errors="replace"))
+    ort_version: str | None = None
+    for dist in ("onnxruntime", "onnxruntime-gpu", "onnxruntime-openvino", "onnxruntime-directml"):
+        with contextlib.suppress(metadata.PackageNotFoundError):
+            ort_version = metadata.version(dist)
+            break
+    return {"cpu_model": model or platform.processor() or platform.machine() or "unknown CPU",
+            "logical_cores": os.cpu_count() or 1, "onnxruntime": ort_version}

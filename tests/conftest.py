@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -12,6 +14,12 @@ from pipeline.demo_data import DemoData, fetch_demo
 from pipeline.pose.prepare import prepare_pose_model
 
 ARTIFACTS = Path(__file__).resolve().parent.parent / "test-artifacts"
+
+# The suite runs on the default settings, not on what `cavewalk tune` chose for this machine (a file
+# that may or may not exist in the user's config directory), and `cavewalk demo`/`serve` do not tune
+# on their first start here; tests/pipeline/pose/test_tune.py sets both itself.
+os.environ.setdefault("CAVEWALK_TUNE_FILE", str(Path(tempfile.gettempdir()) / "cavewalk-tests-no-tuned.toml"))
+os.environ.setdefault("CAVEWALK_TUNE__ON_FIRST_START", "false")
 
 
 @pytest.fixture(scope="session")

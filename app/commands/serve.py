@@ -10,6 +10,7 @@ from typing import Annotated
 import typer
 import uvicorn
 
+from app.commands.tune import first_start
 from app.core.config import get_settings, load_settings, parse_endpoint, set_settings
 from app.db.engine import DatabaseLock
 from app.db.migrate import prepare_database
@@ -56,7 +57,7 @@ def run_server(
 ) -> None:
     if config is not None:  # serve and demo also take --config after the command name
         set_settings(load_settings(config))
-    settings = get_settings()
+    settings = first_start(get_settings())  # no tune result on this machine yet: `cavewalk tune` first
     given = {"host": host, "port": port, "viser_port": viser_port}
     server = settings.server.model_copy(update={k: v for k, v in given.items() if v is not None})
     paths = settings.paths if db is None else settings.paths.model_copy(update={"db": db.expanduser()})

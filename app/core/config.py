@@ -3,7 +3,9 @@
 Sources, highest priority first: keyword arguments, ``CAVEWALK_*`` environment
 variables (nested with ``__``, e.g. ``CAVEWALK_SERVER__PORT=9000``), the TOML file
 (``cavewalk.toml`` in the working directory, or the path given by ``--config`` /
-``CAVEWALK_CONFIG``), then the defaults below. Unknown keys are errors, so a typo
+``CAVEWALK_CONFIG``), the ``[pose]`` keys ``cavewalk tune`` chose for this machine (its file
+``tuned.toml`` in the user's config directory, or ``CAVEWALK_TUNE_FILE``; ignored when it was
+tuned on another machine), then the defaults below. Unknown keys are errors, so a typo
 in the file is reported by name instead of silently ignored.
 
 Each pipeline stage owns one frozen config dataclass (``pipeline.<stage>``), and the
@@ -18,7 +20,9 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import json
+import logging
 import os
+import tomllib
 import types
 import typing
 import warnings
@@ -42,8 +46,10 @@ from pipeline.cave import CaveGeometry, Wall, box_cave
 from pipeline.emitter.udp import EmitterConfig, parse_endpoint
 from pipeline.errors import ConfigError
 from pipeline.head.config import HeadConfig
+from pipeline.machine import machine_fingerprint
 from pipeline.planner.config import PlannerConfig
 from pipeline.pose.config import PoseConfig
+from pipeline.pose.tune import FINGERPRINT_KEYS, TUNED_KEYS, TuneConfig
 from pipeline.recognition.recognizer import RecognizerConfig
 from pipeline.runtime.config import RuntimeConfig
 from pipeline.sim.world import SimConfig
@@ -72,6 +78,9 @@ def _user_dir(xdg_variable: str, fallback: Path) -> Path:
 #: Where the database lives unless told otherwise (``paths.db``, ``--db``): the user's data directory.
 USER_DATA_DIR = _user_dir("XDG_DATA_HOME", _HOME / ".local" / "share")
 USER_CACHE_DIR = _HOME / ".cache" / "cavewalk"  # the pose model and the demo data (shared by installs)
+#: What ``cavewalk tune`` chose for this machine, unless CAVEWALK_TUNE_FILE names another file.
+TUNED_FILE = _user_dir("XDG_CONFIG_HOME", _HOME / ".config") / "tuned.toml"
+log = logging.getLogger(__name__)
 
 
 class _Section(BaseModel):
@@ -192,6 +201,7 @@ class Settings(BaseSettings):
     event_log: EventWriterConfig = EventWriterConfig()
     study: StudyConfig = StudyConfig()
     pose: PoseConfig = PoseConfig()
+    tune: TuneConfig = TuneConfig()
     tracking: OCSortConfig = OCSortConfig()
     triangulation: TriangulationParams = TriangulationParams()
     association: AssociationParams = AssociationParams()
@@ -276,6 +286,7 @@ class Settings(BaseSettings):
         sources: list[PydanticBaseSettingsSource] = [init_settings, env_settings]
         if toml_path.is_file():
             sources.append(TomlConfigSettingsSource(settings_cls, toml_file=toml_path))
+        sources.append(TunedSettingsSource(settings_cls))
         return tuple(sources)
 
     @property
@@ -290,10 +301,56 @@ class Settings(BaseSettings):
 
 
 class _ConfigPath(BaseSettings):
-    """Reads only CAVEWALK_CONFIG (the TOML file's path)."""
+    """Reads only CAVEWALK_CONFIG (the TOML file's path) and CAVEWALK_TUNE_FILE (the tuned file's)."""
 
     model_config = SettingsConfigDict(env_prefix="CAVEWALK_", extra="ignore")
     config: Path | None = None
+    tune_file: Path | None = None
+
+
+def tuned_file() -> Path:
+    """Where ``cavewalk tune`` writes its choice and the settings read it: CAVEWALK_TUNE_FILE, else
+    :data:`TUNED_FILE`."""
+    return _ConfigPath().tune_file or TUNED_FILE
+
+
+def read_tuned(path: Path) -> tuple[dict[str, Any], str | None]:
+    """(the ``[pose]`` keys of the tuned file ``path``, None) when it applies to this machine, else
+    ({}, why not). Only :data:`pipeline.pose.tune.TUNED_KEYS` are taken."""
+    if not path.is_file():
+        return {}, f"{path} does not exist"
+    try:
+        data = tomllib.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        return {}, f"{path} cannot be read ({exc}); run  cavewalk tune  again"
+    tune = data.get("tune") if isinstance(data.get("tune"), dict) else {}
+    recorded = tune.get("fingerprint") if isinstance(tune.get("fingerprint"), dict) else {}
+    here = machine_fingerprint()
+    differ = [k for k in FINGERPRINT_KEYS if recorded.get(k) != here.get(k)]
+    if differ:
+        return {}, (f"{path} was tuned on another machine or onnxruntime ("
+                    + ", ".join(f"{k} {recorded.get(k)!r} there, {here.get(k)!r} here" for k in differ)
+                    + "); run  cavewalk tune  here")
+    pose = data.get("pose") if isinstance(data.get("pose"), dict) else {}
+    return {k: v for k, v in pose.items() if k in TUNED_KEYS}, None
+
+
+class TunedSettingsSource(PydanticBaseSettingsSource):
+    """The ``[pose]`` keys ``cavewalk tune`` chose for this machine (:func:`read_tuned`), below every
+    other source: a key in cavewalk.toml or a CAVEWALK_* variable wins."""
+
+    _warned: typing.ClassVar[set[str]] = set()
+
+    def get_field_value(self, field: Any, field_name: str) -> tuple[Any, str, bool]:  # pragma: no cover
+        return None, field_name, False
+
+    def __call__(self) -> dict[str, Any]:
+        path = tuned_file()
+        pose, why = read_tuned(path)
+        if why is not None and path.is_file() and why not in self._warned:
+            self._warned.add(why)
+            log.warning("tuned settings not used: %s", why)
+        return {"pose": pose} if pose else {}
 
 
 def _toml_path() -> Path:
@@ -413,6 +470,8 @@ def load_settings(config_path: Path | None = None, **overrides: Any) -> Settings
 
     Raises :class:`ConfigError` with a message naming every bad key.
     """
+    global _last_config_path
+    _last_config_path = config_path
     source = str(config_path) if config_path else "environment / cavewalk.toml"
     toml = Path(config_path) if config_path is not None else _toml_path()
     if toml.exists() and not toml.is_file():  # a folder named cavewalk.toml was silently ignored
@@ -438,6 +497,13 @@ def load_settings(config_path: Path | None = None, **overrides: Any) -> Settings
 
 
 _override: Settings | None = None
+_last_config_path: Path | None = None
+
+
+def reload_settings() -> Settings:
+    """The settings read again from their sources, with the TOML file last given to
+    :func:`load_settings` (after ``cavewalk tune`` wrote its file)."""
+    return load_settings(_last_config_path)
 
 
 @lru_cache(maxsize=1)

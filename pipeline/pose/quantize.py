@@ -38,6 +38,7 @@ from pipeline.pose.config import PoseConfig
 from pipeline.pose.decode import iou_matrix
 from pipeline.pose.detector import PoseDetector
 from pipeline.pose.preprocess import expand_to_aspect, fit_region, letterbox_into, net_size_for
+from pipeline.pose.types import ViewDetections
 
 log = logging.getLogger(__name__)
 
@@ -141,17 +142,13 @@ def int8_agreement(fp32_model: Path, int8_model: Path, videos: Mapping[str, Path
     fp32 = PoseDetector.load(config, fp32_model)
     int8 = PoseDetector.load(config, int8_model)
     finder = fp32 if jobs_model is None else PoseDetector.load(config, jobs_model)
-    ious: list[float] = []
-    distances: list[float] = []
-    mismatches: list[str] = []
-    views = 0
+    pairs: list[tuple[ViewDetections, ViewDetections]] = []
     try:
         for cams, images in agreement_frames(videos):
             found = finder.detect(images, cams, 0, 0.0)
             pad = AGREEMENT_CROP_PAD_PX
             jobs = [(i, (float(b[0]) - pad, float(b[1]) - pad, float(b[2]) + pad, float(b[3]) + pad))
                     for i, v in enumerate(found.views) for b in v.boxes_xyxy]
-            pairs = []
             if not crops_only:
                 pairs += list(zip(fp32.detect(images, cams, 0, 0.0).views,
                                   int8.detect(images, cams, 0, 0.0).views, strict=True))
@@ -159,21 +156,33 @@ def int8_agreement(fp32_model: Path, int8_model: Path, videos: Mapping[str, Path
                 pairs += list(zip(fp32.detect(images, cams, 0, 0.0, jobs, AGREEMENT_CROP_NET).views,
                                   int8.detect(images, cams, 0, 0.0, jobs, AGREEMENT_CROP_NET).views,
                                   strict=True))
-            for a, b in pairs:
-                views += 1
-                if len(a) != len(b):
-                    mismatches.append(f"{a.camera}: fp32 {len(a)}, int8 {len(b)}")
-                if not len(a) or not len(b):
-                    continue
-                iou = iou_matrix(a.boxes_xyxy, b.boxes_xyxy)
-                ious.extend(iou.max(axis=1).tolist())
-                for i, j in enumerate(iou.argmax(axis=1)):
-                    both = (a.keypoint_scores[i] >= KEYPOINT_SCORE) & (b.keypoint_scores[j] >= KEYPOINT_SCORE)
-                    d = np.linalg.norm(a.keypoints_xy[i] - b.keypoints_xy[j], axis=1)[both]
-                    distances.extend(d.tolist())
     finally:
         for d in {id(x): x for x in (fp32, int8, finder)}.values():
             d.close()
+    return agreement_of(pairs, "int8")
+
+
+def agreement_of(pairs: Sequence[tuple[ViewDetections, ViewDetections]], name: str = "int8") -> Int8Agreement:
+    """How the detections of a candidate (the second of each pair) agree with the float32
+    reference's (the first), by the int8 check's criteria (:data:`MIN_BOX_IOU`,
+    :data:`P10_BOX_IOU`, :data:`MAX_MEDIAN_KEYPOINT_PX`, the same people in every view);
+    ``name`` names the candidate in the messages."""
+    ious: list[float] = []
+    distances: list[float] = []
+    mismatches: list[str] = []
+    views = 0
+    for a, b in pairs:
+        views += 1
+        if len(a) != len(b):
+            mismatches.append(f"{a.camera}: fp32 {len(a)}, {name} {len(b)}")
+        if not len(a) or not len(b):
+            continue
+        iou = iou_matrix(a.boxes_xyxy, b.boxes_xyxy)
+        ious.extend(iou.max(axis=1).tolist())
+        for i, j in enumerate(iou.argmax(axis=1)):
+            both = (a.keypoint_scores[i] >= KEYPOINT_SCORE) & (b.keypoint_scores[j] >= KEYPOINT_SCORE)
+            d = np.linalg.norm(a.keypoints_xy[i] - b.keypoints_xy[j], axis=1)[both]
+            distances.extend(d.tolist())
     min_iou = min(ious) if ious else 0.0
     p10 = float(np.percentile(ious, 10)) if ious else 0.0
     median = float(np.median(distances)) if distances else float("inf")
