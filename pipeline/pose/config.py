@@ -15,8 +15,9 @@ from pipeline.pose.model_files import Precision, crop_model_path, pose_model_fil
 from pipeline.pose.preprocess import STRIDE
 
 MIN_CROP_SIDE = 128  # the shortest crop network height, px
-Provider = Literal["cpu", "cuda"]
-PROVIDERS: dict[str, str] = {"cpu": "CPUExecutionProvider", "cuda": "CUDAExecutionProvider"}
+Provider = Literal["cpu", "cuda", "tensorrt", "openvino"]
+PROVIDERS: dict[str, str] = {"cpu": "CPUExecutionProvider", "cuda": "CUDAExecutionProvider",
+                             "tensorrt": "TensorrtExecutionProvider", "openvino": "OpenVINOExecutionProvider"}
 
 
 @dataclass(frozen=True, slots=True)
@@ -30,7 +31,8 @@ class PoseConfig:
         side follows the images' aspect (1088x1920 portrait views run at 384x640, not padded).
     score_threshold: minimum person score. nms_iou: IoU above which NMS drops a box.
     keypoint_threshold: keypoints scored lower are drawn as unknown.
-    providers: ``cpu`` and/or ``cuda``, in order of preference.
+    providers: ``cpu``, ``cuda``, ``tensorrt``, ``openvino``, in order of preference (those not
+        installed are skipped; the CPU is always the last resort).
     threads: onnxruntime intra-op threads per model call (0 = its choice; 1 when parallel > 1).
     parallel: model calls of a frame run side by side on this many threads (0 = one per core, up to 4).
     crop_model: ROI crops run on the crop model beside the model file (the head without its
@@ -48,6 +50,14 @@ class PoseConfig:
     roi_min_aspect / roi_max_aspect: bounds of a crop's aspect w / h (a person with arms out widens
     the crop). roi_merge_growth: two people of a view share one crop when their union is at most
     this many times the larger one's area.
+
+    Staggered views (:mod:`pipeline.pose.stagger`): views_per_frame: the model looks at most at
+    this many views per frame, the others carry their tracked people along the tracker's motion
+    (0 = adaptive: every view while the frames keep coming one after the other, one view less at
+    a time while frames are being skipped, down to min_views_per_frame). carry_decay /
+    carry_keypoint_decay: a carried person's box score / keypoint scores are multiplied by this for
+    every frame without a detection (the triangulation weighs keypoints by their scores: the
+    fresh views count most).
     """
 
     model: Path | None = None
@@ -71,6 +81,10 @@ class PoseConfig:
     roi_min_aspect: float = 0.4
     roi_max_aspect: float = 1.0
     roi_merge_growth: float = 1.1
+    views_per_frame: int = 0
+    min_views_per_frame: int = 1
+    carry_decay: float = 0.9
+    carry_keypoint_decay: float = 0.6
 
     def __post_init__(self) -> None:
         for name in ("input_long_side", "roi_long_side", "roi_min_side"):
@@ -100,6 +114,12 @@ class PoseConfig:
                              f"{self.roi_max_crops}")
         if self.roi_merge_growth < 1:
             raise ValueError(f"roi_merge_growth must be >= 1, got {self.roi_merge_growth}")
+        if self.views_per_frame < 0 or self.min_views_per_frame < 1:
+            raise ValueError(f"views_per_frame must be >= 0 and min_views_per_frame >= 1, got "
+                             f"{self.views_per_frame}, {self.min_views_per_frame}")
+        if not 0.0 < self.carry_decay <= 1.0 or not 0.0 < self.carry_keypoint_decay <= 1.0:
+            raise ValueError(f"carry_decay and carry_keypoint_decay must be in (0, 1], got "
+                             f"{self.carry_decay}, {self.carry_keypoint_decay}")
         if not 0 < self.roi_min_aspect <= self.roi_max_aspect:
             raise ValueError(f"need 0 < roi_min_aspect <= roi_max_aspect, got {self.roi_min_aspect}, "
                              f"{self.roi_max_aspect}")

@@ -86,6 +86,7 @@ class RoiPlan:
     jobs: tuple[Job, ...]
     full_views: frozenset[int]
     reason: str
+    detected: frozenset[int] | None = None  # the views with jobs (None: all)
 
     @property
     def full(self) -> bool:
@@ -128,6 +129,11 @@ class RoiScheduler:
         self._crops: dict[Hashable, list[tuple[Region, tuple[int, int]]]] = {}  # view -> (crop, net)
         self._planned: tuple[list[Hashable], frozenset[int], frozenset[int]] | None = None
 
+    def attention(self, views: Sequence[Hashable]) -> set[int]:
+        """Indices of the views (keys) that need the model this frame: new ones, and those where a
+        tracked person went unmatched last time (:mod:`pipeline.pose.stagger` detects them first)."""
+        return {i for i, k in enumerate(views) if k not in self._since_full or k in self._lost}
+
     def report(self, lost: Collection[Hashable] = ()) -> None:
         """After the frame last planned: the views (keys) where a tracked person went unmatched."""
         if self._planned is None:
@@ -158,8 +164,10 @@ class RoiScheduler:
 
     def plan(self, image_sizes: Sequence[tuple[int, int]],
              expected: Sequence[Mapping[int, NDArray[np.float64]]],
-             views: Sequence[Hashable] | None = None) -> RoiPlan:
-        """expected[i]: track id -> box the tracker expects in image i this frame; views[i]: its key."""
+             views: Sequence[Hashable] | None = None, detect: Collection[int] | None = None) -> RoiPlan:
+        """expected[i]: track id -> box the tracker expects in image i this frame; views[i]: its key;
+        detect: the indices of the images the model looks at (None: all; a first frame, or one with
+        nobody tracked, looks at all whatever it says)."""
         cfg = self.config
         keys: list[Hashable] = list(views) if views is not None else list(range(len(image_sizes)))
         if len(keys) != len(image_sizes) or len(expected) != len(image_sizes):
@@ -179,18 +187,24 @@ class RoiScheduler:
             return whole("nobody tracked")
         full: dict[int, str] = {}
         looks: dict[int, str] = {}
+        chosen = everything if detect is None else frozenset(detect) & everything
         for i, key in enumerate(keys):
+            if i not in chosen:
+                continue
             if key not in self._since_full:
                 full[i] = "new view"
             elif key in self._lost:  # a look at the whole view beside the crops finds them again
                 looks[i] = "track lost"
         due = [(self._since_full[k], i) for i, k in enumerate(keys)
-               if i not in full and i not in looks and self._since_full[k] + 1 >= cfg.roi_full_every]
+               if i in chosen and i not in full and i not in looks
+               and self._since_full[k] + 1 >= cfg.roi_full_every]
         if due:
             looks[max(due)[1]] = "look for newcomers"  # the most overdue view; the others wait a frame
         jobs: list[Job] = []
         crops: dict[Hashable, list[tuple[Region, tuple[int, int]]]] = {}
         for i, (key, boxes) in enumerate(zip(keys, expected, strict=True)):
+            if i not in chosen:
+                continue
             if i in full:
                 jobs.append(Job(i))
                 continue
@@ -210,4 +224,5 @@ class RoiScheduler:
         self._crops.update(crops)
         self._planned = (keys, frozenset(full), frozenset(full) | frozenset(looks))
         reasons = sorted(set(full.values()) | set(looks.values()))
-        return RoiPlan(tuple(jobs), frozenset(full), ", ".join(reasons) if reasons else "roi")
+        return RoiPlan(tuple(jobs), frozenset(full), ", ".join(reasons) if reasons else "roi",
+                       None if chosen == everything else chosen)

@@ -71,6 +71,7 @@ class DetectBenchResult:
     full_frames: int
     full_views: int
     figures: tuple[ViewFigures, ...]
+    detected_views: int = 0  # views the model looked at, all frames together (staggered: fewer)
 
     @property
     def keypoint_coverage(self) -> float:
@@ -120,6 +121,7 @@ def summarise(
         tracking_ms=med("tracking_s"), full_frames=sum(t.full for t in timings),
         full_views=sum(t.full_views for t in timings),
         figures=tuple(view_figures(c, v) for c, v in per_camera.items()),
+        detected_views=sum(t.detected_views for t in timings),
     )
 
 
@@ -153,11 +155,12 @@ def run_detect_benchmark(
 def format_results(results: list[DetectBenchResult]) -> str:
     """A side-by-side table of the runs and their identity figures."""
     lines = [f"{'mode':<10}{'frames':>7}{'median ms':>11}{'mean ms':>9}{'p90 ms':>9}{'pre':>8}{'infer':>8}"
-             f"{'decode':>8}{'track':>8}{'full views':>12}{'kp cover':>10}"]
+             f"{'decode':>8}{'track':>8}{'full views':>12}{'kp cover':>10}{'views/frame':>12}"]
     for r in results:
         lines.append(f"{r.mode:<10}{r.frames:>7}{r.median_ms:>11.1f}{r.mean_ms:>9.1f}{r.p90_ms:>9.1f}"
                      f"{r.preprocess_ms:>8.1f}{r.inference_ms:>8.1f}{r.decode_ms:>8.1f}{r.tracking_ms:>8.2f}"
-                     f"{r.full_views:>12}{100 * r.keypoint_coverage:>9.1f}%")
+                     f"{r.full_views:>12}{100 * r.keypoint_coverage:>9.1f}%"
+                     f"{r.detected_views / max(r.frames, 1):>12.2f}")
     for r in results:
         for f in r.figures:
             lines.append(f"  {r.mode:<8} {f.camera}: subject ids {f.subject_ids}, others {f.other_ids}, "
@@ -176,10 +179,12 @@ def bench_demo(
     modes: tuple[str, ...] = ("full", "roi"),
     spinning: bool = False,
     parallel: int | None = None,
+    views_per_frame: int | None = None,
 ) -> list[DetectBenchResult]:
     """Full-frame and ROI runs on the real demo (fetched like ``cavewalk data demo``), one model
     session for all; the best median of ``repeat`` runs per mode (other processes share the CPU).
-    threads, parallel: override ``pose.threads`` / ``pose.parallel``."""
+    threads, parallel, views_per_frame: override ``pose.threads`` / ``pose.parallel`` /
+    ``pose.views_per_frame`` (staggered views, :mod:`pipeline.pose.stagger`)."""
     unknown = set(modes) - {"full", "roi"}
     if unknown:
         raise InputError(f"unknown benchmark modes {sorted(unknown)}; use full and/or roi")
@@ -189,6 +194,8 @@ def bench_demo(
         config = replace(config, threads=threads)
     if parallel is not None:
         config = replace(config, parallel=parallel)
+    if views_per_frame is not None:
+        config = replace(config, views_per_frame=views_per_frame)
     detector = PoseDetector.load(config, model_path, config.crop_model_file(model_path))
     results = []
     for mode in modes:
