@@ -27,7 +27,7 @@ if TYPE_CHECKING:
     from pipeline.head.tracker import HeadPose
 
 PROTOCOL_VERSION = 1
-STATES = ("stopped", "starting", "running", "error")
+STATES = ("stopped", "starting", "running", "stalled", "error")  # stalled: running, no frame for 0.5 s
 OSC_ADDRESS = "/cave/locomotion"
 MAX_DATAGRAM_BYTES = 1400  # stays inside one Ethernet frame
 

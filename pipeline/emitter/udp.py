@@ -175,9 +175,15 @@ class UdpEmitter:
             self._osc = list(dict.fromkeys(resolved))
 
     def set_state(self, state: str) -> None:
+        """The state the heartbeats report; a change goes out at once in an extra heartbeat."""
         heartbeat_message(state, 0, 1.0)  # validates the state name
         with self._lock:
+            changed = state != self._state
             self._state = state
+            if changed and self._last_beat:
+                self._last_beat = time.monotonic() - self.config.heartbeat_s
+        if changed:
+            self._wake.set()
 
     # -- sending --------------------------------------------------------------------------
     def submit(self, command: LocomotionCommand | None, heads: tuple[HeadEstimate, ...] = ()) -> None:

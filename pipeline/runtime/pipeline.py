@@ -17,7 +17,6 @@ import gc
 import logging
 import math
 import multiprocessing as mp
-import queue as _queue
 import threading
 import time
 from collections import deque
@@ -34,6 +33,7 @@ from pipeline.emitter.udp import EmitterConfig, UdpEmitter
 from pipeline.errors import InputError, SourceError
 from pipeline.results import FrameResult, action_record, person_record
 from pipeline.runtime.config import RuntimeConfig
+from pipeline.runtime.mailbox import Mailbox
 from pipeline.runtime.messages import FusedFrame, SetNavigator, WorkerEvent, put_latest
 from pipeline.runtime.metrics import RuntimeMetrics
 from pipeline.runtime.shm import FrameRing, RingSpec
@@ -41,6 +41,7 @@ from pipeline.runtime.snapshot import person_labels, render_snapshot
 from pipeline.runtime.stages import FusionFactory
 from pipeline.runtime.status import PipelineEvent, PipelineStatus, State
 from pipeline.runtime.supervisor import Supervisor, WorkerDef, drain
+from pipeline.runtime.tracker import guard_resource_tracker
 from pipeline.runtime.workers import CaptureSpec, DetectSpec, capture_loop, detect_loop, fuse_loop, sim_loop
 from pipeline.sources import source_kind
 from pipeline.sources.opencv import probe_video
@@ -49,8 +50,10 @@ log = logging.getLogger(__name__)
 
 SourceName = Literal["simulator", "cameras", "videos"]
 SOURCES: tuple[str, ...] = ("simulator", "cameras", "videos")
-QUEUE_SIZE = 2
 EVENT_LOG_SIZE = 2000
+# imported once by the fork server, so a worker (re)started from it runs at once
+FORKSERVER_PRELOAD = ["numpy", "cv2", "pipeline.runtime.workers", "pipeline.runtime.stages",
+                      "pipeline.triangulation.reconstructor", "pipeline.triangulation.navigator"]
 
 
 class SimFactory(Protocol):
@@ -85,7 +88,8 @@ class _Run:
     cameras: dict[str, _Camera]
     events_q: Any
     supervisor: Supervisor
-    out_q: Any = None
+    out_box: Mailbox | None = None  # fusion -> the collector
+    det_box: Mailbox | None = None  # detect/simulator -> fusion
     control_q: Any = None
     stop: threading.Event = field(default_factory=threading.Event)
     threads: list[threading.Thread] = field(default_factory=list)
@@ -94,6 +98,7 @@ class _Run:
     produced_before: int = 0
     last_source_index: int = -1
     latest: FusedFrame | None = None
+    last_result_s: float = 0.0  # time.monotonic() of the newest fused frame
 
 
 class Pipeline:
@@ -106,6 +111,7 @@ class Pipeline:
                  sim_factory: SimFactory | None = None,
                  workstations: Sequence[tuple[str, int]] = (),
                  emitter: EmitterConfig | None = None) -> None:
+        guard_resource_tracker()
         self.config = config
         self.cameras_calibrated = list(cameras_calibrated) if cameras_calibrated else None
         self.camera_sources = dict(camera_sources or {})
@@ -178,7 +184,7 @@ class Pipeline:
     def _launch(self, source: str, plan: dict[str, str]) -> None:
         ctx = mp.get_context(self.config.start_method)
         if self.config.start_method == "forkserver":
-            ctx.set_forkserver_preload(["pipeline.runtime.workers", "numpy", "cv2"])
+            ctx.set_forkserver_preload(FORKSERVER_PRELOAD)
         events_q = ctx.Queue(maxsize=1000)
         run = _Run(source=source, cameras={}, events_q=events_q, supervisor=Supervisor(ctx, events_q),
                    metrics=RuntimeMetrics(self.config.latency_window))
@@ -197,11 +203,13 @@ class Pipeline:
                 fusion = replace(self.fusion, cameras=tuple(sim.cameras),
                                  camera_names=tuple(c.name for c in sim.cameras))
 
+                run.det_box, run.out_box = Mailbox.create("det"), Mailbox.create("fused")
+                det, out = run.det_box.spec, run.out_box.spec
+
                 def build_sim() -> list[WorkerDef]:
-                    run.out_q, run.control_q = ctx.Queue(maxsize=QUEUE_SIZE), ctx.Queue(maxsize=16)
-                    det_q = ctx.Queue(maxsize=QUEUE_SIZE)
-                    return [("simulator", sim_loop, (sim, sim.fps, det_q)),
-                            ("fuse", fuse_loop, (fusion, det_q, run.out_q, run.control_q))]
+                    run.control_q = ctx.Queue(maxsize=16)
+                    return [("simulator", sim_loop, (sim, sim.fps, det)),
+                            ("fuse", fuse_loop, (fusion, det, out, run.control_q))]
 
                 run.supervisor.add_group("chain", build_sim)
             else:
@@ -249,11 +257,13 @@ class Pipeline:
         if with_cameras is not None:  # the pose stage tracks each camera's people as well
             pose = with_cameras(names)
 
+        run.det_box, run.out_box = Mailbox.create("det"), Mailbox.create("fused")
+        det, out = run.det_box.spec, run.out_box.spec
+
         def build_chain() -> list[WorkerDef]:
-            run.out_q, run.control_q = ctx.Queue(maxsize=QUEUE_SIZE), ctx.Queue(maxsize=16)
-            det_q = ctx.Queue(maxsize=QUEUE_SIZE)
-            return [("detect", detect_loop, (dspec, rings, pose, det_q)),
-                    ("fuse", fuse_loop, (fusion, det_q, run.out_q, run.control_q))]
+            run.control_q = ctx.Queue(maxsize=16)
+            return [("detect", detect_loop, (dspec, rings, pose, det)),
+                    ("fuse", fuse_loop, (fusion, det, out, run.control_q))]
 
         run.supervisor.add_group("chain", build_chain)
 
@@ -282,17 +292,21 @@ class Pipeline:
         for t in run.threads:
             if t is not threading.current_thread():
                 t.join(timeout=2.0)
-        for q in (run.out_q, run.control_q, run.events_q):
+        for q in (run.control_q, run.events_q):
             if q is not None:
                 drain(q)
                 q.close()
                 q.cancel_join_thread()
+        for box in (run.det_box, run.out_box):
+            if box is not None:
+                box.unlink()
+        run.det_box = run.out_box = None
         for cam in run.cameras.values():
             if cam.ring is not None:
                 cam.ring.unlink()
                 cam.ring = None
         # queues and events hold named semaphores (in /dev/shm under forkserver) until collected
-        run.out_q = run.control_q = run.events_q = None
+        run.control_q = run.events_q = None
         run.threads = []
         run.latest = None
 
@@ -303,18 +317,16 @@ class Pipeline:
 
     # ---------------------------------------------------------------------- main-process threads
     def _collect(self, run: _Run) -> None:
-        while not run.stop.is_set():
-            q = run.out_q
-            if q is None:
-                run.stop.wait(0.05)
-                continue
+        box = run.out_box
+        while not run.stop.is_set() and box is not None:
             try:
-                fused = q.get(timeout=0.1)
-            except (_queue.Empty, OSError, ValueError):
-                continue
-            except Exception:  # a message cut by a crashed worker; the chain is rebuilt
+                got = box.get(timeout=0.1)
+            except (OSError, ValueError, TypeError):  # the run is being torn down
+                return
+            except Exception:  # a message that does not unpickle
                 log.exception("bad message from the fusion worker")
                 continue
+            fused = got[0] if got is not None else None
             if isinstance(fused, FusedFrame):
                 try:
                     self._on_result(run, fused)
@@ -342,13 +354,15 @@ class Pipeline:
         run.last_source_index = max(run.last_source_index, det.source_index)
         run.metrics.frame(sent, {k: v * 1000.0 for k, v in ms.items()}, 0)
         run.latest = fused
+        run.last_result_s = sent
+        run.supervisor.note_progress()
         for sink in self._sinks:  # each returns at once (queues its own work)
             try:
                 sink.on_result(result)
             except Exception:
                 log.exception("result sink %r failed", sink)
         with self._lock:
-            if self._run is run and self._state in ("starting", "error"):
+            if self._run is run and self._state in ("starting", "error", "stalled"):
                 self._state = "running"
                 self.emitter.set_state("running")
                 self._event("state", "running", {"state": "running", "source": run.source})
@@ -371,7 +385,18 @@ class Pipeline:
             for ev in run.supervisor.check():
                 self._on_worker_event(run, ev)
             self._sample_cameras(run)
-            run.stop.wait(0.1)
+            self._check_stall(run)
+            run.stop.wait(0.05)
+
+    def _check_stall(self, run: _Run) -> None:
+        """``running`` -> ``stalled`` when no frame was fused for ``stall_after_s`` (heartbeats say so)."""
+        gone = time.monotonic() - run.last_result_s
+        with self._lock:
+            if self._run is run and self._state == "running" and gone > self.config.stall_after_s:
+                self._state = "stalled"
+                self.emitter.set_state("stalled")
+                self._event("state", f"stalled (no frame for {gone:.1f} s)",
+                            {"state": "stalled", "source": run.source})
 
     def _on_worker_event(self, run: _Run, ev: WorkerEvent) -> None:
         cam_name = ev.worker.removeprefix("capture-")

@@ -8,7 +8,8 @@ writer lapped it sees the mismatch and drops the copy (a seqlock).
 
 The main process creates (and finally unlinks) every segment; workers attach with
 :meth:`FrameRing.attach`, which keeps them out of Python's resource tracker so a
-worker's exit never unlinks a segment that the others still use.
+worker's exit never unlinks a segment that the others still use. A worker whose main
+process died unlinks the segments it attached (:func:`unlink_attached`).
 """
 
 from __future__ import annotations
@@ -18,12 +19,18 @@ import secrets
 from dataclasses import dataclass
 from multiprocessing import resource_tracker, shared_memory
 
+try:
+    import _posixshmem
+except ImportError:  # not a POSIX system
+    _posixshmem = None
+
 import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.errors import SourceError
 
 SHM_PREFIX = "cavewalk_"
+_attached: set[str] = set()  # segments this process attached to (for unlink_attached)
 _GLOBAL_WORDS = 2  # [latest seq, reader's demand time (float64 bits)]
 _SLOT_WORDS = 8  # [seq, ts (float64 bits), rows, width, channels (0: a 2-D image), frame index, nbytes,
 #                  reserved]
@@ -75,10 +82,10 @@ class FrameRing:
         self._ts = self._words.view(np.float64)
 
     @classmethod
-    def create(cls, slots: int, capacity_bytes: int, tag: str = "") -> FrameRing:
+    def create(cls, slots: int, capacity_bytes: int, tag: str = "", prefix: str = SHM_PREFIX) -> FrameRing:
         """A new, empty ring (the caller owns it and must :meth:`unlink` it)."""
         safe = "".join(ch for ch in tag if ch.isalnum())[:12]
-        name = f"{SHM_PREFIX}{safe}_{secrets.token_hex(4)}"
+        name = f"{prefix}{safe}_{secrets.token_hex(4)}"
         spec = RingSpec(name, slots, capacity_bytes)
         shm = shared_memory.SharedMemory(name=name, create=True, size=spec.total_bytes)
         ring = cls(spec, shm, owner=True)
@@ -99,6 +106,7 @@ class FrameRing:
             raise SourceError(f"shared-memory ring {spec.shm_name} does not exist") from exc
         finally:
             resource_tracker.register = original  # type: ignore[assignment]
+        _attached.add(spec.shm_name)
         return cls(spec, shm, owner=False)
 
     def _slot_base(self, slot: int) -> int:
@@ -208,3 +216,17 @@ class FrameRing:
         self.close()
         with contextlib.suppress(FileNotFoundError):
             self._shm.unlink()
+
+
+def unlink_attached() -> list[str]:
+    """Remove every segment this process attached to (a worker whose main process died: nobody
+    else will). Bypasses the resource tracker, which never knew of them. Returns the names."""
+    removed = []
+    for name in sorted(_attached):
+        if _posixshmem is None:
+            break
+        with contextlib.suppress(OSError):
+            _posixshmem.shm_unlink("/" + name)
+            removed.append(name)
+    _attached.clear()
+    return removed

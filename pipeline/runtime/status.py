@@ -5,7 +5,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
-State = Literal["stopped", "starting", "running", "error"]
+State = Literal["stopped", "starting", "running", "stalled", "error"]
+"""``stalled``: running, but no frame fused for ``RuntimeConfig.stall_after_s`` (a worker died, the
+sources went silent); back to ``running`` with the next frame."""
 
 
 @dataclass(frozen=True, slots=True)

@@ -1,14 +1,21 @@
 """The worker processes' main functions: capture, pose detection, fusion, simulator.
 
-Each runs inside :func:`worker_main`, which ignores SIGINT (the main process decides
-when to stop), catches any error at the loop boundary and reports it as a typed
+Each runs inside :func:`worker_main`, which names the process ``cw-<worker>`` (in
+``/proc/PID/comm``, for ps and top), ignores SIGINT (the main process decides when to
+stop), catches any error at the loop boundary and reports it as a typed
 :class:`WorkerEvent`, and always sends a ``stopped`` event (the end marker) in
-``finally``. Every loop also ends when the main process disappears, so no worker is
-ever orphaned.
+``finally``. SIGTERM ends the loop and the worker exits with :data:`SIGTERM_EXIT`.
+
+Every loop also ends when the main process disappears (its pipe closes; checked every
+:data:`PARENT_CHECK_S`): the worker then unlinks the shared-memory rings it attached
+(the main process can no longer do it) and exits at once, without waiting on queues
+nobody reads any more, so no worker and no segment outlives a killed main process.
 """
 
 from __future__ import annotations
 
+import ctypes
+import ctypes.util
 import logging
 import multiprocessing
 import os
@@ -24,17 +31,17 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.errors import CavewalkError, SourceError
+from pipeline.runtime.mailbox import Mailbox, MailboxSpec
 from pipeline.runtime.messages import (
     DetectedFrame,
     FusedFrame,
     SetNavigator,
     WorkerEvent,
     WorkerEventKind,
-    drain_latest,
     put_latest,
 )
 from pipeline.runtime.metrics import AdaptiveRate, ema
-from pipeline.runtime.shm import FrameRing, RingSpec
+from pipeline.runtime.shm import FrameRing, RingSpec, unlink_attached
 from pipeline.sources import open_source
 from pipeline.sources.grouper import FrameRef, GrouperConfig, MultiViewGrouper
 from pipeline.sources.opencv import Pacer
@@ -43,6 +50,9 @@ from pipeline.tracking.types import TrackedView
 log = logging.getLogger(__name__)
 
 POLL_S = 0.002  # how often an idle stage looks for new input
+PARENT_CHECK_S = 0.25  # how often a worker checks that the main process still runs
+SIGTERM_EXIT = 143  # a worker's exit status after SIGTERM (128 + 15, as a shell reports it)
+_PR_SET_NAME = 15
 
 
 @dataclass(frozen=True, slots=True)
@@ -81,7 +91,7 @@ class _Ctx:
     def parent_alive(self) -> bool:
         """Whether the main process still runs (checked at most every 0.25 s)."""
         now = time.monotonic()
-        if now - self._parent_checked > 0.25:
+        if now - self._parent_checked > PARENT_CHECK_S:
             self._parent_checked = now
             if self._parent is not None:
                 self._parent_alive = self._parent.is_alive()
@@ -110,6 +120,7 @@ def worker_main(name: str, body: Callable[..., None], events: Any, stop: Any, pa
                 *args: Any) -> None:
     """Process entry point: run ``body(ctx, *args)`` with the error/end-marker discipline."""
     ctx = _Ctx(name, events, stop, parent_pid)
+    set_process_name(f"cw-{name}")
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, lambda *_: setattr(ctx, "terminated", True))
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)-7s %(processName)s %(name)s: "
@@ -125,10 +136,25 @@ def worker_main(name: str, body: Callable[..., None], events: Any, stop: Any, pa
         ctx.report("error", f"{type(exc).__name__}: {exc}\n{traceback.format_exc(limit=6)}")
         code = 1
     finally:
-        ctx.report("stopped")
+        if not ctx.parent_alive():  # orphaned: clean up what the main process cannot, and go
+            unlink_attached()
+            logging.shutdown()
+            os._exit(code)
+        ctx.report("stopped", "terminated (SIGTERM)" if ctx.terminated else "")
         time.sleep(0.05)  # let the queue's feeder thread flush the end marker
+    if ctx.terminated:
+        code = code or SIGTERM_EXIT
     if code:
         raise SystemExit(code)
+
+
+def set_process_name(name: str) -> None:
+    """The process's name in /proc/PID/comm (15 bytes; Linux only, silently nothing elsewhere)."""
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True)
+        libc.prctl(_PR_SET_NAME, ctypes.c_char_p(name.encode()[:15]), 0, 0, 0)
+    except (OSError, AttributeError):
+        pass
 
 
 # ------------------------------------------------------------------------------------ capture
@@ -194,9 +220,10 @@ def capture_loop(ctx: _Ctx, spec: CaptureSpec, ring_spec: RingSpec) -> None:
 
 # ------------------------------------------------------------------------------------- detect
 def detect_loop(ctx: _Ctx, spec: DetectSpec, ring_specs: tuple[RingSpec, ...],
-                stage_factory: Callable[[], Any], out_q: Any) -> None:
+                stage_factory: Callable[[], Any], out_box: MailboxSpec) -> None:
     """Group the newest frames of the cameras, detect people in them in one batch, hand on."""
     rings = {cam: FrameRing.attach(rs) for cam, rs in zip(spec.cameras, ring_specs, strict=True)}
+    out = Mailbox.attach(out_box)
     try:
         stage = stage_factory()
         grouper = MultiViewGrouper(list(spec.cameras), spec.grouper)
@@ -235,28 +262,39 @@ def detect_loop(ctx: _Ctx, spec: DetectSpec, ring_specs: tuple[RingSpec, ...],
             if not images:
                 continue
             t0 = time.monotonic()
-            out = tuple(stage.detect(images, cams, frame_index, min(stamps)))
+            found = tuple(stage.detect(images, cams, frame_index, min(stamps)))
             t1 = time.monotonic()
-            tracked = out if out and isinstance(out[0], TrackedView) else None
-            views = tuple(t.detections for t in tracked) if tracked is not None else out
+            tracked = found if found and isinstance(found[0], TrackedView) else None
+            views = tuple(t.detections for t in tracked) if tracked is not None else found
             busy = ema(busy, t1 - t0)
             next_at = now + rate.period_s(busy)  # from when this group was taken, reading included
             for ring in rings.values():  # the dynamic frame rate reaches back to the cameras
                 ring.set_demand(next_at)
             dropped = sum(group.skipped.values()) / max(1, len(spec.cameras))
             missing = tuple(c for c in spec.cameras if c not in cams)
-            put_latest(out_q, DetectedFrame(frame_index, min(stamps), views, t0, t1, missing, dropped,
-                                            max(indices), tracked))
+            out.put(DetectedFrame(frame_index, min(stamps), views, t0, t1, missing, dropped,
+                                  max(indices), tracked))
             frame_index += 1
     finally:
+        out.close()
         for ring in rings.values():
             ring.close()
 
 
 # ------------------------------------------------------------------------------------- fusion
-def fuse_loop(ctx: _Ctx, fusion_factory: Callable[[], Any], in_q: Any, out_q: Any, control_q: Any) -> None:
+def fuse_loop(ctx: _Ctx, fusion_factory: Callable[[], Any], in_box: MailboxSpec, out_box: MailboxSpec,
+              control_q: Any) -> None:
     """Tracking, triangulation, navigator and recognition on the newest detected frame."""
     fusion = fusion_factory()
+    inbox, out = Mailbox.attach(in_box), Mailbox.attach(out_box)
+    try:
+        _fuse(ctx, fusion, inbox, out, control_q)
+    finally:
+        inbox.close()
+        out.close()
+
+
+def _fuse(ctx: _Ctx, fusion: Any, inbox: Mailbox, out: Mailbox, control_q: Any) -> None:
     while ctx.running():
         while True:
             try:
@@ -268,22 +306,19 @@ def fuse_loop(ctx: _Ctx, fusion_factory: Callable[[], Any], in_q: Any, out_q: An
                     fusion.set_navigator(msg.user_id)
                 except CavewalkError as exc:  # the user left between the request and now
                     ctx.report("info", f"navigator not changed: {exc}")
-        try:
-            first = in_q.get(timeout=0.05)
-        except _queue.Empty:
+        got = inbox.get(timeout=0.05)
+        if got is None or not isinstance(got[0], DetectedFrame):
             continue
-        item, skipped = drain_latest(in_q, first)
-        if not isinstance(item, DetectedFrame):
-            continue
+        item, skipped = got
         result = fusion.update(item)
-        put_latest(out_q, FusedFrame(result, item, time.monotonic(), fusion.mode, skipped,
-                                     fusion.take_changes()))
+        out.put(FusedFrame(result, item, time.monotonic(), fusion.mode, skipped, fusion.take_changes()))
 
 
 # ---------------------------------------------------------------------------------- simulator
-def sim_loop(ctx: _Ctx, sim_factory: Callable[[], Any], fps: float, out_q: Any) -> None:
+def sim_loop(ctx: _Ctx, sim_factory: Callable[[], Any], fps: float, out_box: MailboxSpec) -> None:
     """The simulator in place of capture and pose: its virtual cameras' detections, paced at ``fps``."""
     world = sim_factory()
+    out = Mailbox.attach(out_box)
     pacer = Pacer(fps)
     frame_index = 0
     while ctx.running():
@@ -292,7 +327,7 @@ def sim_loop(ctx: _Ctx, sim_factory: Callable[[], Any], fps: float, out_q: Any) 
         sim_frame = world.step(timestamp_s=t0)
         t1 = time.monotonic()
         views = tuple(_restamp(v, frame_index) for v in sim_frame.views)
-        put_latest(out_q, DetectedFrame(frame_index, t0, views, t0, t1, source_index=frame_index))
+        out.put(DetectedFrame(frame_index, t0, views, t0, t1, source_index=frame_index))
         frame_index += 1
         due = pacer.due_slot(time.monotonic())
         if due > frame_index:  # fell behind: skip, never build a backlog
