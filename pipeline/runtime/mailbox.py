@@ -76,21 +76,41 @@ class Mailbox:
 
     def get(self, timeout: float) -> tuple[Any, int] | None:
         """(the newest message not taken yet, how many older ones it skipped), or None after ``timeout``."""
+        for _ in range(3):  # the writer may lap the slot being read; try the newer one
+            if not self.get_wait(timeout):
+                return None
+            slot = self._ring.read_latest(self._last_seq)
+            if slot is not None:
+                skipped = max(0, slot.seq - self._last_seq - 1) if self._last_seq >= 0 else 0
+                self._last_seq = slot.seq
+                return pickle.loads(slot.image.tobytes()), skipped
+        return None
+
+    def get_all(self, timeout: float) -> list[Any]:
+        """Every message not taken yet that the ring still holds (oldest first; the newest ``SLOTS``
+        at most), waiting up to ``timeout`` s for one: for a reader that must see each (events)."""
+        if not self.get_wait(timeout):
+            return []
+        out = []
+        latest = self._ring.latest_seq
+        for seq in range(max(self._last_seq + 1, latest - self.spec.ring.slots + 1), latest + 1):
+            slot = self._ring.read_seq(seq)
+            if slot is not None:
+                out.append(pickle.loads(slot.image.tobytes()))
+        self._last_seq = max(self._last_seq, latest)
+        return out
+
+    def get_wait(self, timeout: float) -> bool:
+        """Wait up to ``timeout`` s for a message not taken yet; whether one is there."""
         deadline = time.monotonic() + timeout
-        while True:
-            seq = self._ring.latest_seq
-            if seq > self._last_seq:
-                slot = self._ring.read_latest(self._last_seq)
-                if slot is not None:
-                    skipped = max(0, slot.seq - self._last_seq - 1) if self._last_seq >= 0 else 0
-                    self._last_seq = slot.seq
-                    return pickle.loads(slot.image.tobytes()), skipped
+        while self._ring.latest_seq <= self._last_seq:
             left = deadline - time.monotonic()
             if left <= 0:
-                return None
+                return False
             if mpc.wait([self.spec.wake_r], min(left, 0.05)):
                 with contextlib.suppress(BlockingIOError, OSError):
                     os.read(self.spec.wake_r.fileno(), 4096)
+        return True
 
     def close(self) -> None:
         self._ring.close()

@@ -320,18 +320,18 @@ class Pipeline:
         box = run.out_box
         while not run.stop.is_set() and box is not None:
             try:
-                got = box.get(timeout=0.1)
+                got = box.get_all(timeout=0.1)  # every result in order: each may carry events
             except (OSError, ValueError, TypeError):  # the run is being torn down
                 return
             except Exception:  # a message that does not unpickle
                 log.exception("bad message from the fusion worker")
                 continue
-            fused = got[0] if got is not None else None
-            if isinstance(fused, FusedFrame):
-                try:
-                    self._on_result(run, fused)
-                except Exception:
-                    log.exception("handling a result failed")
+            for fused in got:
+                if isinstance(fused, FusedFrame):
+                    try:
+                        self._on_result(run, fused)
+                    except Exception:
+                        log.exception("handling a result failed")
 
     def _on_result(self, run: _Run, fused: FusedFrame) -> None:
         result, det = fused.result, fused.detected

@@ -14,7 +14,7 @@ from multiprocessing import forkserver
 
 import pytest
 
-from pipeline.runtime.mailbox import MAILBOX_PREFIX
+from pipeline.runtime.mailbox import MAILBOX_PREFIX, Mailbox
 from pipeline.runtime.pipeline import Pipeline
 
 from .live import Listener, children_alive, wait_for
@@ -109,3 +109,23 @@ def test_the_mailboxes_between_the_stages_are_unlinked_at_stop(sim_pipeline: Pip
     assert len(boxes() - before) == 2, "simulator -> fuse, fuse -> collector"
     sim_pipeline.stop()
     assert not (boxes() - before)
+
+
+def test_a_mailbox_hands_on_the_newest_or_every_message_and_survives_its_writer() -> None:
+    box = Mailbox.create("test")
+    try:
+        assert box.get(timeout=0.01) is None and box.get_all(timeout=0.01) == []
+        writer = Mailbox.attach(box.spec)
+        for i in range(3):
+            writer.put({"i": i})
+        assert box.get_all(timeout=1.0) == [{"i": 0}, {"i": 1}, {"i": 2}], "every one, in order"
+        for i in range(3, 10):
+            writer.put({"i": i})
+        assert box.get(timeout=1.0) == ({"i": 9}, 6), "the newest, and how many it skipped"
+        writer.close()
+        again = Mailbox.attach(box.spec)  # a restarted writer goes on where the dead one stopped
+        again.put({"i": 10})
+        assert box.get_all(timeout=1.0) == [{"i": 10}]
+        again.close()
+    finally:
+        box.unlink()
