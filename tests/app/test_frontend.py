@@ -28,7 +28,8 @@ def test_index_has_every_panel_and_docs_are_served(client: TestClient) -> None:
 
 def test_every_module_import_resolves(client: TestClient) -> None:
     seen: set[str] = set()
-    todo = ["/js/main.js", "/js/participant.js"]  # the dashboard's and the participant page's entry points
+    # the entry points: the dashboard, the participant page, the participant's prompt page (takes)
+    todo = ["/js/main.js", "/js/participant.js", "/js/prompt.js"]
     while todo:
         url = todo.pop()
         if url in seen:
