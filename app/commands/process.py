@@ -44,7 +44,8 @@ def _fusion_stage(settings: Settings, cameras: list[Camera]) -> FusionStage:
     return FusionStage(Fusion(
         tracker=None,
         reconstructor=Reconstructor(
-            cameras, ReconstructionConfig(settings.triangulation, settings.association, settings.tracks3d)
+            cameras, ReconstructionConfig(settings.triangulation, settings.association, settings.tracks3d,
+                                          settings.identity)
         ),
         selector=NavigatorSelector(settings.navigator),
         recognizer=ActionRecognizer.from_config(settings.recognition),

@@ -46,6 +46,7 @@ from pipeline.cave import CaveGeometry, Wall, box_cave
 from pipeline.emitter.udp import EmitterConfig, parse_endpoint
 from pipeline.errors import ConfigError
 from pipeline.head.config import HeadConfig
+from pipeline.identity.config import IdentityConfig
 from pipeline.machine import machine_fingerprint
 from pipeline.planner.config import PlannerConfig
 from pipeline.pose.config import PoseConfig
@@ -206,6 +207,7 @@ class Settings(BaseSettings):
     triangulation: TriangulationParams = TriangulationParams()
     association: AssociationParams = AssociationParams()
     tracks3d: Tracks3DParams = Tracks3DParams()
+    identity: IdentityConfig = IdentityConfig()
     navigator: NavigatorConfig = NavigatorConfig()
     recognition: RecognizerConfig = RecognizerConfig()
     head: HeadConfig = HeadConfig()

@@ -32,7 +32,8 @@ def simulator_factory(settings: Settings, sim: SimConfig | None = None) -> SimWo
 
 def fusion_factory(settings: Settings, cameras: list[Camera] | None) -> FusionFactory:
     """Tracking, triangulation, navigator, recognition and head pose from their sections."""
-    reconstruction = ReconstructionConfig(settings.triangulation, settings.association, settings.tracks3d)
+    reconstruction = ReconstructionConfig(settings.triangulation, settings.association, settings.tracks3d,
+                                          settings.identity)
     return FusionFactory(cameras=tuple(cameras) if cameras else None, camera_names=(),
                          tracking=settings.tracking, reconstruction=reconstruction,
                          navigator=settings.navigator, recognition=settings.recognition,

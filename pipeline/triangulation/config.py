@@ -9,6 +9,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
+from pipeline.identity.config import IdentityConfig
+
 
 def _check(cond: bool, what: str, value: object) -> None:
     if not cond:
@@ -118,12 +120,13 @@ class Tracks3DParams:
 
 @dataclass(frozen=True, slots=True)
 class ReconstructionConfig:
-    """Everything the :class:`~pipeline.triangulation.reconstructor.Reconstructor` needs: the three
+    """Everything the :class:`~pipeline.triangulation.reconstructor.Reconstructor` needs: the four
     parts' configs as they are (each its own settings section)."""
 
     triangulation: TriangulationParams = TriangulationParams()
     association: AssociationParams = AssociationParams()
     tracks: Tracks3DParams = Tracks3DParams()
+    identity: IdentityConfig = IdentityConfig()  # noqa: RUF009 (frozen, as the three above)
 
 
 @dataclass(frozen=True, slots=True)

@@ -18,6 +18,7 @@ from numpy.typing import NDArray
 
 from pipeline.camera import Camera, undistort_points
 from pipeline.errors import InputError
+from pipeline.identity.body import body_measures
 from pipeline.skeleton import FLIP_PAIRS, NUM_JOINTS
 from pipeline.tracking.types import TrackedView
 from pipeline.triangulation.association import FLIP_PERM, associate
@@ -78,7 +79,11 @@ class Reconstructor:
         self.config = config or ReconstructionConfig()
         self.rig = CameraRig.from_cameras(cameras)
         self._cam_index = {name: i for i, name in enumerate(self.rig.names)}
-        self.tracks = Tracks3D(self.config.tracks, memory_s=self.config.association.memory_s)
+        self.tracks = self._new_tracks()
+
+    def _new_tracks(self) -> Tracks3D:
+        return Tracks3D(self.config.tracks, memory_s=self.config.association.memory_s,
+                        identity=self.config.identity)
 
     @property
     def cameras(self) -> tuple[Camera, ...]:
@@ -86,7 +91,7 @@ class Reconstructor:
 
     def reset(self) -> None:
         """Forget every user and (camera, track) link (e.g. when the pipeline restarts)."""
-        self.tracks = Tracks3D(self.config.tracks, memory_s=self.config.association.memory_s)
+        self.tracks = self._new_tracks()
 
     def _check(self, views: Sequence[TrackedView], timestamp_s: float) -> None:
         if not math.isfinite(timestamp_s):
@@ -208,7 +213,8 @@ class Reconstructor:
                               keys[r][0], keys[r][1], 100 * agree)
             person = Person3D(-1, tri.points_m[sl], valid, float("nan"), tuple(views_kept))
             kept.append((tri.points_m[sl], valid, tri.reproj_px[sl], tuple(views_kept)))
-            candidates.append(Candidate(tuple(views_kept), person.position_m))
+            measures = body_measures(tri.points_m[sl], valid) if self.config.identity.enabled else None
+            candidates.append(Candidate(tuple(views_kept), person.position_m, measures))
         user_ids = self.tracks.assign(candidates, t)
 
         people: list[Person3D] = []

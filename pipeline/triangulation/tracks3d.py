@@ -3,8 +3,15 @@
 A new multi-view skeleton continues the user whose (camera, track_id) links it carries (each
 camera's tracker keeps its ids through short occlusions), else the user whose predicted floor
 position is nearest within a gate (Hungarian assignment); otherwise it starts a new user. A user
-unseen for ``max_missing_s`` is forgotten, so a short occlusion or a person briefly leaving a view
-keeps the id.
+unseen for ``max_missing_s`` is no longer tracked, so a short occlusion or a person briefly
+leaving a view keeps the id.
+
+Re-identification (issue 20 item 2, :mod:`pipeline.identity`): every track collects its body
+measurements; a user no longer tracked goes to a gallery with their body signature. A new track
+is measured for ``identity.window_s`` and then compared with the lost users (and with tracked users
+unseen for ``identity.min_gap_s``, whose track may have broken); when one body fits, unambiguously
+and within walking reach, the new track takes that user's id back (from then on: the frames
+before keep the new id).
 """
 
 from __future__ import annotations
@@ -19,6 +26,9 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import linear_sum_assignment
 
+from pipeline.identity.body import measure_distance, signature
+from pipeline.identity.config import IdentityConfig
+from pipeline.identity.gallery import Gallery, LostUser
 from pipeline.skeleton import BONES, NUM_JOINTS, J
 from pipeline.triangulation.config import Tracks3DParams
 
@@ -39,6 +49,7 @@ LIMB_BONES: tuple[tuple[int, int], ...] = tuple(
 _BONE_INDEX = {bone: i for i, bone in enumerate(BONES)}
 _MIN_BONE_SAMPLES = 5
 _ONE_EURO_RESET_S = 0.5
+_MAX_MEASURES = 300  # per-frame body measurements a track keeps (the newest)
 
 
 def bone_lengths(joints_m: F64) -> F64:
@@ -121,6 +132,12 @@ class UserTrack:
     bone_samples: list[F64] = field(default_factory=list)
     bone_prior_m: F64 | None = None
     smoother: OneEuroFilter | None = None
+    measures: list[F64] = field(default_factory=list)  # per-frame body measurements (identity)
+    reid_open: bool = False  # a new track that may still turn out to be a lost user
+
+    def body(self) -> F64:
+        """The body signature: the median of the measurements so far."""
+        return signature(np.array(self.measures)) if self.measures else signature(np.zeros((0, 9)))
 
     def predict(self, timestamp_s: float) -> F64:
         dt = min(max(timestamp_s - self.last_seen_s, 0.0), 0.5)
@@ -138,6 +155,7 @@ class Candidate:
 
     views: tuple[ViewKey, ...]
     position_m: F64
+    measures_m: F64 | None = None  # body measurements of this frame (pipeline.identity.body)
 
     def __post_init__(self) -> None:
         p = np.asarray(self.position_m, dtype=np.float64)
@@ -149,9 +167,12 @@ class Candidate:
 class Tracks3D:
     """Persistent user ids, the (camera, track_id) -> user_id memory, and per-user post-processing."""
 
-    def __init__(self, params: Tracks3DParams, memory_s: float = 5.0) -> None:
+    def __init__(self, params: Tracks3DParams, memory_s: float = 5.0,
+                 identity: IdentityConfig | None = None) -> None:
         self.params = params
         self.memory_s = memory_s
+        self.identity = identity or IdentityConfig(enabled=False)
+        self.gallery = Gallery(self.identity)
         self.users: dict[int, UserTrack] = {}
         self.memory: dict[ViewKey, tuple[int, float]] = {}
         self._next_id = 1
@@ -165,7 +186,12 @@ class Tracks3D:
         limit = self.params.max_missing_s
         for uid in [u for u, tr in self.users.items() if timestamp_s - tr.last_seen_s > limit]:
             log.info("user %d lost (unseen for %.1f s)", uid, timestamp_s - self.users[uid].last_seen_s)
-            del self.users[uid]
+            tr = self.users.pop(uid)
+            if self.identity.enabled and len(tr.measures) >= self.identity.min_samples:
+                self.gallery.add(
+                    LostUser(uid, tr.body(), tr.last_seen_s, tr.position_m.copy(), tr.bone_prior_m)
+                )
+        self.gallery.expire(timestamp_s)
         for key in [k for k, (_, t) in self.memory.items() if timestamp_s - t > self.memory_s]:
             del self.memory[key]
 
@@ -178,13 +204,14 @@ class Tracks3D:
         if n and u:
             gate = self.params.max_match_distance_m
             cost = np.full((n, u), 1e6)
+            bodies = self._bodies(uids) if self.identity.enabled and n > 1 else {}
             for i, cand in enumerate(candidates):
                 votes = [self.prior_user(k) for k in cand.views]
                 for j, uid in enumerate(uids):
                     frac = sum(v == uid for v in votes) / max(len(votes), 1)
                     d = float(np.linalg.norm((cand.position_m - self.users[uid].predict(timestamp_s))[:2]))
                     if d < gate * (1.0 + 2.0 * frac):
-                        cost[i, j] = d / gate - 2.0 * frac
+                        cost[i, j] = d / gate - 2.0 * frac + self._body_cost(cand, bodies.get(uid))
             rows, cols = linear_sum_assignment(cost)
             for r, c in zip(rows, cols, strict=True):
                 if cost[r, c] < 1e5:
@@ -193,7 +220,8 @@ class Tracks3D:
             if out[i] < 0:
                 out[i] = self._next_id
                 self._next_id += 1
-                self.users[out[i]] = UserTrack(out[i], timestamp_s, timestamp_s, cand.position_m.copy())
+                self.users[out[i]] = UserTrack(out[i], timestamp_s, timestamp_s, cand.position_m.copy(),
+                                               reid_open=self.identity.enabled)
                 log.info("user %d appears at (%.2f, %.2f) m from %s", out[i], cand.position_m[0],
                          cand.position_m[1], ", ".join(f"{c}#{t}" for c, t in cand.views))
             else:
@@ -206,9 +234,72 @@ class Tracks3D:
                     tr.velocity_mps = np.zeros(3)
                 tr.position_m = cand.position_m.copy()
                 tr.last_seen_s = timestamp_s
+            if cand.measures_m is not None and self.identity.enabled:
+                ms = self.users[out[i]].measures
+                ms.append(np.asarray(cand.measures_m, dtype=np.float64))
+                del ms[:-_MAX_MEASURES]
             for key in cand.views:
                 self.memory[key] = (out[i], timestamp_s)
+        if self.identity.enabled:
+            remap = self._reidentify(timestamp_s)
+            out = [remap.get(u, u) for u in out]
         return out
+
+    def _bodies(self, uids: list[int]) -> dict[int, F64]:
+        """The body signatures of the users measured long enough (for the assignment's body term)."""
+        need = self.identity.min_samples
+        return {u: self.users[u].body() for u in uids if len(self.users[u].measures) >= need}
+
+    def _body_cost(self, cand: Candidate, body: F64 | None) -> float:
+        """Assignment cost of a candidate's body against a user's signature (0 when unknown): people
+        who cross paths, and whose cameras' trackers swap their ids, keep their own user ids."""
+        if body is None or cand.measures_m is None:
+            return 0.0
+        d = measure_distance(cand.measures_m, body)
+        if not np.isfinite(d):
+            return 0.0
+        return self.identity.body_weight * min(d / self.identity.max_distance_m, 3.0)
+
+    def _reidentify(self, timestamp_s: float) -> dict[int, int]:
+        """New tracks measured long enough, compared with the lost users: {new id: old id} taken back."""
+        cfg = self.identity
+        remap: dict[int, int] = {}
+        for uid in sorted(u for u, tr in self.users.items() if tr.reid_open):
+            tr = self.users[uid]
+            age = timestamp_s - tr.first_seen_s
+            if age > cfg.decide_s:
+                tr.reid_open = False
+                continue
+            if age < cfg.window_s or len(tr.measures) < cfg.min_samples:
+                continue
+            missing = [LostUser(u, o.body(), o.last_seen_s, o.position_m.copy(), o.bone_prior_m)
+                       for u, o in self.users.items()
+                       if u != uid and timestamp_s - o.last_seen_s >= cfg.min_gap_s
+                       and len(o.measures) >= cfg.min_samples]
+            pool = list(self.gallery.lost.values()) + missing
+            best, why = self.gallery.match(tr.body(), tr.first_seen_s, tr.position_m, pool)
+            if best is None:
+                continue
+            log.info("user %d is user %d again (%s)", uid, best.user_id, why)
+            self._relabel(uid, best)
+            remap[uid] = best.user_id
+        return remap
+
+    def _relabel(self, new_id: int, old: LostUser) -> None:
+        """The track ``new_id`` continues as ``old.user_id`` (whose broken track, if any, it replaces)."""
+        tr = self.users.pop(new_id)
+        prev = self.users.pop(old.user_id, None)
+        self.gallery.lost.pop(old.user_id, None)
+        tr.user_id, tr.reid_open = old.user_id, False
+        if prev is not None:
+            tr.measures = (prev.measures + tr.measures)[-_MAX_MEASURES:]
+        if old.bone_prior_m is not None:
+            tr.bone_prior_m = old.bone_prior_m
+            tr.bone_samples.clear()
+        self.users[old.user_id] = tr
+        for key, (u, t) in list(self.memory.items()):
+            if u == new_id:
+                self.memory[key] = (old.user_id, t)
 
     def postprocess(self, user_id: int, joints_m: F64, valid: B, timestamp_s: float) -> tuple[F64, B]:
         """Bone-length outlier check (after the learning period), then smoothing. Returns copies."""
