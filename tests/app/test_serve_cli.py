@@ -15,14 +15,9 @@ from typer.testing import CliRunner
 
 from app.cli import cli
 from pipeline.errors import CavewalkError
+from tests.waiting import free_port
 
 ROOT = Path(__file__).resolve().parents[2]
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 @pytest.fixture()
@@ -82,12 +77,6 @@ def test_main_prints_one_line_and_exits_2(busy_port: int, tmp_path: Path) -> Non
     assert "Traceback" not in proc.stderr
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
 @pytest.mark.slow
 def test_a_second_server_on_one_database_stops_naming_the_first(tmp_path: Path) -> None:
     """Two real `cavewalk serve` on one --db (issue 15 D5): the second ends with one message
@@ -95,8 +84,8 @@ def test_a_second_server_on_one_database_stops_naming_the_first(tmp_path: Path) 
     db = tmp_path / "study.db"
 
     def serve() -> subprocess.Popen[str]:
-        cmd = [sys.executable, "-m", "app.cli", "serve", "--db", str(db), "--port", str(_free_port()),
-               "--viser-port", str(_free_port())]
+        cmd = [sys.executable, "-m", "app.cli", "serve", "--db", str(db), "--port", str(free_port()),
+               "--viser-port", str(free_port())]
         return subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
     first = serve()
@@ -170,8 +159,8 @@ def test_a_database_that_cannot_serve_is_one_message_and_left_unchanged(
 ) -> None:
     db = _bad_database(tmp_path, kind)
     before = db.read_bytes()
-    result = CliRunner().invoke(cli, ["serve", "--db", str(db), "--port", str(_free_port()),
-                                      "--viser-port", str(_free_port())])
+    result = CliRunner().invoke(cli, ["serve", "--db", str(db), "--port", str(free_port()),
+                                      "--viser-port", str(free_port())])
     assert isinstance(result.exception, CavewalkError), result.output
     assert match in str(result.exception) and str(db) in str(result.exception)
     assert db.read_bytes() == before, "a refused database is not touched"
@@ -197,8 +186,8 @@ def test_a_read_only_database_is_one_message(where: str) -> None:
         top.chmod(0o755)
         folder.chmod(0o777 if where == "file" else 0o555)
         cmd = [shutil.which("setpriv") or "setpriv", "--reuid=65534", "--regid=65534", "--clear-groups",
-               sys.executable, "-m", "app.cli", "serve", "--db", str(db), "--port", str(_free_port()),
-               "--viser-port", str(_free_port())]
+               sys.executable, "-m", "app.cli", "serve", "--db", str(db), "--port", str(free_port()),
+               "--viser-port", str(free_port())]
         env = {**os.environ, "HOME": str(top), "PYTHONDONTWRITEBYTECODE": "1"}
         proc = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=120, env=env)
         assert proc.returncode == 2, proc.stderr

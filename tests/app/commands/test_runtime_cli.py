@@ -16,18 +16,13 @@ import pytest
 from pipeline.emitter import EmitterConfig, LocomotionCommand, UdpEmitter
 from pipeline.machine import machine_facts
 from tests.pipeline.runtime.live import children_alive, shm_segments
+from tests.waiting import free_udp_port
 
 ROOT = Path(__file__).resolve().parents[3]
 
 
 def cavewalk(*args: str) -> list[str]:
     return [sys.executable, "-m", "app.cli", *args]
-
-
-def free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 def wait_bound(port: int, proc: subprocess.Popen[str], timeout_s: float = 60.0) -> None:

@@ -7,7 +7,6 @@ form, and the analysis panel. Screenshots go to test-artifacts/.
 
 from __future__ import annotations
 
-import socket
 import threading
 import time
 from collections.abc import Iterator
@@ -18,6 +17,7 @@ import httpx
 import pytest
 
 from app.study.questionnaires import DEFINITIONS, SSQ_KEYS, TLX_PAIRS
+from tests.waiting import free_port
 
 pytestmark = [pytest.mark.e2e, pytest.mark.slow]
 
@@ -25,12 +25,6 @@ CHROMIUM = "/usr/bin/chromium"
 TABLET = {"width": 820, "height": 1180}  # a 10.9" tablet, portrait
 OPERATOR = {"width": 1600, "height": 1000}
 TLX = {"mental": 70, "physical": 20, "temporal": 40, "performance": 30, "effort": 60, "frustration": 10}
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 @pytest.fixture(scope="module")
