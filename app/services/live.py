@@ -199,7 +199,12 @@ class PipelineService:
         self._sinks = sinks
         self._period = 1.0 / rate_hz
         self._pipeline: PipelineFacade | None = None
+        # _lock serialises the control of the pipeline (start, stop, navigator, rebuild), which may
+        # take seconds (spawning or joining workers, on a busy machine many); _snap_lock guards only
+        # the latest snapshot, so that status reads (GET /status, every WebSocket message, on the
+        # event loop) never wait for a start or stop (issue 15 S3: they did, and timed out)
         self._lock = threading.RLock()
+        self._snap_lock = threading.Lock()
         self._snapshot: dict[str, Any] = idle_snapshot("stopped" if factory else "unavailable")
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
@@ -233,7 +238,7 @@ class PipelineService:
 
     # -- requests (any thread; never block on the pipeline's work) ------------------------
     def snapshot(self) -> dict[str, Any]:
-        with self._lock:
+        with self._snap_lock:
             return dict(self._snapshot)
 
     def start(self, source: SourceName, videos: dict[str, Path] | None = None) -> None:
@@ -267,13 +272,14 @@ class PipelineService:
     def set_navigator(self, user_id: int | None) -> tuple[int | None, Literal["auto", "manual"]]:
         """Pick the navigator (None = automatic); an id nobody has now raises UnknownUser."""
         with self._lock:
+            now = self.snapshot()
             if user_id is not None:
-                ids = sorted(p["user_id"] for p in self._snapshot["people"])
+                ids = sorted(p["user_id"] for p in now["people"])
                 if user_id not in ids:
                     raise UnknownUser(
                         f"no person with user_id {user_id} is tracked now (tracked: {ids or 'nobody'})"
                     )
-            if self._pipeline is None or self._snapshot["state"] not in ("running", "starting"):
+            if self._pipeline is None or now["state"] not in ("running", "starting"):
                 if user_id is None:
                     return None, "auto"  # nothing runs: automatic is what it will start with
                 raise UnknownUser("the pipeline is not running")
@@ -287,8 +293,7 @@ class PipelineService:
         return (user_id if user_id is not None else snap["navigator"]), mode
 
     def snapshot_jpeg(self, camera: str) -> bytes | None:
-        with self._lock:
-            pipeline = self._pipeline
+        pipeline = self._pipeline  # one reference read: no need to wait for a start or stop
         return None if pipeline is None else pipeline.snapshot_jpeg(camera)
 
     # -- the polling thread ------------------------------------------------------------
@@ -307,7 +312,7 @@ class PipelineService:
             log.exception("pipeline status failed")
             snap = idle_snapshot("error")
             snap["extra"]["error"] = str(exc)
-        with self._lock:
+        with self._snap_lock:
             self._snapshot = snap
         for sink in self._sinks:
             try:
@@ -352,4 +357,5 @@ class PipelineService:
             self._thread = None
         with self._lock:
             self._close_pipeline()
-            self._snapshot = idle_snapshot("stopped" if self._factory else "unavailable")
+            with self._snap_lock:
+                self._snapshot = idle_snapshot("stopped" if self._factory else "unavailable")

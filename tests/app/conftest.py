@@ -2,9 +2,7 @@
 
 from __future__ import annotations
 
-import socket
 import threading
-import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -16,13 +14,7 @@ from fastapi.testclient import TestClient
 
 from app.core.config import Settings, load_settings
 from app.main import create_app
-
-
-def free_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
+from tests.waiting import GENEROUS_S, HTTP_TIMEOUT_S, free_port, wait_until
 
 #: the Host header of Starlette's TestClient (http://testserver), a name no real server has
 TESTCLIENT_HOST = "testserver"
@@ -70,11 +62,13 @@ class Served:
 
     def __enter__(self) -> Served:
         self.thread.start()
-        deadline = time.monotonic() + 30
-        while not self.server.started:
-            if time.monotonic() > deadline or not self.thread.is_alive():
-                raise RuntimeError("uvicorn did not start")
-            time.sleep(0.05)
+
+        def started() -> bool:
+            if not self.thread.is_alive():
+                raise RuntimeError("uvicorn ended before it started (see the log above)")
+            return bool(self.server.started)
+
+        wait_until(started, "uvicorn to start (the app's lifespan: migrations, viser, pipeline)", poll_s=0.05)
         return self
 
     def __exit__(self, *exc: object) -> None:
@@ -82,13 +76,12 @@ class Served:
         self.thread.join(timeout=30)
 
     def wait_status(
-        self, predicate: Callable[[dict[str, Any]], bool], timeout_s: float = 40.0
+        self, predicate: Callable[[dict[str, Any]], bool], timeout_s: float = GENEROUS_S
     ) -> dict[str, Any]:
-        deadline = time.monotonic() + timeout_s
-        status: dict[str, Any] = {}
-        while time.monotonic() < deadline:
-            status = httpx.get(f"{self.base}/api/v1/status").json()
-            if predicate(status):
-                return status
-            time.sleep(0.2)
-        raise AssertionError(f"status never matched; last: {status}")
+        """The first live status that matches (the deadline only ends a hung test, tests/waiting.py)."""
+
+        def matching() -> dict[str, Any] | None:
+            status: dict[str, Any] = httpx.get(f"{self.base}/api/v1/status", timeout=HTTP_TIMEOUT_S).json()
+            return status if predicate(status) else None
+
+        return wait_until(matching, "a matching status", timeout_s, poll_s=0.2)
