@@ -2,33 +2,29 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
-import socket
 import subprocess
 import sys
-import time
 from collections.abc import Iterator
 from pathlib import Path
 
 import httpx
 import pytest
 
+from tests.waiting import GENEROUS_S, HTTP_TIMEOUT_S, free_port, wait_until
+
 pytestmark = [pytest.mark.e2e, pytest.mark.slow]
 
 ROOT = Path(__file__).resolve().parents[2]
 CHROMIUM = "/usr/bin/chromium"
+GENEROUS_MS = int(GENEROUS_S * 1000)
 SSQ_KEYS = [
     "general_discomfort", "fatigue", "headache", "eye_strain", "difficulty_focusing", "increased_salivation",
     "sweating", "nausea", "difficulty_concentrating", "fullness_of_head", "blurred_vision", "dizzy_eyes_open",
     "dizzy_eyes_closed", "vertigo", "stomach_awareness", "burping",
 ]  # fmt: skip
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 @pytest.fixture(scope="module")
@@ -43,76 +39,85 @@ def demo_server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
                             env={**os.environ, "PYTHONUNBUFFERED": "1"})  # fmt: skip
     base = f"http://127.0.0.1:{port}"
     try:
-        deadline = time.monotonic() + 60
-        while True:
+
+        def healthy() -> bool:
             if proc.poll() is not None:
                 raise RuntimeError(f"cavewalk demo exited: {(tmp / 'server.log').read_text()}")
-            try:
-                if httpx.get(f"{base}/api/v1/health", timeout=1).status_code == 200:
-                    break
-            except httpx.HTTPError:
-                pass
-            if time.monotonic() > deadline:
-                raise RuntimeError("cavewalk demo did not answer within 60 s")
-            time.sleep(0.2)
+            return httpx.get(f"{base}/api/v1/health", timeout=HTTP_TIMEOUT_S).status_code == 200
+
+        wait_until(healthy, "cavewalk demo to answer", poll_s=0.2, retry=(httpx.HTTPError,))
         yield base
     finally:
         proc.send_signal(signal.SIGINT)
         try:
-            code = proc.wait(timeout=30)
+            code = proc.wait(timeout=GENEROUS_S)  # only ends a hung stop (tests/waiting.py)
         except subprocess.TimeoutExpired:
             os.killpg(proc.pid, signal.SIGKILL)
             proc.wait()
-            raise AssertionError("cavewalk demo did not stop within 30 s of Ctrl-C") from None
+            raise AssertionError(f"cavewalk demo did not stop within {GENEROUS_S:.0f} s of Ctrl-C") from None
         finally:
             log.close()
         assert code == 0, f"cavewalk demo exited with {code}: {(tmp / 'server.log').read_text()[-2000:]}"
-        deadline = time.monotonic() + 10  # multiprocessing's helpers exit once they see the parent gone
-        while True:
-            left = subprocess.run(["pgrep", "-a", "-g", str(proc.pid)], capture_output=True, text=True)
-            left = left.stdout.strip().splitlines()
-            if not left or time.monotonic() > deadline:
-                break
-            time.sleep(0.2)
+        def group() -> list[str]:
+            found = subprocess.run(["pgrep", "-a", "-g", str(proc.pid)], capture_output=True, text=True)
+            return found.stdout.strip().splitlines()
+
+        with contextlib.suppress(AssertionError):  # multiprocessing's helpers exit once the parent is gone
+            wait_until(lambda: not group(), "the demo's processes to exit", timeout_s=60, poll_s=0.2)
+        left = group()
         if left:
             os.killpg(proc.pid, signal.SIGKILL)
         assert not left, f"worker processes left after Ctrl-C: {left}"
 
 
 def test_demo_dashboard_live_navigator_and_ssq(demo_server: str, artifacts_dir: Path) -> None:
+    from playwright.sync_api import TimeoutError as PlaywrightTimeout
     from playwright.sync_api import expect, sync_playwright
 
     if not Path(CHROMIUM).exists():
         pytest.fail(f"{CHROMIUM} missing: apt-get install -y chromium chromium-driver")
-    # the demo's live pipeline shares two cores with the browser (and, in CI, with other jobs): an
-    # API round trip and the re-render after it can take seconds; the outcomes are awaited, not raced
-    expect.set_options(timeout=20_000)
+    # the demo's live pipeline shares two cores with the browser (and, in CI, with other jobs, at load
+    # 10-25): an API round trip and the re-render after it can take many seconds; the outcomes are
+    # awaited with generous deadlines (they only end a hung test, tests/waiting.py), not raced
+    expect.set_options(timeout=GENEROUS_MS)
     with sync_playwright() as pw:
         browser = pw.chromium.launch(
             executable_path=CHROMIUM,
             args=["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"],
         )
         page = browser.new_page(viewport={"width": 1400, "height": 2400})
+        page.set_default_timeout(GENEROUS_MS)
         errors: list[str] = []
         page.on("pageerror", lambda exc: errors.append(str(exc)))
         try:
             page.goto(demo_server)
             # live status arrives over the WebSocket and changes
-            expect(page.locator("#state")).to_have_text("running", timeout=60_000)
+            expect(page.locator("#state")).to_have_text("running")
             expect(page.locator("#ws-state")).to_have_text("live: open")
             first_fps = page.locator("#fps").inner_text()
-            expect(page.locator("#fps")).not_to_have_text(first_fps, timeout=10_000)
+            expect(page.locator("#fps")).not_to_have_text(first_fps)
             expect(page.locator("#latency-table tbody tr").first).to_be_visible()
 
             # select a navigator by a click on a tracked person
             people = page.locator("button.person")
-            expect(people.nth(1)).to_be_visible(timeout=30_000)
-            current = page.locator("#navigator").inner_text()
-            # read the ids in one go (the list re-renders live); the lowest other id is the longest-lived
-            candidates = people.evaluate_all("els => els.map(e => e.dataset.userId)")
-            target = min((uid for uid in candidates if uid != current), key=int)
-            page.locator(f'button.person[data-user-id="{target}"]').click()
-            expect(page.locator("#navigator")).to_have_text(target, timeout=10_000)
+            expect(people.nth(1)).to_be_visible()
+
+            def click_another() -> str | None:
+                """Click the longest-lived other person (the lowest id); None if they were lost first."""
+                current = page.locator("#navigator").inner_text()
+                candidates = people.evaluate_all("els => els.map(e => e.dataset.userId)")
+                others = [uid for uid in candidates if uid != current]
+                if not others:
+                    return None
+                target = min(others, key=int)
+                try:  # a person the tracker loses meanwhile takes their button away: choose again
+                    page.locator(f'button.person[data-user-id="{target}"]').click(timeout=30_000)
+                except PlaywrightTimeout:
+                    return None
+                return target
+
+            target = wait_until(click_another, "a click on another tracked person", poll_s=0.5)
+            expect(page.locator("#navigator")).to_have_text(target)
             expect(page.locator("#navigator-mode")).to_have_text("manual")
             expect(page.locator(f'button.person.navigator[data-user-id="{target}"]')).to_be_visible()
 
@@ -139,12 +144,12 @@ def test_demo_dashboard_live_navigator_and_ssq(demo_server: str, artifacts_dir: 
             panel.locator("#q-submit").click()
             # Kennedy et al. 1993: N = {nausea 2} -> 2; O = {fatigue 1, headache 1} -> 2; D = {nausea 2,
             # vertigo 3} -> 5; total = (2 + 2 + 5) x 3.74 = 33.66
-            expect(panel.locator("#q-scores")).to_contain_text("total: 33.66", timeout=10_000)
+            expect(panel.locator("#q-scores")).to_contain_text("total: 33.66")
             page.screenshot(path=str(artifacts_dir / "dashboard.png"), full_page=True)
         finally:
             browser.close()
     assert not errors, f"JavaScript errors on the page: {errors}"
-    stored = httpx.get(f"{demo_server}/api/v1/sessions").json()
+    stored = httpx.get(f"{demo_server}/api/v1/sessions", timeout=HTTP_TIMEOUT_S).json()
     sid = next(s["id"] for s in stored if s["participant_code"] == "E2E01")
-    q = httpx.get(f"{demo_server}/api/v1/sessions/{sid}/questionnaires").json()
+    q = httpx.get(f"{demo_server}/api/v1/sessions/{sid}/questionnaires", timeout=HTTP_TIMEOUT_S).json()
     assert len(q) == 1 and q[0]["answers"] == answers and q[0]["scores"]["total"] == pytest.approx(33.66)
