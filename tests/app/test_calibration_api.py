@@ -12,16 +12,31 @@ from fastapi.testclient import TestClient
 
 from pipeline.calibration.patterns import make_layout
 from pipeline.sim.scene import default_cameras
+from tests.waiting import wait_until
+
+#: CPU seconds of this process (the app runs in it, under TestClient) a run may use: about 5 on an
+#: idle machine (rendering four 1920 x 1080 wall views, solving, the overlays)
+RUN_CPU_BUDGET_S = 120.0
 
 
-def wait_run(c: TestClient, run_id: int, timeout_s: float = 60.0) -> dict[str, Any]:
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        run = c.get(f"/api/v1/calibration/runs/{run_id}").json()
+def wait_run(c: TestClient, run_id: int) -> dict[str, Any]:
+    """The run once it is done or failed.
+
+    Rendering the four cameras' wall images and solving is CPU work: seconds on an idle machine,
+    many minutes of wall time at load 20-30 on two cores (issue 15 S3: a 60 s deadline saw it
+    still at 0.05, "showing the patterns"). So its budget is counted on a clock the test controls,
+    the CPU time this process gets, not the wall clock; the wall-clock limit only ends a hung run."""
+    cpu0 = time.process_time()
+
+    def finished() -> dict[str, Any] | None:
+        run: dict[str, Any] = c.get(f"/api/v1/calibration/runs/{run_id}").json()
         if run["status"] in ("done", "failed"):
             return run
-        time.sleep(0.2)
-    raise AssertionError(f"calibration run {run_id} did not finish: {run}")
+        used = time.process_time() - cpu0
+        assert used < RUN_CPU_BUDGET_S, f"run {run_id} used {used:.0f} CPU seconds and is still at {run}"
+        return None
+
+    return wait_until(finished, f"calibration run {run_id} to finish", timeout_s=800, poll_s=0.5)
 
 
 def test_wall_patterns_are_served_and_decode_to_the_layout_ids(client: TestClient) -> None:
@@ -52,6 +67,7 @@ def test_no_active_calibration_and_unknown_runs(client: TestClient) -> None:
 
 
 @pytest.mark.slow
+@pytest.mark.timeout(1200)  # the runs' own limit is their CPU budget (wait_run)
 def test_calibration_run_on_the_simulator_then_roll_back(client: TestClient) -> None:
     r = client.post("/api/v1/calibration/runs")
     assert r.status_code == 202, r.text

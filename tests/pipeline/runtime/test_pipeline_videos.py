@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import os
 import shutil
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import cv2
 import pytest
@@ -16,6 +18,7 @@ from pipeline.runtime.config import RuntimeConfig
 from pipeline.runtime.pipeline import Pipeline
 from pipeline.runtime.stages import FusionFactory, PoseStageFactory
 from pipeline.sources.grouper import GrouperConfig
+from tests.waiting import wait_until
 
 from .live import children_alive, shm_segments, wait_for
 
@@ -59,31 +62,53 @@ def test_videos_run_with_the_real_detector_and_stop_clean(
 def test_a_video_that_ends_and_a_camera_that_vanishes_do_not_stop_the_others(
         pose_model_path: Path, small_videos: dict[str, Path],
         tmp_path: Path) -> None:
-    folder = tmp_path / "cam04"
-    folder.mkdir()
+    """cam03 (a 12-frame video, played once) ends, cam04 (an image folder) vanishes; cam01 goes on.
+
+    The cameras that must go on are image folders of 1200 frames (hard links to 60 real frames:
+    two minutes at 10 fps, free to make), so that they outlast the test however busy the machine
+    is: with cam01 a 60-frame video played once (6 s), a loaded machine reached the last check
+    after cam01 had ended too (issue 15 S3). The waits are for outcomes (tests/waiting.py)."""
+    frames = tmp_path / "frames"
+    frames.mkdir()
     cap = cv2.VideoCapture(str(small_videos["cam01"]))
     for i in range(60):
         ok, img = cap.read()
         assert ok
-        cv2.imwrite(str(folder / f"{i:03d}.png"), img)
+        cv2.imwrite(str(frames / f"{i:03d}.png"), img)
     cap.release()
-    cameras = {"cam01": str(small_videos["cam01"]), "cam03": str(small_videos["cam03"]), "cam04": str(folder)}
-    # played once at 10 fps: cam01 and cam04 last 6 s, cam03 (12 frames) ends after 1.2 s
+
+    def long_folder(name: str, n: int = 1200) -> Path:
+        folder = tmp_path / name
+        folder.mkdir()
+        for i in range(n):  # forwards and back, so that the motion stays continuous
+            k = i % 120
+            os.link(frames / f"{k if k < 60 else 119 - k:03d}.png", folder / f"{i:04d}.png")
+        return folder
+
+    cam04 = long_folder("cam04")
+    cameras = {"cam01": str(long_folder("cam01")), "cam03": str(small_videos["cam03"]), "cam04": str(cam04)}
+    # played once at 10 fps: cam03 (12 frames) ends after 1.2 s, cam01 and cam04 would last 120 s
     pipeline = video_pipeline(pose_model_path, cameras, video_loop=False, video_pace_fps=10.0)
+
+    def health() -> dict[str, dict[str, Any]]:
+        return {c["name"]: c for c in pipeline.status().cameras}
+
+    def camera(name: str) -> dict[str, Any]:
+        return health().get(name, {})
+
     try:
         pipeline.start("cameras")
-        wait_for(lambda: any(c["name"] == "cam03" and c["last_error"] == "source ended"
-                             for c in pipeline.status().cameras), 60, "cam03 to end")
-        shutil.rmtree(folder)
-        wait_for(lambda: any(c["name"] == "cam04" and not c["ok"] for c in pipeline.status().cameras),
-                 30, "cam04 reported lost")
+        wait_until(lambda: camera("cam03").get("last_error") == "source ended", "cam03 to end")
+        wait_until(lambda: camera("cam04").get("ok"), "cam04 to deliver (it vanishes while it does)")
+        shutil.rmtree(cam04)
+        wait_until(lambda: camera("cam04").get("ok") is False, "cam04 reported lost")
         count = pipeline.status().processed
-        wait_for(lambda: pipeline.status().processed >= count + 3, 60, "cam01 frames processed meanwhile")
+        wait_until(lambda: pipeline.status().processed >= count + 3, "cam01 frames processed meanwhile")
         st = pipeline.status()
         assert st.state == "running"
-        health = {c["name"]: c for c in st.cameras}
-        assert health["cam01"]["ok"], health
-        assert not health["cam03"]["ok"] and not health["cam04"]["ok"]
+        cams = health()
+        assert cams["cam01"]["ok"], cams
+        assert not cams["cam03"]["ok"] and not cams["cam04"]["ok"]
         latest = pipeline._run.latest  # type: ignore[union-attr]
         assert latest is not None and set(latest.detected.missing) >= {"cam03", "cam04"}
         events = pipeline.drain_events()
