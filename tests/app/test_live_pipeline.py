@@ -34,24 +34,28 @@ def served(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Served]:
         yield s
 
 
-def test_websocket_streams_live_status_about_ten_times_a_second(served: Served) -> None:
+def test_websocket_streams_live_status_paced_at_the_live_rate(served: Served) -> None:
     served.wait_status(lambda s: s["state"] == "running" and len(s["people"]) >= 1)
+    n = 12
 
-    async def read(seconds: float) -> list[dict[str, Any]]:
+    async def read() -> tuple[list[dict[str, Any]], float]:
         url = f"ws://127.0.0.1:{served.settings.server.port}/api/v1/ws/live"
         out: list[dict[str, Any]] = []
         async with websockets.connect(url) as ws:
-            end = time.monotonic() + seconds
-            while time.monotonic() < end:
-                out.append(json.loads(await ws.recv()))
-        return out
+            out.append(json.loads(await asyncio.wait_for(ws.recv(), HTTP_TIMEOUT_S)))
+            t0 = time.monotonic()
+            while len(out) < n:
+                out.append(json.loads(await asyncio.wait_for(ws.recv(), HTTP_TIMEOUT_S)))
+            return out, time.monotonic() - t0
 
-    messages = asyncio.run(read(2.0))
-    # paced at server.live_rate_hz = 10: never faster; loose below (2 shared cores may be busy)
-    assert 6 <= len(messages) <= 22, f"about 10 messages a second for 2 s, got {len(messages)}"
+    messages, took_s = asyncio.run(read())
+    # paced at server.live_rate_hz = 10: never faster (a busy machine only makes it slower, and how
+    # much slower is not a test's business: issue 15 S3; rates are measured by `cavewalk bench`)
+    period = 1.0 / served.settings.server.live_rate_hz
+    assert took_s >= (n - 1) * period * 0.8, f"{n - 1} intervals in {took_s:.2f} s: faster than the live rate"
     last = messages[-1]
     assert last["type"] == "status" and last["state"] == "running" and last["source"] == "simulator"
-    assert last["fps"] > 5, last["fps"]
+    assert last["fps"] > 0, last["fps"]
     assert {"detect", "fuse"} <= set(last["latency_ms"]), last["latency_ms"]
     assert all(p["position_m"] is None or len(p["position_m"]) == 3 for p in last["people"])
     assert [c["name"] for c in last["cameras"]] == ["cam01", "cam02", "cam03", "cam04"]
@@ -59,12 +63,18 @@ def test_websocket_streams_live_status_about_ten_times_a_second(served: Served) 
 
 
 def test_navigator_by_user_id_and_back_to_auto(served: Served) -> None:
-    status = served.wait_status(lambda s: len(s["people"]) >= 2)
-    ids = sorted(p["user_id"] for p in status["people"])
-    target = next(i for i in ids if i != status["navigator"])
-    r = http.put(f"{served.base}/api/v1/navigator", json={"user_id": target})
-    assert r.status_code == 200, r.text
-    assert r.json() == {"navigator": target, "mode": "manual"}
+    def choose() -> tuple[int, list[int]] | None:  # the person seen may be lost before the request lands
+        status = served.wait_status(lambda s: len(s["people"]) >= 2)
+        ids = sorted(p["user_id"] for p in status["people"])
+        target = next(i for i in ids if i != status["navigator"])
+        r = http.put(f"{served.base}/api/v1/navigator", json={"user_id": target})
+        if r.status_code == 404 and "no person" in r.text:
+            return None
+        assert r.status_code == 200, r.text
+        assert r.json() == {"navigator": target, "mode": "manual"}
+        return target, ids
+
+    target, ids = wait_until(choose, "a tracked person made the navigator")
     served.wait_status(lambda s: s["navigator"] == target and s["navigator_mode"] == "manual")
     unknown = max(ids) + 100
     r = http.put(f"{served.base}/api/v1/navigator", json={"user_id": unknown})
