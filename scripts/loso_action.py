@@ -84,7 +84,8 @@ def _cell(v: object, pct: bool = False, ms: bool = False) -> str:
 def markdown(results: dict[str, dict[str, dict[str, object]]]) -> str:
     head = (
         "| held-out source | variant | frames | accuracy | macro-F1 | false movement | movement detected "
-        "| start med / p95 ms | stop med / p95 ms |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- |"
+        "| start med / p95 ms | stop med / p95 ms | stop beyond rhythm med / p95 ms |\n"
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"
     )
     rows = [head]
     for src, variants in results.items():
@@ -93,7 +94,8 @@ def markdown(results: dict[str, dict[str, dict[str, object]]]) -> str:
                 f"| {src} | {name} | {m['frames']} | {_cell(m['accuracy'])} | {_cell(m['macro_f1'])} "
                 f"| {_cell(m['false_movement'], pct=True)} | {_cell(m['movement_detected'], pct=True)} "
                 f"| {_cell(m['start_median_s'], ms=True)} / {_cell(m['start_p95_s'], ms=True)} "
-                f"| {_cell(m['stop_median_s'], ms=True)} / {_cell(m['stop_p95_s'], ms=True)} |"
+                f"| {_cell(m['stop_median_s'], ms=True)} / {_cell(m['stop_p95_s'], ms=True)} "
+                f"| {_cell(m['stop_beyond_rhythm_median_s'], ms=True)} / {_cell(m['stop_beyond_rhythm_p95_s'], ms=True)} |"
             )
     return "\n".join(rows) + "\n"
 
@@ -102,10 +104,22 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     add_arguments(ap)
     ap.add_argument("--hold-out", action="append", help="sources to hold out (default: each)")
+    ap.add_argument(
+        "--eval-source",
+        action="append",
+        default=[],
+        help="NAME=DIR of labelled NPZ never trained on (real mocap): scored in every fold",
+    )
     ap.add_argument("--out-dir", type=Path, default=Path("/tmp/cavewalk-loso"))
     ap.add_argument("--json", type=Path, default=None)
     ap.add_argument("--markdown", type=Path, default=None)
     ap.add_argument("--reuse", action="store_true", help="reuse fold models already in --out-dir")
+    ap.add_argument(
+        "--features",
+        action="append",
+        choices=[FEATURES_V1, FEATURES_V2],
+        help="train only these feature versions per fold (default both: the four-way ablation)",
+    )
     args = ap.parse_args()
     logging.basicConfig(level=logging.INFO, format="%(message)s")
 
@@ -115,6 +129,12 @@ def main() -> int:
     specs = [SourceSpec.parse(s) for s in (args.source or ["sim"])]
     sources = [replace(s, warp=s.name in args.warp) for s in specs]
     items = prepare_corpus(sources, args.cache, args.sequences, args.duration, args.seed, progress=say)
+    eval_specs = [SourceSpec.parse(s) for s in args.eval_source]
+    eval_only = [
+        it
+        for it in prepare_corpus(eval_specs, args.cache, args.sequences, args.duration, args.seed, progress=say)
+        if it.original
+    ]
     names = sorted({it.seq.source for it in items})
     held = args.hold_out or names
     args.out_dir.mkdir(parents=True, exist_ok=True)
@@ -123,16 +143,15 @@ def main() -> int:
     chosen: dict[str, object] = {}
     for src in held:
         train_items = [it for it in items if it.seq.source != src]
-        test_items = [it for it in items if it.seq.source == src and it.original]
+        test_items = [it for it in items if it.seq.source == src and it.original] + eval_only
         if not train_items or not test_items:
             say(f"skip {src}: nothing to train on or to test")
             continue
         tr, va = split_items(train_items, 0.1, args.seed)
         train, val = to_dataset(tr), to_dataset(va)
         frames = [step_frames(it.seq.joints_m, it.seq.fps) for it in test_items]
-        results[src] = {}
         models = {}
-        for feat in (FEATURES_V1, FEATURES_V2):
+        for feat in args.features or (FEATURES_V1, FEATURES_V2):
             path = args.out_dir / f"fold-{src}-{feat}.onnx"
             if not (args.reuse and path.is_file()):
                 t0 = time.monotonic()
@@ -157,7 +176,7 @@ def main() -> int:
             gates[feat], _ = tune_gate(tune_traces, [it.seq for it in tune_items], RecognizerConfig())
             chosen[f"{src}/{feat}"] = asdict(gates[feat])
             say(f"fold {src} {feat}: gate chosen on {len(tune_items)} validation clips: {gates[feat]}")
-        for name, feat, gate in VARIANTS:
+        for name, feat, gate in [v for v in VARIANTS if v[1] in models]:
             config = replace(RecognizerConfig(), gate=gate, gate_config=gates[feat])
             scored = [
                 ScoredSequence(
@@ -171,13 +190,17 @@ def main() -> int:
                 )
                 for it, t in zip(test_items, traces[feat], strict=True)
             ]
-            results[src][name] = summary(evaluate(scored))
-            m = results[src][name]
-            say(
-                f"{src:>12} {name:>14}: acc {m['accuracy']} F1 {m['macro_f1']} false {m['false_movement']} "
-                f"detected {m['movement_detected']} start {m['start_median_s']}/{m['start_p95_s']} "
-                f"stop {m['stop_median_s']}/{m['stop_p95_s']}"
-            )
+            for test_src in sorted({x.source for x in scored}):
+                key = src if test_src == src else f"{test_src} (fold without {src})"
+                part = [x for x in scored if x.source == test_src]
+                results.setdefault(key, {})[name] = summary(evaluate(part))
+                m = results[key][name]
+                say(
+                    f"{key:>12} {name:>14}: acc {m['accuracy']} F1 {m['macro_f1']} false {m['false_movement']} "
+                    f"detected {m['movement_detected']} start {m['start_median_s']}/{m['start_p95_s']} "
+                    f"stop {m['stop_median_s']}/{m['stop_p95_s']} beyond {m['stop_beyond_rhythm_median_s']}/"
+                    f"{m['stop_beyond_rhythm_p95_s']}"
+                )
     table = markdown(results)
     print(table)
     if args.markdown is not None:

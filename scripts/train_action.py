@@ -72,6 +72,9 @@ def main() -> int:
     ap.add_argument("--out", type=Path, default=ROOT / "pipeline" / "recognition" / "action.onnx")
     ap.add_argument("--features", choices=[FEATURES_V1, FEATURES_V2], default=FEATURES_V2)
     ap.add_argument("--report", type=Path, default=None, help="write the training metrics as JSON here")
+    ap.add_argument(
+        "--tune-gate", action="store_true", help="choose the gate's settings on the validation clips (evaluation.tune_gate)"
+    )
     add_arguments(ap)
     args = ap.parse_args()
     logging.basicConfig(level=logging.INFO, format="%(message)s")
@@ -99,6 +102,17 @@ def main() -> int:
     }
     export_onnx(model, args.out, cfg.window, train.fps, extra=meta, features=args.features)
     size = args.out.stat().st_size
+    gate_choice: dict[str, object] | None = None
+    if args.tune_gate:
+        from pipeline.recognition.evaluation import network_trace, tune_gate
+        from pipeline.recognition.recognizer import RecognizerConfig, open_session
+
+        session = open_session(args.out)
+        tune_items = [it for it in val_items if it.original]
+        traces = [network_trace(session, it.seq.joints_m, it.seq.fps) for it in tune_items]
+        gate, table = tune_gate(traces, [it.seq for it in tune_items], RecognizerConfig())
+        gate_choice = {"chosen": asdict(gate), "clips": len(tune_items), "grid": table}
+        say(f"gate chosen on {len(tune_items)} validation clips of the training sources: {gate}")
     total = time.monotonic() - t0
     say(f"wrote {args.out} ({size / 1024:.0f} KiB, {metrics['parameters']} parameters) in {total:.0f} s")
     if args.report is not None:
@@ -112,6 +126,7 @@ def main() -> int:
             "prepare_s": t_data,
             "total_s": total,
             "onnx_bytes": size,
+            "gate": gate_choice,
         }
         args.report.write_text(json.dumps(report, indent=2, default=str) + "\n")
     return 0

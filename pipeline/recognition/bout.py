@@ -11,7 +11,8 @@ What a user expects (MODEL_CARD.md, "Behaviour"):
   whatever the knees, hips and upper body do, is ``still``.
 - **One command per bout.** Once started, the bout holds through the pauses between its steps:
   after each touch-down the next lift-off is due when the person's own rhythm says (the newest
-  lift-off + ``pause_gain`` x the longest of their last three lift-off intervals), plus
+  lift-off + ``pause_gain`` x the longest, or with ``rhythm="median"`` the median, of their last
+  three lift-off intervals), plus
   ``pause_margin_s``, within [``min_allowance_s``, ``max_allowance_s``] after the touch-down;
   before two lift-offs are known, ``first_allowance_s``; an interval that broke a bout, up to
   ``max_interval_s``, still counts as the person's rhythm when the stepping resumes. If the next
@@ -20,7 +21,8 @@ What a user expects (MODEL_CARD.md, "Behaviour"):
   moving never reached ``stop_prob`` (a pivot step while turning on the spot, a kick) ends it,
   and so does a pause (``min_pause_s`` after a touch-down) in which the network is sure, with
   ``pause_still_prob``, that the person has stopped (it has learnt what a last step looks like);
-  a crouch or a jump ends it at once, and so does a pivot (the body turning more than
+  a crouch, a jump or a body that is not upright (bent far over, lying, crawling: an unfamiliar
+  posture) ends it at once, and so does a pivot (the body turning more than
   ``max_turn_deg`` during one swing: a turn on the spot).
 - **Direction** (forward / left / right): the network's smoothed probabilities among the moving
   classes, weighted by the evidence of the newest step (``evidence_weight``): a foot opening
@@ -44,8 +46,9 @@ from pipeline.recognition.steps import StepFrame
 from pipeline.skeleton import ACTIONS
 
 _STILL, _FORWARD, _LEFT, _RIGHT = (ACTIONS.index(a) for a in ("still", "forward", "left", "right"))
+RHYTHMS = ("max", "median")
 REASONS = ("planted", "lifting", "stepping", "pause", "rhythm-broke", "jump", "crouched", "pivot",
-           "network-still", "feet-unknown")  # fmt: skip
+           "network-still", "feet-unknown", "not-upright")  # fmt: skip
 
 
 @dataclass(frozen=True, slots=True)
@@ -67,8 +70,11 @@ class GateConfig:
     min_pause_s: float = 0.1
     max_interval_s: float = 2.2
     min_swing_s: float = 0.1
+    rhythm: str = "max"  # the person's step interval: "max" or "median" of their last three
 
     def __post_init__(self) -> None:
+        if self.rhythm not in RHYTHMS:
+            raise ValueError(f"rhythm must be one of {', '.join(RHYTHMS)}, got {self.rhythm!r}")
         for name in ("start_prob", "stop_prob", "pause_still_prob"):
             v = getattr(self, name)
             if not 0 <= v <= 1:
@@ -184,7 +190,8 @@ class BoutGate:
         c = self.config
         if not self._intervals or not math.isfinite(self._bout_land_t):
             return c.first_allowance_s
-        due = self._last_lift_t + c.pause_gain * max(self._intervals) - self._bout_land_t
+        interval = max(self._intervals) if c.rhythm == "max" else float(np.median(self._intervals))
+        due = self._last_lift_t + c.pause_gain * interval - self._bout_land_t
         return float(min(max(due + c.pause_margin_s, c.min_allowance_s), c.max_allowance_s))
 
     def _end(self, reason: str, evidence: str | None) -> GateVerdict:
@@ -236,6 +243,8 @@ class BoutGate:
 
         if frame.crouched:
             return self._end("crouched", ev_name)
+        if not frame.upright:
+            return self._end("not-upright", ev_name)
         if jumping:
             return self._end("jump", ev_name)
         if pivot:

@@ -98,23 +98,51 @@ def simulated(
     seed: int,
     start_radius_m: float = 0.7,
     progress: Callable[[str], None] | None = None,
+    kinds: tuple[str, ...] = ("mixed",),
+    source: str = "sim",
 ) -> list[LabelledSequence]:
-    """Random routines of our own simulator (random bodies, styles and scripts) as labelled sequences."""
-    from pipeline.sim.body import sample_body
-    from pipeline.sim.motion import simulate_user
-    from pipeline.sim.script import random_script
+    """Routines of our own simulator (``pipeline.sim.routines.simulate_routine``: a random person
+    doing a random routine of a kind), the kinds taken in turn; labelled sequences named
+    ``{source}-{seed}-{i}``. Routine i's person comes from (seed, i)."""
+    from pipeline.sim.routines import simulate_routine
 
     rng = np.random.default_rng(seed)
     out = []
     for i in range(count):
-        body = sample_body(rng)
         r = start_radius_m * np.sqrt(rng.random())
         a = rng.uniform(0, 2 * np.pi)
-        script = random_script(rng, duration_s, start_xy_m=(r * np.cos(a), r * np.sin(a)))
-        motion = simulate_user(script, body, fps, seed=int(rng.integers(2**31)))
-        out.append(from_skeleton(motion.to_sequence(), "sim", f"sim-{seed}-{i:04d}"))
+        kind = kinds[i % len(kinds)]
+        routine_seed = int(np.random.SeedSequence([int(seed), i, 0x51]).generate_state(1)[0])
+        motion = simulate_routine(
+            routine_seed, duration_s, kind, fps=fps, start_xy_m=(r * np.cos(a), r * np.sin(a))
+        )
+        seq = from_skeleton(motion.to_sequence(), source, f"{source}-{seed}-{i:04d}-{kind}")
+        out.append(LabelledSequence(seq.joints_m, seq.fps, seq.labels, seq.tags, seq.contacts, source, seq.name))
         if progress is not None and ((i + 1) % 50 == 0 or i + 1 == count):
-            progress(f"simulated {i + 1}/{count} routines")
+            progress(f"{source}: simulated {i + 1}/{count} routines")
+    return out
+
+
+def gait_model(
+    count: int,
+    duration_s: float,
+    fps: float,
+    seed: int,
+    progress: Callable[[str], None] | None = None,
+    source: str = "gait",
+) -> list[LabelledSequence]:
+    """Routines of the second motion model (``pipeline.sim.gait``, joint-angle curves), clean;
+    routine i's seed comes from (seed, i)."""
+    from pipeline.sim.gait import GaitConfig, generate_routine
+
+    config = GaitConfig(fps=fps, duration_s=duration_s)
+    out = []
+    for i in range(count):
+        routine_seed = int(np.random.SeedSequence([int(seed), i, 0x6A]).generate_state(1)[0])
+        seq = from_skeleton(generate_routine(config, routine_seed), source, f"{source}-{seed}-{i:04d}")
+        out.append(LabelledSequence(seq.joints_m, seq.fps, seq.labels, seq.tags, seq.contacts, source, seq.name))
+        if progress is not None and ((i + 1) % 10 == 0 or i + 1 == count):
+            progress(f"{source}: generated {i + 1}/{count} routines")
     return out
 
 

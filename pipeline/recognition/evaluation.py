@@ -124,12 +124,12 @@ def replay(trace: NetworkTrace, config: RecognizerConfig) -> NDArray[np.int64]:
 
 # ---------------------------------------------------------------- choosing the gate's settings
 
-GATE_GRID: dict[str, tuple[float, ...]] = {
+GATE_GRID: dict[str, tuple[float | str, ...]] = {
+    "rhythm": ("max", "median"),
     "start_prob": (0.4, 0.6),
     "pause_still_prob": (0.75, 0.9, 1.0),
     "pause_gain": (1.0, 1.15),
     "pause_margin_s": (0.1, 0.2),
-    "first_allowance_s": (0.35, 0.5),
 }
 
 
@@ -152,14 +152,14 @@ def tune_gate(
     traces: Sequence[NetworkTrace],
     sequences: Sequence[LabelledSequence],
     base: RecognizerConfig,
-    grid: dict[str, tuple[float, ...]] | None = None,
-) -> tuple[GateConfig, list[tuple[dict[str, float], float]]]:
+    grid: dict[str, tuple[float | str, ...]] | None = None,
+) -> tuple[GateConfig, list[tuple[dict[str, float | str], float]]]:
     """The grid point of gate settings with the best :func:`objective` on (tuning) sequences."""
     import itertools
 
     grid = grid or GATE_GRID
     keys = list(grid)
-    table: list[tuple[dict[str, float], float]] = []
+    table: list[tuple[dict[str, float | str], float]] = []
     best: tuple[float, GateConfig] | None = None
     for values in itertools.product(*(grid[k] for k in keys)):
         point = dict(zip(keys, values, strict=True))

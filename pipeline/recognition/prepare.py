@@ -31,29 +31,65 @@ from pipeline.recognition.steps import StepConfig, StepTracker
 from pipeline.recognition.train import Dataset, NoiseConfig, captured
 
 FPS = 30.0
+_NOT_IN_EVIDENCE = ("max_tilt_deg",)  # step settings the evidence channels do not depend on
 WARP_SPEEDS = (0.85, 1.0, 1.15)
+
+
+GENERATORS = ("sim", "gait")
+DEFAULT_SIM_KINDS = ("stepping",)
 
 
 @dataclass(frozen=True, slots=True)
 class SourceSpec:
-    """``sim`` (folder None) or a named folder of labelled NPZ files."""
+    """A source of labelled sequences: a generator or a named folder of labelled NPZ files.
+
+    Forms of :meth:`parse`: ``sim`` (our simulator's stepping routines), ``NAME=sim:KIND+KIND``
+    (routines of those kinds, e.g. ``still=sim:still``), ``gait`` / ``NAME=gait`` (the second
+    motion model), any of them with ``@COUNT`` (routines; default the command's ``--sequences``),
+    or ``NAME=DIR`` (every labelled NPZ under DIR).
+    """
 
     name: str
     folder: Path | None = None
     warp: bool = False  # also played at 0.85x and 1.15x (recordings with few cadences)
+    generator: str = ""  # "sim" or "gait" when folder is None
+    kinds: tuple[str, ...] = ()
+    count: int | None = None
 
     @classmethod
     def parse(cls, text: str, warp: bool = False) -> SourceSpec:
-        if text == "sim":
-            return cls("sim")
-        name, sep, folder = text.partition("=")
-        if not sep or not name or not folder:
-            raise InputError(f"a source is 'sim' or NAME=DIR, got {text!r}")
-        return cls(name, Path(folder), warp)
+        body, at, count_text = text.partition("@")
+        count: int | None = None
+        if at:
+            try:
+                count = int(count_text)
+            except ValueError:
+                count = -1
+            if count < 1:
+                raise InputError(f"a source's @COUNT must be a positive integer, got {text!r}")
+        if body in GENERATORS:
+            kinds = DEFAULT_SIM_KINDS if body == "sim" else ()
+            return cls(body, None, warp, body, kinds, count)
+        name, sep, rest = body.partition("=")
+        if not sep or not name or not rest:
+            raise InputError(f"a source is 'sim', 'gait', NAME=sim:KINDS, NAME=gait or NAME=DIR, got {text!r}")
+        if rest == "gait":
+            return cls(name, None, warp, "gait", (), count)
+        if rest.startswith("sim:") or rest == "sim":
+            from pipeline.sim.ranges import ROUTINE_KINDS
+
+            kinds = tuple(k for k in rest[4:].split("+") if k) or DEFAULT_SIM_KINDS
+            bad = [k for k in kinds if k not in ROUTINE_KINDS]
+            if bad:
+                raise InputError(f"unknown routine kinds {bad} in {text!r}; known: {', '.join(ROUTINE_KINDS)}")
+            return cls(name, None, warp, "sim", kinds, count)
+        if at:
+            raise InputError(f"@COUNT is for generated sources, not a folder: {text!r}")
+        return cls(name, Path(rest), warp)
 
     def fingerprint(self) -> str:
         if self.folder is None:
-            return ""
+            return f"{self.generator}:{'+'.join(self.kinds)}"
         h = hashlib.sha1()
         for p in sorted(self.folder.rglob("*.npz")):
             st = p.stat()
@@ -81,9 +117,15 @@ def clean_sequences(
     """(group, sequence at 30 fps, original?) for every source and its augmentations."""
     out: list[tuple[str, LabelledSequence, bool]] = []
     for src in sources:
-        if src.folder is None:
-            base = corpus.simulated(sim_count, sim_duration_s, FPS, seed, progress=progress)
-            speeds: tuple[float, ...] = (1.0,)
+        n_gen = src.count or sim_count
+        speeds: tuple[float, ...] = (1.0,)
+        if src.folder is None and src.generator == "gait":
+            base = corpus.gait_model(n_gen, sim_duration_s, FPS, seed, progress=progress, source=src.name)
+        elif src.folder is None:
+            kinds = src.kinds or DEFAULT_SIM_KINDS
+            base = corpus.simulated(
+                n_gen, sim_duration_s, FPS, seed, progress=progress, kinds=kinds, source=src.name
+            )
         else:
             base = corpus.from_folder(src.folder, source=src.name)
             speeds = WARP_SPEEDS if src.warp else (1.0,)
@@ -134,11 +176,11 @@ def prepare_source(
     noise = noise or NoiseConfig()
     key = {
         "source": (src.name, str(src.folder), src.fingerprint(), src.warp),
-        "sim": (sim_count, sim_duration_s) if src.folder is None else None,
+        "sim": (src.count or sim_count, sim_duration_s) if src.folder is None else None,
         "seed": seed,
         "noise": asdict(noise),
-        "steps": asdict(StepConfig()),
-        "v": 4,
+        "steps": {k: v for k, v in asdict(StepConfig()).items() if k not in _NOT_IN_EVIDENCE},
+        "v": 5,
     }
     digest = hashlib.sha1(json.dumps(key, sort_keys=True, default=str).encode()).hexdigest()[:12]
     path = Path(cache_dir) / f"action-source-{src.name}-{digest}.pkl"

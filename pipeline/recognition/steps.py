@@ -22,6 +22,8 @@ What a person can check on the dashboard's step strip, and what the recogniser's
   ``forward`` or ``backward`` (a step along the facing), ``open`` / ``close`` (sideways away
   from / towards the other foot; an opening step's side is the side-step direction), ``small``.
 - **Crouch**: the pelvis is lower than ``crouch_ratio`` of its standing height above the feet.
+- **Upright**: the trunk (mid-hips to mid-shoulders) is within ``max_tilt_deg`` of vertical; a
+  body bent far over, lying or crawling is not upright (an unfamiliar posture: no step counts).
 
 Noise: the ankle goes through a median of three frames (single-frame outliers vanish) and an
 EMA; jumps larger than ``outlier_legs`` are ignored; each foot's jitter while planted is measured
@@ -93,6 +95,7 @@ class StepConfig:
     jump_sync_s: float = 0.15
     min_swing_s: float = 0.1
     crouch_ratio: float = 0.82
+    max_tilt_deg: float = 50.0
     outlier_legs: float = 0.3
     lost_s: float = 0.3
     floor_tau_s: float = 4.0
@@ -108,7 +111,7 @@ class StepConfig:
         for name in (
             "anchor_tau_s", "lift_up", "lift_side", "noise_k", "max_rise_s", "land_window_s", "land_box",
             "land_height", "hold_s", "max_swing_s", "jump_sync_s", "outlier_legs", "lost_s", "floor_tau_s",
-            "standing_tau_s", "rate_hz",
+            "standing_tau_s", "rate_hz", "max_tilt_deg",
         ):  # fmt: skip
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
@@ -171,6 +174,8 @@ class StepFrame:
     stepping: int
     last_lift_t: float
     last_land_t: float
+    upright: bool = True
+    tilt_deg: float = 0.0
 
     @property
     def both_planted(self) -> bool:
@@ -206,6 +211,8 @@ class StepFrame:
             "leg_m": r(self.leg_m),
             "crouched": bool(self.crouched),
             "pelvis_ratio": r(self.pelvis_ratio),
+            "upright": bool(self.upright),
+            "tilt_deg": r(self.tilt_deg, 1),
             "stepping": FEET[int(self.stepping)] if self.stepping >= 0 else None,
         }
 
@@ -309,6 +316,7 @@ class StepTracker:
         self._t: float | None = None
         self._standing: float | None = None
         self._pelvis_ratio = 1.0
+        self._tilt = 0.0
         self._stepping = -1
         self._last_lift_t = math.nan
         self._last_land_t = math.nan
@@ -548,6 +556,19 @@ class StepTracker:
                 self._standing += self._w(c.standing_tau_s, dt) * (h - self._standing)
         self._pelvis_ratio = h / self._standing if self._standing > 0.2 * self._leg else 1.0
 
+    def _update_tilt(self, j: NDArray[np.float64]) -> None:
+        """Trunk tilt from vertical (degrees), smoothed; held while hips or shoulders are unknown."""
+        hips = j[list(_HIP)]
+        shoulders = j[list(_SHOULDER)]
+        if not (np.isfinite(hips).all() and np.isfinite(shoulders).all()):
+            return
+        d = shoulders.mean(axis=0) - hips.mean(axis=0)
+        norm = float(np.linalg.norm(d))
+        if norm < 1e-6:
+            return
+        tilt = math.degrees(math.acos(max(-1.0, min(1.0, float(d[2]) / norm))))
+        self._tilt += self.config.yaw_alpha * (tilt - self._tilt)
+
     # -- the frame
 
     def update(self, joints_m: NDArray[np.floating], timestamp_s: float) -> StepFrame:
@@ -573,6 +594,7 @@ class StepTracker:
             landed = (not was_planted) and f.planted
             events.append((lifted, landed, f.lift_t if lifted else (f.land_t if landed else math.nan)))
         self._update_pelvis(j, dt)
+        self._update_tilt(j)
         feet = []
         for k in (0, 1):
             f = self._feet[k]
@@ -611,6 +633,8 @@ class StepTracker:
             stepping=self._stepping,
             last_lift_t=self._last_lift_t,
             last_land_t=self._last_land_t,
+            upright=self._tilt <= c.max_tilt_deg,
+            tilt_deg=self._tilt,
         )
 
 

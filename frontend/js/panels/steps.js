@@ -20,6 +20,7 @@ const REASON_TEXT = {
   pivot: "the body turned during the step: turning on the spot",
   "network-still": "the network does not call this step movement",
   "feet-unknown": "a foot is not seen",
+  "not-upright": "the body is not upright (bent over, lying): no movement",
 };
 
 function cm(v) {

@@ -16,11 +16,9 @@ from app.cli import main
 from app.core.config import set_settings
 from pipeline.recognition.dataset import encode_labels, load_labelled
 from pipeline.sim.body import body_from_height
-from pipeline.sim.motion_v1 import simulate_user_v1 as simulate_user
+from pipeline.sim.motion import simulate_user
 from pipeline.sim.script import MotionScript, Segment
 
-# The committed model was trained on the first simulator: it is checked on that motion
-# (pipeline/sim/motion_v1.py) until it is retrained on the widened one (issue 14).
 
 
 @pytest.fixture(autouse=True)

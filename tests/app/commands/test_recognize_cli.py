@@ -13,12 +13,10 @@ import pytest
 from app.cli import main
 from app.core.config import set_settings
 from pipeline.sim.body import body_from_height
-from pipeline.sim.motion_v1 import simulate_user_v1 as simulate_user
+from pipeline.sim.motion import simulate_user
 from pipeline.sim.script import MotionScript, Segment
 from pipeline.skeleton import ACTIONS, SkeletonSequence, save_npz
 
-# The committed model was trained on the first simulator: it is checked on that motion
-# (pipeline/sim/motion_v1.py) until it is retrained on the widened one (issue 14).
 
 
 @pytest.fixture(autouse=True)

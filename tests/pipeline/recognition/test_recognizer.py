@@ -21,12 +21,10 @@ from pipeline.recognition.recognizer import (
 )
 from pipeline.recognition.train import NoiseConfig, capture
 from pipeline.sim.body import body_from_height
-from pipeline.sim.motion_v1 import simulate_user_v1 as simulate_user
+from pipeline.sim.motion import simulate_user
 from pipeline.sim.script import MotionScript, Segment
 from pipeline.skeleton import ACTIONS
 
-# The committed model was trained on the first simulator: it is checked on that motion
-# (pipeline/sim/motion_v1.py) until it is retrained on the widened one (issue 14).
 
 FPS = 30.0
 
