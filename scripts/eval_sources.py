@@ -53,13 +53,20 @@ def main() -> int:
         print(msg, flush=True)
 
     specs = [SourceSpec.parse(s) for s in (args.source or DEFAULT_SOURCES)]
-    items = [it for it in prepare_corpus(specs, args.cache, 32, args.duration, args.seed, progress=say) if it.original]
+    items = [
+        it
+        for it in prepare_corpus(specs, args.cache, 32, args.duration, args.seed, progress=say)
+        if it.original
+    ]
     frames = [step_frames(it.seq.joints_m, it.seq.fps) for it in items]
     out: dict[str, dict[str, dict[str, object]]] = {}
     gates = (True, False) if args.both else (True,)
     for model in args.model:
         session = open_session(model)
-        traces = [network_trace(session, it.seq.joints_m, it.seq.fps, frames=f) for it, f in zip(items, frames, strict=True)]
+        traces = [
+            network_trace(session, it.seq.joints_m, it.seq.fps, frames=f)
+            for it, f in zip(items, frames, strict=True)
+        ]
         for gate in gates:
             config = replace(RecognizerConfig(model_path=model), gate=gate)
             key = f"{model.name}{'' if gate else ' (no gate)'}"
@@ -77,7 +84,7 @@ def main() -> int:
                 m = summary(ev)
                 out[key][spec.name] = m
                 say(
-                    f"{key:>28} {spec.name:>8}: acc {m['accuracy']} F1 {m['macro_f1']} false {m['false_movement']} "
+                    f"{key:>28} {spec.name:>8}: acc {m['accuracy']} F1 {m['macro_f1']} false {m['false_movement']} "  # noqa: E501
                     f"detected {m['movement_detected']} start {m['start_median_s']}/{m['start_p95_s']} "
                     f"stop {m['stop_median_s']}/{m['stop_p95_s']} beyond {m['stop_beyond_rhythm_median_s']}/"
                     f"{m['stop_beyond_rhythm_p95_s']} flicker {m['flicker']}"

@@ -95,7 +95,7 @@ def markdown(results: dict[str, dict[str, dict[str, object]]]) -> str:
                 f"| {_cell(m['false_movement'], pct=True)} | {_cell(m['movement_detected'], pct=True)} "
                 f"| {_cell(m['start_median_s'], ms=True)} / {_cell(m['start_p95_s'], ms=True)} "
                 f"| {_cell(m['stop_median_s'], ms=True)} / {_cell(m['stop_p95_s'], ms=True)} "
-                f"| {_cell(m['stop_beyond_rhythm_median_s'], ms=True)} / {_cell(m['stop_beyond_rhythm_p95_s'], ms=True)} |"
+                f"| {_cell(m['stop_beyond_rhythm_median_s'], ms=True)} / {_cell(m['stop_beyond_rhythm_p95_s'], ms=True)} |"  # noqa: E501
             )
     return "\n".join(rows) + "\n"
 
@@ -132,7 +132,9 @@ def main() -> int:
     eval_specs = [SourceSpec.parse(s) for s in args.eval_source]
     eval_only = [
         it
-        for it in prepare_corpus(eval_specs, args.cache, args.sequences, args.duration, args.seed, progress=say)
+        for it in prepare_corpus(
+            eval_specs, args.cache, args.sequences, args.duration, args.seed, progress=say
+        )
         if it.original
     ]
     names = sorted({it.seq.source for it in items})
@@ -196,7 +198,7 @@ def main() -> int:
                 results.setdefault(key, {})[name] = summary(evaluate(part))
                 m = results[key][name]
                 say(
-                    f"{key:>12} {name:>14}: acc {m['accuracy']} F1 {m['macro_f1']} false {m['false_movement']} "
+                    f"{key:>12} {name:>14}: acc {m['accuracy']} F1 {m['macro_f1']} false {m['false_movement']} "  # noqa: E501
                     f"detected {m['movement_detected']} start {m['start_median_s']}/{m['start_p95_s']} "
                     f"stop {m['stop_median_s']}/{m['stop_p95_s']} beyond {m['stop_beyond_rhythm_median_s']}/"
                     f"{m['stop_beyond_rhythm_p95_s']}"

@@ -73,7 +73,9 @@ def main() -> int:
     ap.add_argument("--features", choices=[FEATURES_V1, FEATURES_V2], default=FEATURES_V2)
     ap.add_argument("--report", type=Path, default=None, help="write the training metrics as JSON here")
     ap.add_argument(
-        "--tune-gate", action="store_true", help="choose the gate's settings on the validation clips (evaluation.tune_gate)"
+        "--tune-gate",
+        action="store_true",
+        help="choose the gate's settings on the validation clips (evaluation.tune_gate)",
     )
     add_arguments(ap)
     args = ap.parse_args()

@@ -55,18 +55,18 @@ REASONS = ("planted", "lifting", "stepping", "pause", "rhythm-broke", "jump", "c
 class GateConfig:
     """Settings of the bout gate (see the module docstring)."""
 
-    start_prob: float = 0.4
+    start_prob: float = 0.6
     stop_prob: float = 0.15
     confirm_s: float = 0.1
-    first_allowance_s: float = 0.5
-    pause_gain: float = 1.1
-    pause_margin_s: float = 0.15
+    first_allowance_s: float = 0.8
+    pause_gain: float = 1.0
+    pause_margin_s: float = 0.2
     min_allowance_s: float = 0.25
     max_allowance_s: float = 1.2
     evidence_direction: bool = True
     evidence_weight: float = 3.0
     max_turn_deg: float = 30.0
-    pause_still_prob: float = 0.85
+    pause_still_prob: float = 0.75
     min_pause_s: float = 0.1
     max_interval_s: float = 2.2
     min_swing_s: float = 0.1

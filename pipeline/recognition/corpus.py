@@ -117,7 +117,9 @@ def simulated(
             routine_seed, duration_s, kind, fps=fps, start_xy_m=(r * np.cos(a), r * np.sin(a))
         )
         seq = from_skeleton(motion.to_sequence(), source, f"{source}-{seed}-{i:04d}-{kind}")
-        out.append(LabelledSequence(seq.joints_m, seq.fps, seq.labels, seq.tags, seq.contacts, source, seq.name))
+        out.append(
+            LabelledSequence(seq.joints_m, seq.fps, seq.labels, seq.tags, seq.contacts, source, seq.name)
+        )
         if progress is not None and ((i + 1) % 50 == 0 or i + 1 == count):
             progress(f"{source}: simulated {i + 1}/{count} routines")
     return out
@@ -140,7 +142,9 @@ def gait_model(
     for i in range(count):
         routine_seed = int(np.random.SeedSequence([int(seed), i, 0x6A]).generate_state(1)[0])
         seq = from_skeleton(generate_routine(config, routine_seed), source, f"{source}-{seed}-{i:04d}")
-        out.append(LabelledSequence(seq.joints_m, seq.fps, seq.labels, seq.tags, seq.contacts, source, seq.name))
+        out.append(
+            LabelledSequence(seq.joints_m, seq.fps, seq.labels, seq.tags, seq.contacts, source, seq.name)
+        )
         if progress is not None and ((i + 1) % 10 == 0 or i + 1 == count):
             progress(f"{source}: generated {i + 1}/{count} routines")
     return out

@@ -72,7 +72,9 @@ class SourceSpec:
             return cls(body, None, warp, body, kinds, count)
         name, sep, rest = body.partition("=")
         if not sep or not name or not rest:
-            raise InputError(f"a source is 'sim', 'gait', NAME=sim:KINDS, NAME=gait or NAME=DIR, got {text!r}")
+            raise InputError(
+                f"a source is 'sim', 'gait', NAME=sim:KINDS, NAME=gait or NAME=DIR, got {text!r}"
+            )
         if rest == "gait":
             return cls(name, None, warp, "gait", (), count)
         if rest.startswith("sim:") or rest == "sim":
@@ -81,7 +83,9 @@ class SourceSpec:
             kinds = tuple(k for k in rest[4:].split("+") if k) or DEFAULT_SIM_KINDS
             bad = [k for k in kinds if k not in ROUTINE_KINDS]
             if bad:
-                raise InputError(f"unknown routine kinds {bad} in {text!r}; known: {', '.join(ROUTINE_KINDS)}")
+                raise InputError(
+                    f"unknown routine kinds {bad} in {text!r}; known: {', '.join(ROUTINE_KINDS)}"
+                )
             return cls(name, None, warp, "sim", kinds, count)
         if at:
             raise InputError(f"@COUNT is for generated sources, not a folder: {text!r}")

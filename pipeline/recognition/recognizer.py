@@ -83,7 +83,7 @@ class RecognizerConfig:
     speed_alpha: float = 0.15
     speed: SpeedConfig = field(default_factory=SpeedConfig)
     threads: int = 1
-    gate: bool = False
+    gate: bool = True
     gate_config: GateConfig = field(default_factory=GateConfig)
     steps: StepConfig = field(default_factory=StepConfig)
 

@@ -11,8 +11,6 @@
   :mod:`pipeline.sim.stepping` (stepping bouts, turns), :mod:`pipeline.sim.behaviours` (the
   still library), :mod:`pipeline.sim.idle` (standing, gestures) on :mod:`pipeline.sim.feet`
   (foot moves) and :mod:`pipeline.sim.plan` (channels).
-- :mod:`pipeline.sim.motion_v1`: the first motion model, kept for the committed action model's
-  tests until it is retrained.
 - :mod:`pipeline.sim.scene`: the default virtual cameras (one above each wall).
 - :mod:`pipeline.sim.views`: virtual cameras producing the pose detector's ``ViewDetections``
   with realistic faults.
