@@ -10,8 +10,6 @@ their differences over the measures both have.
 
 from __future__ import annotations
 
-import warnings
-
 import numpy as np
 from numpy.typing import NDArray
 
@@ -43,32 +41,39 @@ _PAIRS = {
 MIN_COMMON = 4  # measures two signatures must share to be compared
 
 
+_A = np.array([J[a] for name in MEASURES[:7] for a, _ in _PAIRS[name]])
+_B = np.array([J[b] for name in MEASURES[:7] for _, b in _PAIRS[name]])
+_FEATURE = np.array([k for k, name in enumerate(MEASURES[:7]) for _ in _PAIRS[name]])
+_SHOULDERS = [J["l_shoulder"], J["r_shoulder"]]
+_EARS = [J["l_ear"], J["r_ear"]]
+
+
 def body_measures(joints_m: F64, valid: B | None = None) -> F64:
     """(17, 3) joints -> (len(MEASURES),) metres, NaN where unknown."""
-    j = np.asarray(joints_m, dtype=np.float64).copy()
+    j = np.asarray(joints_m, dtype=np.float64)
     if valid is not None:
-        j[~np.asarray(valid, dtype=bool)] = np.nan
+        j = np.where(np.asarray(valid, dtype=bool)[:, None], j, np.nan)
+    d = np.linalg.norm(j[_A] - j[_B], axis=1)  # every (left and right) bone
+    ok = np.isfinite(d)
+    total = np.bincount(_FEATURE, np.where(ok, d, 0.0), minlength=7)
+    count = np.bincount(_FEATURE, ok.astype(np.float64), minlength=7)
     out = np.full(len(MEASURES), np.nan)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN means
-        for k, name in enumerate(MEASURES[:7]):
-            d = [np.linalg.norm(j[J[a]] - j[J[b]]) for a, b in _PAIRS[name]]
-            out[k] = np.nanmean(d)
-        neck = np.linalg.norm(
-            0.5 * (j[J["l_ear"]] + j[J["r_ear"]]) - 0.5 * (j[J["l_shoulder"]] + j[J["r_shoulder"]])
-        )
-        out[7] = neck
+    out[:7] = np.where(count > 0, total / np.maximum(count, 1.0), np.nan)  # left and right averaged
+    out[7] = np.linalg.norm(j[_EARS].mean(axis=0) - j[_SHOULDERS].mean(axis=0))
     out[8] = out[6] + out[5] + out[2] + out[7]
     return out
 
 
 def signature(samples: F64) -> F64:
-    """(N, len(MEASURES)) per-frame measures -> their median (NaN where none)."""
+    """(N, len(MEASURES)) per-frame measures -> their median per measure (NaN where none)."""
     s = np.asarray(samples, dtype=np.float64).reshape(-1, len(MEASURES))
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        med: F64 = np.nanmedian(s, axis=0) if len(s) else np.full(len(MEASURES), np.nan)
-    return med
+    out = np.full(len(MEASURES), np.nan)
+    for k in range(len(MEASURES)):
+        col = s[:, k]
+        col = col[np.isfinite(col)]
+        if col.size:
+            out[k] = float(np.median(col))
+    return out
 
 
 def measure_distance(a: F64, b: F64) -> float:

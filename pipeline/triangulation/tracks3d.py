@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import linear_sum_assignment
 
-from pipeline.identity.body import measure_distance, signature
+from pipeline.identity.body import MEASURES, measure_distance, signature
 from pipeline.identity.config import IdentityConfig
 from pipeline.identity.gallery import Gallery, LostUser
 from pipeline.skeleton import BONES, NUM_JOINTS, J
@@ -50,6 +50,7 @@ _BONE_INDEX = {bone: i for i, bone in enumerate(BONES)}
 _MIN_BONE_SAMPLES = 5
 _ONE_EURO_RESET_S = 0.5
 _MAX_MEASURES = 300  # per-frame body measurements a track keeps (the newest)
+_BODY_EVERY = 10
 
 
 def bone_lengths(joints_m: F64) -> F64:
@@ -135,9 +136,23 @@ class UserTrack:
     measures: list[F64] = field(default_factory=list)  # per-frame body measurements (identity)
     reid_open: bool = False  # a new track that may still turn out to be a lost user
 
+    n_measured: int = 0  # measurements ever added (the list keeps the newest _MAX_MEASURES)
+    _body: F64 | None = None  # the signature, cached; recomputed every _BODY_EVERY new measurements
+    _body_at: int = -1
+
+    def add_measures(self, measures_m: F64) -> None:
+        self.measures.append(np.asarray(measures_m, dtype=np.float64))
+        del self.measures[:-_MAX_MEASURES]
+        self.n_measured += 1
+
     def body(self) -> F64:
-        """The body signature: the median of the measurements so far."""
-        return signature(np.array(self.measures)) if self.measures else signature(np.zeros((0, 9)))
+        """The body signature: the median of the (newest) measurements."""
+        n = self.n_measured
+        if self._body is None or n - self._body_at >= _BODY_EVERY or n < 2 * _BODY_EVERY:
+            empty = np.full(len(MEASURES), np.nan)
+            self._body = signature(np.array(self.measures)) if self.measures else empty
+            self._body_at = n
+        return self._body
 
     def predict(self, timestamp_s: float) -> F64:
         dt = min(max(timestamp_s - self.last_seen_s, 0.0), 0.5)
@@ -235,9 +250,7 @@ class Tracks3D:
                 tr.position_m = cand.position_m.copy()
                 tr.last_seen_s = timestamp_s
             if cand.measures_m is not None and self.identity.enabled:
-                ms = self.users[out[i]].measures
-                ms.append(np.asarray(cand.measures_m, dtype=np.float64))
-                del ms[:-_MAX_MEASURES]
+                self.users[out[i]].add_measures(cand.measures_m)
             for key in cand.views:
                 self.memory[key] = (out[i], timestamp_s)
         if self.identity.enabled:
@@ -293,6 +306,8 @@ class Tracks3D:
         tr.user_id, tr.reid_open = old.user_id, False
         if prev is not None:
             tr.measures = (prev.measures + tr.measures)[-_MAX_MEASURES:]
+            tr.n_measured += prev.n_measured
+        tr._body = None
         if old.bone_prior_m is not None:
             tr.bone_prior_m = old.bone_prior_m
             tr.bone_samples.clear()
