@@ -156,9 +156,11 @@ async def viewer_socket(ws: WebSocket) -> None:
     try:
         done, _pending = await asyncio.wait(tasks, return_when=asyncio.FIRST_COMPLETED)
         for task in done:
-            exc = task.exception()
-            if exc is not None and not isinstance(exc, (WebSocketDisconnect, websockets.ConnectionClosed)):
-                log.debug("3D view proxy: %s", exc)
+            error = task.exception()
+            if error is not None and not isinstance(
+                error, (WebSocketDisconnect, websockets.ConnectionClosed)
+            ):
+                log.debug("3D view proxy: %s", error)
     finally:
         for task in tasks:
             task.cancel()
