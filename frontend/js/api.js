@@ -36,7 +36,14 @@ export async function api(method, path, body) {
     body: body === undefined ? undefined : JSON.stringify(body),
   });
   const text = await res.text();
-  const data = text ? JSON.parse(text) : null;
+  let data = null;
+  try {
+    data = text ? JSON.parse(text) : null;
+  } catch {
+    // not JSON (a proxy's HTML error page, a cut-off answer): an ApiError all the same
+    const message = res.statusText || `HTTP ${res.status}`;
+    throw new ApiError(res.ok ? 502 : res.status, res.ok ? `not JSON: ${text.slice(0, 80)}` : message, null);
+  }
   if (!res.ok) {
     throw new ApiError(res.status, data && data.detail !== undefined ? detailText(data.detail) : res.statusText, data);
   }
