@@ -325,15 +325,18 @@ def read_tuned(path: Path) -> tuple[dict[str, Any], str | None]:
         data = tomllib.loads(path.read_text())
     except (OSError, ValueError) as exc:
         return {}, f"{path} cannot be read ({exc}); run  cavewalk tune  again"
-    tune = data.get("tune") if isinstance(data.get("tune"), dict) else {}
-    recorded = tune.get("fingerprint") if isinstance(tune.get("fingerprint"), dict) else {}
+    tune = data.get("tune")
+    tune = tune if isinstance(tune, dict) else {}
+    recorded = tune.get("fingerprint")
+    recorded = recorded if isinstance(recorded, dict) else {}
     here = machine_fingerprint()
     differ = [k for k in FINGERPRINT_KEYS if recorded.get(k) != here.get(k)]
     if differ:
         return {}, (f"{path} was tuned on another machine or onnxruntime ("
                     + ", ".join(f"{k} {recorded.get(k)!r} there, {here.get(k)!r} here" for k in differ)
                     + "); run  cavewalk tune  here")
-    pose = data.get("pose") if isinstance(data.get("pose"), dict) else {}
+    pose = data.get("pose")
+    pose = pose if isinstance(pose, dict) else {}
     return {k: v for k, v in pose.items() if k in TUNED_KEYS}, None
 
 

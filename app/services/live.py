@@ -254,8 +254,9 @@ class PipelineService:
                 except ImportError as exc:
                     raise PipelineUnavailable(f"the pipeline cannot be built: {exc}") from exc
                 add = getattr(self._pipeline, "add_sink", None)
-                for sink in self._result_sinks if add is not None else ():
-                    add(sink)
+                if callable(add):
+                    for sink in self._result_sinks:
+                        add(sink)
             # (re)start: the pipeline validates first, so a bad request leaves the running one as it was;
             # it reports its own state changes as events
             self._pipeline.start(source, videos)

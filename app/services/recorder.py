@@ -10,6 +10,7 @@ prompt (the participant page and the workstations' ``prompt`` message).
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import logging
 import re
@@ -220,7 +221,7 @@ class RecorderService:
                 spans=spans,
                 duration_s=duration,
                 calibration=calibration,
-                on_done=lambda m, tid=take_id: self._finished(tid, m),
+                on_done=functools.partial(self._finished, take_id),
             )
             try:
                 recorder.start()

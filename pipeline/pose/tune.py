@@ -172,7 +172,7 @@ def _crop_jobs(pose: PoseConfig, boxes: Sequence[tuple[int, NDArray[np.float32]]
     """The crops ROI mode makes around ``boxes`` (image index, box) with the sizes of ``pose``."""
     jobs = []
     for i, box in boxes:
-        region = with_margin(box, pose.roi_margin)
+        region = with_margin(box.astype(np.float64), pose.roi_margin)
         net = roi_net_size(pose, region, image_sizes[i])
         jobs.append(Job(i, crop_region(region, image_sizes[i], net), net))
     return jobs

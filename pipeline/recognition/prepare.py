@@ -68,7 +68,7 @@ class SourceSpec:
             if count < 1:
                 raise InputError(f"a source's @COUNT must be a positive integer, got {text!r}")
         if body in GENERATORS:
-            kinds = DEFAULT_SIM_KINDS if body == "sim" else ()
+            kinds: tuple[str, ...] = DEFAULT_SIM_KINDS if body == "sim" else ()
             return cls(body, None, warp, body, kinds, count)
         name, sep, rest = body.partition("=")
         if not sep or not name or not rest:

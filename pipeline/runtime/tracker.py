@@ -32,13 +32,13 @@ def guard_resource_tracker() -> None:
     def guarded_register(name: str, rtype: str) -> None:
         register(name, rtype)
         with owners_lock:
-            owners[(name, rtype)] = tracker._pid
+            owners[(name, rtype)] = tracker._pid  # type: ignore[attr-defined]
 
     def guarded_unregister(name: str, rtype: str) -> None:
         with owners_lock:
             owner = owners.pop((name, rtype), None)
         tracker.ensure_running()  # a dead tracker is replaced here (multiprocessing warns once)
-        if owner is not None and owner != tracker._pid:
+        if owner is not None and owner != tracker._pid:  # type: ignore[attr-defined]
             return  # registered with a tracker that has died: the new one does not know it
         unregister(name, rtype)
 

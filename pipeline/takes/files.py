@@ -164,8 +164,8 @@ def write_spans(folder: Path, spans: list[LabelSpan]) -> None:
 # ---------------------------------------------------------------------------------- skeletons
 def participant_of(frames: list[dict[str, Any]]) -> int | None:
     """The user who was the navigator in most frames (the participant the protocol prompts)."""
-    counts = Counter(f.get("navigator") for f in frames if f.get("navigator") is not None)
-    return int(counts.most_common(1)[0][0]) if counts else None
+    counts = Counter(int(f["navigator"]) for f in frames if f.get("navigator") is not None)
+    return counts.most_common(1)[0][0] if counts else None
 
 
 def skeleton_arrays(frames: list[dict[str, Any]], spans: list[LabelSpan]) -> dict[str, NDArray[Any]]:

@@ -128,16 +128,12 @@ def parse_step(item: Any, where: str) -> Step:
         unknown = sorted(set(item) - {"what", "duration_s", "label", "text"})
         if unknown:
             raise InputError(f"{where}: unknown step keys {unknown} (known: what, duration_s, label, text)")
-        what, duration, label, text = (
-            item.get("what"),
-            item.get("duration_s"),
-            item.get("label"),
-            item.get("text"),
-        )
+        what, raw, label, text = item.get("what"), item.get("duration_s"), item.get("label"), item.get("text")
         if not isinstance(what, str) or not re.fullmatch(r"[a-z][a-z0-9_-]*", what):
             raise InputError(f"{where}: 'what' must be a lower-case word, got {what!r}")
-        if isinstance(duration, bool) or not isinstance(duration, int | float):
-            raise InputError(f"{where}: 'duration_s' must be a number of seconds, got {duration!r}")
+        if isinstance(raw, bool) or not isinstance(raw, int | float):
+            raise InputError(f"{where}: 'duration_s' must be a number of seconds, got {raw!r}")
+        duration = float(raw)
         if label is not None and not isinstance(label, str):
             raise InputError(f"{where}: 'label' must be a string, got {label!r}")
         if text is not None and (not isinstance(text, str) or not 0 < len(text) <= 200):

@@ -20,7 +20,6 @@ from pipeline.sim.motion import simulate_user
 from pipeline.sim.script import MotionScript, Segment
 
 
-
 @pytest.fixture(autouse=True)
 def _reset_settings() -> Iterator[None]:
     yield

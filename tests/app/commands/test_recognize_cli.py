@@ -18,7 +18,6 @@ from pipeline.sim.script import MotionScript, Segment
 from pipeline.skeleton import ACTIONS, SkeletonSequence, save_npz
 
 
-
 @pytest.fixture(autouse=True)
 def _reset_settings() -> Iterator[None]:
     yield
