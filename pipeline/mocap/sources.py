@@ -98,11 +98,9 @@ SIM_SETS = {
 SIM_USE = {"still": "train", "still-heldout": "eval"}
 
 
-def write_sim_set(folder: Path, spec: SimSet, progress: Callable[[str], None]) -> dict[str, Any]:
-    """The set's NPZs in ``folder`` (made again only when the set's settings changed)."""
-    from pipeline.sim.routines import simulate_routine
-
-    stamp = {"kind": spec.kind, "count": spec.count, "duration_s": spec.duration_s, "seed": spec.seed, "v": 1}
+def _cached_or_emptied(folder: Path, stamp: dict[str, Any]) -> dict[str, Any] | None:
+    """The set's index when ``folder`` holds the set made with ``stamp``; else None, with ``folder``
+    emptied (created) for the set to be made again."""
     index_path = folder / "index.json"
     if index_path.is_file():
         old = json.loads(index_path.read_text())
@@ -111,6 +109,18 @@ def write_sim_set(folder: Path, spec: SimSet, progress: Callable[[str], None]) -
     if folder.exists():
         shutil.rmtree(folder)
     folder.mkdir(parents=True)
+    return None
+
+
+def write_sim_set(folder: Path, spec: SimSet, progress: Callable[[str], None]) -> dict[str, Any]:
+    """The set's NPZs in ``folder`` (made again only when the set's settings changed)."""
+    from pipeline.sim.routines import simulate_routine
+
+    stamp = {"kind": spec.kind, "count": spec.count, "duration_s": spec.duration_s, "seed": spec.seed, "v": 1}
+    cached = _cached_or_emptied(folder, stamp)
+    if cached is not None:
+        return cached
+    index_path = folder / "index.json"
     files = []
     for i in range(spec.count):
         seed = spec.seed + i
@@ -157,14 +167,10 @@ def write_gait_set(folder: Path, spec: GaitSet, progress: Callable[[str], None])
         "model_version": MODEL_VERSION,
         "v": 2,
     }
+    cached = _cached_or_emptied(folder, stamp)
+    if cached is not None:
+        return cached
     index_path = folder / "index.json"
-    if index_path.is_file():
-        old = json.loads(index_path.read_text())
-        if old.get("stamp") == stamp and all((folder / f["file"]).is_file() for f in old["files"]):
-            return dict(old)
-    if folder.exists():
-        shutil.rmtree(folder)
-    folder.mkdir(parents=True)
     config = GaitConfig(
         duration_s=spec.duration_s,
         noise_m=spec.noise_m,
