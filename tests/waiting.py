@@ -15,9 +15,11 @@ source, a configured timeout), so that a slow machine cannot make the outcome di
 
 from __future__ import annotations
 
+import random
 import socket
 import time
 from collections.abc import Callable
+from pathlib import Path
 from typing import TypeVar
 
 T = TypeVar("T")
@@ -57,13 +59,44 @@ def wait_until(
         time.sleep(poll_s)
 
 
-def free_port(kind: socket.SocketKind = socket.SOCK_STREAM, host: str = "127.0.0.1") -> int:
-    """A port of ``host`` that nothing holds now (bound to 0, the kernel's choice, then let go).
+def _ephemeral_range() -> tuple[int, int]:
+    """The ports the kernel hands out on its own (bind to 0, an unbound sendto/connect)."""
+    try:
+        low, high = Path("/proc/sys/net/ipv4/ip_local_port_range").read_text().split()
+        return int(low), int(high)
+    except (OSError, ValueError):
+        return 32768, 60999
 
-    Never assume 8000/8080 (or any fixed port) is free: other servers and tests run here."""
-    with socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET, kind) as s:
-        s.bind((host, 0))
-        return int(s.getsockname()[1])
+
+_HANDED_OUT: set[int] = set()
+
+
+def free_port(kind: socket.SocketKind = socket.SOCK_STREAM, host: str = "127.0.0.1") -> int:
+    """A port of ``host`` that nothing holds now, chosen outside the kernel's ephemeral range.
+
+    Never assume 8000/8080 (or any fixed port) is free: other servers and tests run here. A port
+    the kernel picks for ``bind(0)`` comes from the ephemeral range, and so does the source port
+    of every unbound UDP sender and TCP client on the machine: between the pick and the server's
+    own bind, one of them can take it ("Address already in use", a CI failure we had). So the port
+    is drawn at random below that range, where the kernel never allocates on its own, checked by
+    binding it, and never handed out twice by this process."""
+    low, _high = _ephemeral_range()
+    top = low - 1 if low > 12000 else 60999
+    bottom = max(1024, top - 20000)
+    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    rng = random.Random()
+    for _ in range(200):
+        port = rng.randint(bottom, top)
+        if port in _HANDED_OUT:
+            continue
+        with socket.socket(family, kind) as s:
+            try:
+                s.bind((host, port))
+            except OSError:
+                continue
+        _HANDED_OUT.add(port)
+        return port
+    raise AssertionError(f"no free port in {bottom}-{top} on {host}")
 
 
 def free_udp_port(host: str = "127.0.0.1") -> int:

@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.camera import Camera
-from pipeline.errors import InputError
+from pipeline.errors import InputError, read_user_text
 
 log = logging.getLogger(__name__)
 
@@ -234,12 +234,7 @@ def load_calibration(path: Path | str, qualisys_binning: int = 1) -> list[Camera
     :class:`InputError` for a missing, unreadable or malformed file.
     """
     p = Path(path)
-    if not p.is_file():
-        raise InputError(f"calibration file not found: {p}")
-    try:
-        text = p.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"cannot read calibration {p}: {exc}") from exc
+    text = read_user_text(p, "calibration file")
     name = p.name.lower()
     head = text.lstrip()[:1]
     if name.endswith(".qca.txt") or name.endswith(".qca") or head == "<":

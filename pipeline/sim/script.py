@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from pipeline.errors import InputError
+from pipeline.errors import InputError, read_user_text
 from pipeline.sim import ranges
 
 # Actions a segment can ask for. ``turn`` = turning on the spot; it is labelled ``still``.
@@ -317,12 +317,7 @@ def script_from_dict(data: object, source: str = "script") -> MotionScript:
 def load_script(path: str | Path) -> MotionScript:
     """Read a motion script from a ``.json`` or ``.toml`` file; raises InputError with the reason."""
     p = Path(path)
-    if not p.is_file():
-        raise InputError(f"motion script not found: {p}")
-    try:
-        text = p.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"{p}: cannot read the motion script ({exc})") from exc
+    text = read_user_text(p, "motion script")
     as_toml = p.suffix.lower() == ".toml"
     try:
         data = tomllib.loads(text) if as_toml else json.loads(text)

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from pipeline.errors import InputError
+from pipeline.errors import InputError, read_user_text
 from pipeline.skeleton import ACTIONS
 
 #: The participant's instruction for each action (a step's ``text`` replaces it).
@@ -187,14 +187,7 @@ def parse_protocol_text(text: str, where: str = "protocol") -> Protocol:
 
 
 def load_protocol(path: str | Path) -> Protocol:
-    p = Path(path)
-    if not p.is_file():
-        raise InputError(f"protocol file not found: {p}")
-    try:
-        text = p.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"{p}: cannot read the protocol: {exc}") from None
-    return parse_protocol_text(text, str(p))
+    return parse_protocol_text(read_user_text(path, "protocol file"), str(path))
 
 
 #: The protocols that ship with cavewalk (``protocols/*.toml`` in the repository).

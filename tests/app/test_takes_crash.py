@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 import os
 import signal
-import socket
 import subprocess
 import sys
 import time
@@ -16,15 +15,11 @@ import numpy as np
 import pytest
 
 from pipeline.takes.files import check_files
+from tests.waiting import free_port
 
 pytestmark = pytest.mark.slow
 ROOT = Path(__file__).resolve().parents[2]
 
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 def _start(command: str, db: Path, port: int) -> subprocess.Popen[str]:
@@ -38,7 +33,7 @@ def _start(command: str, db: Path, port: int) -> subprocess.Popen[str]:
         "--port",
         str(port),
         "--viser-port",
-        str(_free_port()),
+        str(free_port()),
     ]
     # its own process group: the kill takes the server and its pipeline workers, nothing else
     return subprocess.Popen(
@@ -61,7 +56,7 @@ def _wait(url: str, ok, timeout_s: float = 300.0) -> dict:  # type: ignore[no-un
 
 
 def test_kill_9_mid_take_loses_at_most_the_last_second_and_recovers_as_incomplete(tmp_path: Path) -> None:
-    db, port = tmp_path / "crash.db", _free_port()
+    db, port = tmp_path / "crash.db", free_port()
     base = f"http://127.0.0.1:{port}/api/v1"
     server = _start("demo", db, port)
     try:

@@ -5,7 +5,6 @@ checks on a real UDP socket."""
 from __future__ import annotations
 
 import json
-import socket
 import subprocess
 import sys
 import threading
@@ -16,6 +15,7 @@ import httpx
 import pytest
 
 from tests.app.conftest import Served, make_settings
+from tests.waiting import free_udp_port
 
 pytestmark = [pytest.mark.e2e, pytest.mark.slow]
 
@@ -25,11 +25,6 @@ ROOT = Path(__file__).resolve().parents[2]
 PROTOCOL = 'name = "prompt test"\nsteps = ["still 3 s", "forward 4 s", "crouch 3 s (label still)"]\n'
 
 
-def _free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
 
 def test_the_prompt_page_and_the_prompt_datagrams_follow_the_protocol(
     tmp_path: Path, artifacts_dir: Path
@@ -38,7 +33,7 @@ def test_the_prompt_page_and_the_prompt_datagrams_follow_the_protocol(
 
     if not Path(CHROMIUM).exists():
         pytest.fail(f"{CHROMIUM} missing: apt-get install -y chromium chromium-driver")
-    udp = _free_udp_port()
+    udp = free_udp_port()
     settings = make_settings(tmp_path).model_copy(update={"workstations": [f"127.0.0.1:{udp}"]})
     with Served(settings) as served, sync_playwright() as pw:
         served.wait_status(lambda st: st["state"] == "running" and st["navigator"] is not None, 120)

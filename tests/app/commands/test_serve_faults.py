@@ -10,7 +10,6 @@ from __future__ import annotations
 import json
 import os
 import signal
-import socket
 import subprocess
 import sys
 import time
@@ -24,15 +23,11 @@ import pytest
 
 from pipeline.demo_data import DemoData
 from tests.pipeline.runtime.live import shm_segments, shrink_video
+from tests.waiting import free_port
 
 ROOT = Path(__file__).resolve().parents[3]
 pytestmark = pytest.mark.slow
 
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 def _wait(cond: Callable[[], bool], timeout_s: float, what: str) -> None:
@@ -78,7 +73,7 @@ def server(tmp_path: Path) -> Iterator[Callable[[str], Server]]:
     started: list[Server] = []
 
     def start(command: str) -> Server:
-        port = _free_port()
+        port = free_port()
         log = tmp_path / f"{command}-{len(started)}.log"
         env = dict(os.environ, PYTHONPATH=str(ROOT), CAVEWALK_SERVER__VISER="false")
         with log.open("wb") as out:

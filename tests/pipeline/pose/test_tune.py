@@ -17,6 +17,7 @@ import pytest
 from app.core.config import load_settings, read_tuned
 from pipeline.machine import machine_fingerprint
 from pipeline.pose.quantize import MAX_MEDIAN_KEYPOINT_PX, MIN_BOX_IOU, P10_BOX_IOU
+from tests.waiting import free_port
 
 ROOT = Path(__file__).resolve().parents[3]
 
@@ -106,13 +107,6 @@ def test_tune_measures_the_variants_and_writes_the_fastest_that_keeps_the_accura
 
 @pytest.mark.slow
 def test_the_first_demo_on_a_machine_tunes_then_serves(tmp_path: Path, pose_model_path: Path) -> None:
-    import socket
-
-    def free_port() -> int:
-        with socket.socket() as s:
-            s.bind(("127.0.0.1", 0))
-            return int(s.getsockname()[1])
-
     tuned = tmp_path / "tuned.toml"
     env = _env(tuned, CAVEWALK_TUNE__CROP_SIDES="[320]", CAVEWALK_TUNE__LANES="[[1, 1]]")
 

@@ -1,0 +1,42 @@
+"""The tests' own port picking: outside the kernel's ephemeral range, never the same twice."""
+
+from __future__ import annotations
+
+import socket
+
+import pytest
+
+import tests.waiting as waiting
+from tests.waiting import _ephemeral_range, free_port, free_udp_port
+
+
+def test_ports_come_from_below_the_ephemeral_range_and_are_never_repeated() -> None:
+    low, high = _ephemeral_range()
+    ports = [free_port() for _ in range(40)] + [free_udp_port() for _ in range(40)]
+    assert len(set(ports)) == len(ports)
+    assert all(not low <= p <= high for p in ports), [p for p in ports if low <= p <= high]
+    assert all(p >= 1024 for p in ports)
+
+
+def test_a_port_is_free_to_bind_when_handed_out() -> None:
+    for kind, pick in ((socket.SOCK_STREAM, free_port), (socket.SOCK_DGRAM, free_udp_port)):
+        port = pick()
+        with socket.socket(socket.AF_INET, kind) as s:
+            s.bind(("127.0.0.1", port))
+
+
+def test_a_held_port_is_not_handed_out(monkeypatch: pytest.MonkeyPatch) -> None:
+    held = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    held.bind(("127.0.0.1", free_udp_port()))
+    taken = held.getsockname()[1]
+    waiting._HANDED_OUT.discard(taken)  # only the bind check can refuse it now
+    draws = iter([taken, taken, taken + 1 if taken + 1 < _ephemeral_range()[0] else taken - 1])
+    class Rng:
+        def randint(self, _a: int, _b: int) -> int:
+            return next(draws)
+
+    monkeypatch.setattr(waiting.random, "Random", Rng)
+    try:
+        assert free_udp_port() != taken
+    finally:
+        held.close()
