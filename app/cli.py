@@ -20,6 +20,7 @@ from app.commands import (
     config,
     data,
     evaluate,
+    export,
     models,
     plan,
     process,
@@ -73,6 +74,7 @@ cli.add_typer(runtime.app)  # cavewalk receive, cavewalk bench
 cli.add_typer(simulate.app)  # cavewalk simulate
 cli.add_typer(plan.app)  # cavewalk plan
 cli.add_typer(record.app)  # cavewalk record
+cli.add_typer(export.app)  # cavewalk export
 cli.add_typer(tune.app)  # cavewalk tune
 
 

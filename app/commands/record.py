@@ -7,17 +7,21 @@ import json
 import signal
 import threading
 import time
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Annotated, Any
 
 import typer
 
 from app.core.config import Settings, get_settings
+from app.db.engine import make_engine, make_session_factory
+from app.db.migrate import prepare_database
+from app.db.take_repository import create_take, finish_take_row, take_by_uid
 from app.services.pipeline_factory import build_pipeline, simulator_factory
 from app.services.recorder import model_identity, settings_snapshot
 from pipeline.calibration.io import calibration_to_dict, load_calibration
 from pipeline.errors import InputError, SourceError
-from pipeline.takes.files import MANIFEST
+from pipeline.takes.files import MANIFEST, write_json
 from pipeline.takes.protocol import (
     Protocol,
     check_margin,
@@ -174,6 +178,47 @@ def _record_local(
         pipeline.close()
 
 
+# ------------------------------------------------------------------------------- the index
+def _check_index(db: Path, uid: str) -> None:
+    """Before recording: the database can be used and has no take named ``uid`` yet."""
+    prepare_database(db)
+    engine = make_engine(db)
+    try:
+        with make_session_factory(engine)() as session:
+            if take_by_uid(session, uid) is not None:
+                raise InputError(f"the index {db} already has a take {uid!r}; choose another --out name")
+    finally:
+        engine.dispose()
+
+
+def _index_take(db: Path, out: Path, manifest: dict[str, Any]) -> int:
+    """A take recorded here goes into the takes index like a server's (its row points to ``out``)."""
+    engine = make_engine(db)
+    try:
+        with make_session_factory(engine)() as session:
+            start = manifest.get("start_unix")
+            row = create_take(
+                session,
+                uid=manifest["id"],
+                folder=str(out.resolve()),
+                status="recording",
+                participant_code=manifest.get("participant_code"),
+                session_id=None,
+                protocol=(manifest.get("protocol") or {}).get("name"),
+                source=manifest.get("source"),
+                started_at=datetime.fromtimestamp(float(start), UTC) if start else datetime.now(UTC),
+                margin_s=manifest.get("margin_s") if manifest.get("protocol") else None,
+                calibration_run_id=None,
+                files={},
+                notes="recorded by cavewalk record",
+            )
+            status = "complete" if manifest.get("complete") else "incomplete"
+            finish_take_row(session, row.id, manifest, status)
+            return row.id
+    finally:
+        engine.dispose()
+
+
 @app.command("record")
 def record_cmd(
     out: Annotated[Path, typer.Option("--out", help="The take's folder (must not exist yet).")],
@@ -202,6 +247,11 @@ def record_cmd(
     calibration: Annotated[
         Path | None, typer.Option("--calibration", help="Cameras of the videos/cameras.")
     ] = None,
+    db: Annotated[
+        Path | None,
+        typer.Option("--db", help="Without --url: the SQLite database that indexes the take (default: "
+                     "the settings' paths.db)."),
+    ] = None,
 ) -> None:
     """Record a take: 3D skeletons with user ids, 2D detections, the recogniser's outputs, the
     navigator, timestamps, calibration and settings, labelled by the protocol."""
@@ -216,6 +266,8 @@ def record_cmd(
     stop = threading.Event()
     _stop_on_signals(stop)
     if url is not None:
+        if db is not None:
+            raise InputError("--db is for a take recorded here; with --url the server indexes it")
         body = {
             "participant_code": participant,
             "protocol": shipped_name,
@@ -239,9 +291,14 @@ def record_cmd(
             raise InputError("--video is only for --source videos")
         if calibration is not None and not calibration.is_file():
             raise InputError(f"--calibration: file not found: {calibration}")
+        index_db = (db or settings.paths.db).expanduser()
+        _check_index(index_db, out.name)
         manifest = _record_local(
             settings, source, videos, calibration, proto, duration, margin_s, participant, out, stop
         )
+        manifest["take_id"] = _index_take(index_db, out, manifest)
+        write_json(out / MANIFEST, manifest)
+        typer.echo(f"indexed as take {manifest['take_id']} in {index_db}", err=True)
     typer.echo(json.dumps({k: manifest.get(k) for k in ("id", "status", "frames", "duration_s")}))
     typer.echo(
         f"take written to {out} ({manifest.get('status')}, {manifest.get('frames')} frames, "

@@ -28,6 +28,10 @@ def get_take(db: Session, take_id: int) -> Take:
     return row
 
 
+def take_by_uid(db: Session, uid: str) -> Take | None:
+    return db.scalars(select(Take).where(Take.uid == uid)).first()
+
+
 def list_takes(db: Session, participant_code: str | None = None) -> Sequence[Take]:
     q = select(Take).order_by(Take.id)
     if participant_code is not None:

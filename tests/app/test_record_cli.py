@@ -12,6 +12,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from app.db.engine import make_engine, make_session_factory
+from app.db.migrate import prepare_database
+from app.db.take_repository import create_take, take_by_uid
 from pipeline.takes.files import check_files
 from tests.app.conftest import Served, make_settings
 from tests.app.test_cli_errors import run_cli
@@ -31,6 +34,10 @@ ROOT = Path(__file__).resolve().parents[2]
         (["--duration", "2", "--source", "videos"], "needs --video"),
         (["--duration", "2", "--protocol", "PROTO"], "unknown label 'hop'"),
         (["--duration", "2", "--url", "http://127.0.0.1:9"], "cannot reach the server"),
+        (
+            ["--duration", "2", "--url", "http://127.0.0.1:9", "--db", "x.db"],
+            "--db is for a take recorded here",
+        ),
     ],
 )
 def test_bad_record_invocations_end_with_one_error_and_write_nothing(
@@ -60,9 +67,27 @@ def test_record_refuses_an_existing_folder(
     assert [p.name for p in (tmp_path / "take").iterdir()] == ["keep.txt"]
 
 
+def test_record_refuses_a_name_the_index_already_has(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    db = tmp_path / "index.db"
+    prepare_database(db)
+    engine = make_engine(db)
+    with make_session_factory(engine)() as session:
+        create_take(session, uid="take", folder=str(tmp_path / "elsewhere"), status="complete", files={})
+    engine.dispose()
+    before = db.read_bytes()
+    code = run_cli(
+        ["record", "--out", str(tmp_path / "take"), "--duration", "1", "--db", str(db)], monkeypatch
+    )
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and "already has a take 'take'; choose another --out name" in err[-1], err
+    assert not (tmp_path / "take").exists() and db.read_bytes() == before
+
+
 @pytest.mark.slow
-def test_record_runs_its_own_simulator_pipeline(tmp_path: Path) -> None:
-    out = tmp_path / "take"
+def test_record_runs_its_own_simulator_pipeline_indexes_and_exports_the_take(tmp_path: Path) -> None:
+    out, db = tmp_path / "take", tmp_path / "index.db"
     proc = subprocess.run(
         [
             sys.executable,
@@ -79,6 +104,8 @@ def test_record_runs_its_own_simulator_pipeline(tmp_path: Path) -> None:
             "S1",
             "--margin",
             "0.3",
+            "--db",
+            str(db),
         ],
         cwd=ROOT,
         capture_output=True,
@@ -96,6 +123,30 @@ def test_record_runs_its_own_simulator_pipeline(tmp_path: Path) -> None:
         labels = npz["labels"].tolist()
         # the first 3 s of four-actions are still; ignore where the participant was not the navigator
         assert set(labels) <= {"still", "ignore"} and labels.count("still") >= 0.8 * len(labels), labels
+        joints = npz["joints"]
+    # indexed like a server's take, its row pointing at the folder
+    engine = make_engine(db)
+    with make_session_factory(engine)() as session:
+        row = take_by_uid(session, "take")
+        assert row is not None and row.folder == str(out.resolve()) and row.status == "complete"
+        assert row.participant_code == "S1" and row.frames == summary["frames"]
+        assert row.files == manifest["files"] and manifest["take_id"] == row.id
+    engine.dispose()
+    # exported: the TRC holds the participant's joints, Y-up (the simulated person stands: Y is up)
+    trc = tmp_path / "take.trc"
+    proc = subprocess.run(
+        [sys.executable, "-m", "app.cli", "export", str(out), "--out", str(trc)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    rows = [line.split("\t") for line in trc.read_text().splitlines()[5:]]
+    ankle_y = [float(r[2 + 3 * 15 + 1]) for r in rows if r[2 + 3 * 15 + 1]]
+    nose_y = [float(r[2 + 1]) for r in rows if r[2 + 1]]
+    assert ankle_y and nose_y and np.median(nose_y) - np.median(ankle_y) > 1.0, "Y is up, in metres"
+    assert abs(np.nanmedian(joints[:, 0, 2]) - np.median(nose_y)) < 0.05, "TRC Y = the CAVE's Z"
 
 
 @pytest.fixture()

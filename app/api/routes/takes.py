@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import shutil
+import tempfile
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated
+from typing import TYPE_CHECKING, Annotated, Literal
 
-from fastapi import APIRouter, Depends, HTTPException, status
+from fastapi import APIRouter, Depends, HTTPException, Query, status
 from fastapi.requests import HTTPConnection
 from fastapi.responses import FileResponse
+from starlette.background import BackgroundTask
 
 from app.api.deps import IdPath, SessionDep
 from app.db.errors import StateConflict
@@ -22,6 +25,7 @@ from app.schemas.takes import (
 )
 from app.services.recorder import TakeRequest
 from pipeline.errors import InputError
+from pipeline.takes.export import take_trc, write_export
 from pipeline.takes.files import LABELS, read_spans, relabel_take
 from pipeline.takes.protocol import LabelSpan, load_protocol, shipped_protocols
 
@@ -97,6 +101,49 @@ def take_file(take_id: IdPath, name: str, db: SessionDep) -> FileResponse:
     if not path.is_file():
         raise HTTPException(status.HTTP_404_NOT_FOUND, f"take {take_id}: {name} is missing from its folder")
     return FileResponse(path, filename=Path(name).name)
+
+
+@router.get(
+    "/takes/{take_id}/export",
+    response_class=FileResponse,
+    responses={
+        400: {"description": "The take's folder is damaged (files missing or changed)"},
+        404: {"description": "No such take"},
+        409: {"description": "The take is still recording"},
+        422: {"description": "A bad format or user, or labels asked of a take without labels"},
+    },
+)
+def export_take(
+    take_id: IdPath,
+    db: SessionDep,
+    fmt: Annotated[
+        Literal["zip", "trc", "labels"],
+        Query(alias="format", description="zip: the take's files + videos + TRC + labels table; trc: one "
+              "person's markers (metres, Y-up, Pose2Sim/OpenSim); labels: one CSV row per frame"),
+    ] = "zip",
+    user_id: Annotated[int | None, Query(ge=0, le=2**31, description="trc: the person (default: "
+                                         "the participant)")] = None,
+) -> FileResponse:
+    """Download the take exported (built on request from its verified files; nothing stored changes)."""
+    row = get_take(db, take_id)
+    if row.status == "recording":
+        raise StateConflict(f"take {take_id} is still recording; export it once it has ended")
+    if user_id is not None and fmt != "trc":
+        raise InputError("user_id is for format=trc (the zip holds every person's TRC)")
+    tmp = Path(tempfile.mkdtemp(prefix="cavewalk-export-"))
+    try:
+        if fmt == "trc":
+            name, text = take_trc(Path(row.folder), user_id)
+            (tmp / name).write_text(text, encoding="utf-8")
+        else:
+            name = f"{row.uid}.zip" if fmt == "zip" else f"{row.uid}_labels.csv"
+            write_export(Path(row.folder), tmp / name, fmt)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    media = {"zip": "application/zip", "trc": "text/plain", "labels": "text/csv"}[fmt]
+    return FileResponse(tmp / name, filename=name, media_type=media,
+                        background=BackgroundTask(shutil.rmtree, tmp, ignore_errors=True))
 
 
 def _spans_out(spans: list[LabelSpan]) -> list[dict[str, object]]:
