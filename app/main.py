@@ -36,6 +36,7 @@ from app.services.calibration import CalibrationService
 from app.services.event_log import EventWriter
 from app.services.live import PipelineFacade, PipelineService, SourceName
 from app.services.locomotion_watch import LocomotionWatch
+from app.services.models import ModelService
 from app.services.pipeline_factory import runtime_factory, simulator_factory
 from app.services.planner import PlannerService
 from app.services.recorder import RecorderService
@@ -117,8 +118,10 @@ def create_app(
         viewer = None
         if settings.server.viser:
             viewer = Viewer.start(settings)
+        models = ModelService(settings, factory, events)  # the committed model is the base entry
+        app.state.models = models
         if pipeline_factory is True:
-            built, reason = runtime_factory(settings, factory)
+            built, reason = runtime_factory(settings, factory, models.recognition_config)
         else:
             built, reason = (pipeline_factory or None), "no pipeline in this app"
         watch = LocomotionWatch(events)
@@ -128,6 +131,7 @@ def create_app(
         )
         if built is None:
             pipeline.unavailable_reason = reason
+        models.on_change(pipeline.calibration_changed)  # a newly active model: rebuilt at the next start
         calibration = CalibrationService(settings, factory, events, pipeline, viewer)
         active = calibration.active_cameras()
         if viewer is not None and active:

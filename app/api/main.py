@@ -15,6 +15,7 @@ from app.api.routes import (
     calibration,
     health,
     live,
+    models,
     participant,
     participants,
     people,
@@ -41,3 +42,4 @@ api_router.include_router(live.router, dependencies=[TokenDep])
 api_router.include_router(study.router, dependencies=[TokenDep])
 api_router.include_router(analysis.router, dependencies=[TokenDep])
 api_router.include_router(takes.router, dependencies=[TokenDep])
+api_router.include_router(models.router, dependencies=[TokenDep])

@@ -213,15 +213,62 @@ class Take(Base):
     notes: Mapped[str] = mapped_column(Text, default="", nullable=False)
 
 
+MODEL_KINDS = ("base", "trained", "uploaded")
+
+
+class ActionModel(Base):
+    """An action model in the registry: its file in the models data folder and its card.
+
+    ``kind``: ``base`` (the committed model, always present), ``trained`` (``cavewalk train``) or
+    ``uploaded``; ``card`` holds the file's checked metadata and the training figures, ``card_md``
+    the model card as Markdown. One row is ``active``; ``activated_at`` orders the roll-backs.
+    """
+
+    __tablename__ = "action_models"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    uid: Mapped[str] = mapped_column(String(64), unique=True, nullable=False)
+    name: Mapped[str] = mapped_column(String(128), nullable=False)
+    kind: Mapped[str] = mapped_column(String(16), nullable=False)
+    file: Mapped[str] = mapped_column(Text, nullable=False)
+    sha256: Mapped[str] = mapped_column(String(64), nullable=False)
+    parent_id: Mapped[int | None] = mapped_column(ForeignKey("action_models.id"), nullable=True)
+    created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow, nullable=False)
+    active: Mapped[bool] = mapped_column(Boolean, default=False, nullable=False)
+    activated_at: Mapped[datetime | None] = mapped_column(UTCDateTime(), nullable=True)
+    card: Mapped[dict[str, Any]] = mapped_column(JSON, default=dict, nullable=False)
+    card_md: Mapped[str] = mapped_column(Text, default="", nullable=False)
+    notes: Mapped[str] = mapped_column(Text, default="", nullable=False)
+
+
+class Adaptation(Base):
+    """A participant's teach adaptation of one action model (applies to their sessions only)."""
+
+    __tablename__ = "adaptations"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    participant_code: Mapped[str] = mapped_column(String(32), nullable=False, index=True)
+    model_id: Mapped[int] = mapped_column(ForeignKey("action_models.id"), nullable=False)
+    take_id: Mapped[int | None] = mapped_column(ForeignKey("takes.id"), nullable=True)
+    created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow, nullable=False)
+    enabled: Mapped[bool] = mapped_column(Boolean, default=True, nullable=False)
+    method: Mapped[str] = mapped_column(String(32), nullable=False)
+    params: Mapped[dict[str, Any]] = mapped_column(JSON, default=dict, nullable=False)
+    report: Mapped[dict[str, Any]] = mapped_column(JSON, default=dict, nullable=False)
+
+
 __all__ = [
     "AUDIT_ACTIONS",
     "CALIBRATION_STATUSES",
     "CONDITIONS",
     "INSTRUMENTS",
+    "MODEL_KINDS",
     "PARTICIPANT_CODE_PATTERN",
     "PHASES",
     "SESSION_STATUSES",
     "TAKE_STATUSES",
+    "ActionModel",
+    "Adaptation",
     "AuditEntry",
     "Base",
     "CalibrationRun",

@@ -16,6 +16,7 @@ from app.db.repositories import active_calibration_run
 from app.services.calibration import cameras_from_result
 from app.services.live import PipelineFacade
 from pipeline.camera import Camera
+from pipeline.recognition.recognizer import RecognizerConfig
 from pipeline.runtime.config import RuntimeConfig
 from pipeline.runtime.pipeline import Pipeline
 from pipeline.runtime.stages import FusionFactory, PoseStageFactory, SimWorldFactory
@@ -30,42 +31,49 @@ def simulator_factory(settings: Settings, sim: SimConfig | None = None) -> SimWo
     return SimWorldFactory.build(sim or settings.sim, settings.cave.geometry())
 
 
-def fusion_factory(settings: Settings, cameras: list[Camera] | None) -> FusionFactory:
-    """Tracking, triangulation, navigator, recognition and head pose from their sections."""
+def fusion_factory(settings: Settings, cameras: list[Camera] | None,
+                   recognition: RecognizerConfig | None = None) -> FusionFactory:
+    """Tracking, triangulation, navigator, recognition and head pose from their sections
+    (``recognition`` in place of the settings' own: the registry's active model)."""
     reconstruction = ReconstructionConfig(settings.triangulation, settings.association, settings.tracks3d,
                                           settings.identity)
     return FusionFactory(cameras=tuple(cameras) if cameras else None, camera_names=(),
                          tracking=settings.tracking, reconstruction=reconstruction,
-                         navigator=settings.navigator, recognition=settings.recognition,
+                         navigator=settings.navigator, recognition=recognition or settings.recognition,
                          head=settings.head)
 
 
 def build_pipeline(settings: Settings, cameras: list[Camera] | None = None,
-                   sim: SimWorldFactory | None = None, runtime: RuntimeConfig | None = None) -> Pipeline:
+                   sim: SimWorldFactory | None = None, runtime: RuntimeConfig | None = None,
+                   recognition: RecognizerConfig | None = None) -> Pipeline:
     """The live pipeline of the settings; ``runtime`` replaces ``settings.runtime`` (benchmarks)."""
     return Pipeline(
         runtime or settings.runtime, cameras,
         camera_sources={c.name: c.source for c in settings.cameras},
         pose_factory=PoseStageFactory(settings.pose, settings.pose_model_path, settings.tracking),
-        fusion=fusion_factory(settings, cameras), sim_factory=sim,
+        fusion=fusion_factory(settings, cameras, recognition), sim_factory=sim,
         workstations=settings.endpoints, emitter=settings.emitter,
     )
 
 
 def runtime_factory(
-    settings: Settings, session_factory: Callable[[], Session]
+    settings: Settings, session_factory: Callable[[], Session],
+    recognition: Callable[[], RecognizerConfig] | None = None,
 ) -> tuple[Callable[[], PipelineFacade] | None, str]:
     """(a function that builds the pipeline, "") or (None, why it cannot be built).
 
     The pipeline gets the active calibration's cameras (for the real cameras and videos)
-    and the simulator's own cameras for the simulator source.
+    and the simulator's own cameras for the simulator source; ``recognition()`` gives the
+    recognition section at each build (the model registry's active model).
     """
 
     def build() -> PipelineFacade:
         with session_factory() as db:
             run = active_calibration_run(db)
             cameras = cameras_from_result(run.result) if run is not None and run.result else None
-        pipeline: PipelineFacade = build_pipeline(settings, cameras, simulator_factory(settings))  # type: ignore[assignment]
+        rec = recognition() if recognition is not None else None
+        pipeline: PipelineFacade = build_pipeline(settings, cameras, simulator_factory(settings),  # type: ignore[assignment]
+                                                  recognition=rec)
         return pipeline
 
     return build, ""

@@ -64,6 +64,8 @@ async function main() {
   if (planner) planner.mountPlanner(document.getElementById("planner-mount"));
   const takes = await optionalModule(() => import("./panels/takes.js"), "takes.js");
   if (takes) takes.mountTakes(document.getElementById("recording-panel"));
+  const models = await optionalModule(() => import("./panels/models.js"), "models.js");
+  if (models) models.mountModels(document.getElementById("models-panel"));
   connect();
   return study;
 }

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from fastapi import APIRouter, HTTPException, status
+from fastapi import APIRouter, HTTPException, Request, status
 
 from app.api.deps import PipelineDep
 from app.schemas.live import PipelineStart, StatusPublic
@@ -41,7 +41,10 @@ def unusable_videos(videos: dict[str, Path]) -> list[str]:
     response_model=StatusPublic,
     responses={503: {"description": "No pipeline can run in this server (the reason is given)"}},
 )
-def start(body: PipelineStart, pipeline: PipelineDep) -> StatusPublic:
+def start(body: PipelineStart, pipeline: PipelineDep, request: Request) -> StatusPublic:
+    models = getattr(request.app.state, "models", None)
+    if models is not None and models.stale():  # a model activated elsewhere (the command line)
+        pipeline.calibration_changed()
     videos = None
     if body.videos:
         videos = {name: Path(p) for name, p in body.videos.items()}

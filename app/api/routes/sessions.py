@@ -60,10 +60,14 @@ def start_context(request: Request, settings: Settings) -> dict[str, Any]:
     snap = request.app.state.pipeline.snapshot()
     calibration = request.app.state.calibration
     model = settings.recognition.model_path
+    models = getattr(request.app.state, "models", None)
+    registry = models.session_context() if models is not None else {}
     return {
+        **registry,
         "calibration_id": calibration.active_id,
         "pose_model": settings.pose_model_path.name,
-        "action_model": model.name if model != DEFAULT_MODEL_PATH else "action.onnx (committed)",
+        "action_model": model.name if model != DEFAULT_MODEL_PATH else registry.get(
+            "action_model_name", "action.onnx (committed)"),
         "pipeline": snap.get("state"),
         "source": snap.get("source"),
         "navigator": snap.get("navigator"),

@@ -1,0 +1,86 @@
+"""Action models: the registry (list with cards, upload, activate, roll back), training jobs, teach."""
+
+from __future__ import annotations
+
+import base64
+import binascii
+import tempfile
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated, Any
+
+from fastapi import APIRouter, Depends, Response, status
+from fastapi.requests import HTTPConnection
+
+from app.api.deps import IdPath
+from app.schemas.models import ModelPublic, ModelUpload
+from pipeline.errors import InputError
+
+if TYPE_CHECKING:
+    from app.services.models import ModelService
+
+
+def get_models(conn: HTTPConnection) -> ModelService:
+    service: ModelService = conn.app.state.models
+    return service
+
+
+ModelsDep = Annotated["ModelService", Depends(get_models)]
+
+router = APIRouter(prefix="/models", tags=["models"])
+
+
+@router.get("", response_model=list[ModelPublic])
+def list_models(models: ModelsDep) -> list[dict[str, Any]]:
+    """Every registered model with its card (the committed model is the ``base`` entry)."""
+    return models.list()
+
+
+@router.get("/active", response_model=ModelPublic)
+def active_model(models: ModelsDep) -> dict[str, Any]:
+    return models.active()
+
+
+@router.post(
+    "",
+    response_model=ModelPublic,
+    status_code=status.HTTP_201_CREATED,
+    responses={400: {"description": "Not a four-class action model, or its card does not match it"},
+               409: {"description": "This file is registered already"}},
+)
+def upload_model(body: ModelUpload, models: ModelsDep) -> dict[str, Any]:
+    """Register a model file (base64 ONNX) with its card; a refused file stores nothing."""
+    try:
+        data = base64.b64decode(body.onnx_base64, validate=True)
+    except (binascii.Error, ValueError):
+        raise InputError("onnx_base64 is not base64 text") from None
+    with tempfile.TemporaryDirectory(prefix="cavewalk-upload-") as tmp:
+        path = Path(tmp) / "upload.onnx"
+        path.write_bytes(data)
+        return models.register(path, card=body.card, card_md=body.card_md, name=body.name,
+                               kind="uploaded", notes=body.notes)
+
+
+@router.get("/{model_id}", response_model=ModelPublic)
+def get_model(model_id: IdPath, models: ModelsDep) -> dict[str, Any]:
+    return models.get(model_id)
+
+
+@router.get("/{model_id}/card.md", response_class=Response,
+            responses={200: {"content": {"text/markdown": {}}}})
+def model_card(model_id: IdPath, models: ModelsDep) -> Response:
+    """The model card as Markdown."""
+    return Response(models.card_markdown(model_id), media_type="text/markdown; charset=utf-8")
+
+
+@router.post("/{model_id}/activate", response_model=ModelPublic,
+             responses={409: {"description": "The model's file is missing or changed"}})
+def activate_model(model_id: IdPath, models: ModelsDep) -> dict[str, Any]:
+    """Make the model the active one; the pipeline runs it from its next start."""
+    return models.activate(model_id)
+
+
+@router.post("/rollback", response_model=ModelPublic,
+             responses={409: {"description": "No model was active before this one"}})
+def rollback_model(models: ModelsDep) -> dict[str, Any]:
+    """Activate the model that was active before the active one."""
+    return models.rollback()

@@ -1,0 +1,110 @@
+// Action models: the registry (each model with its card; activate one, roll back to the one before,
+// register a model file), fine-tuning on labelled takes in a worker with its progress, and the
+// participants' teach adaptations (switch one on or off).
+
+import { get, post, patch, toast, el, token } from "../api.js";
+
+function short(sha) {
+  return sha ? sha.slice(0, 10) : "–";
+}
+
+function fixed(x, digits = 3) {
+  return typeof x === "number" ? x.toFixed(digits) : "–";
+}
+
+function fileBase64(file) {
+  return new Promise((resolve, reject) => {
+    const reader = new FileReader();
+    reader.onload = () => resolve(String(reader.result).split(",", 2)[1] || "");
+    reader.onerror = () => reject(reader.error);
+    reader.readAsDataURL(file);
+  });
+}
+
+export function mountModels(root) {
+  root.hidden = false;
+  const table = el("table", { id: "model-table" },
+    el("thead", {}, el("tr", {}, ...["id", "name", "kind", "sha256", "created", "LOSO acc.", "", ""]
+      .map((h) => el("th", {}, h)))),
+    el("tbody"));
+  const rollback = el("button", { id: "model-rollback" }, "Roll back");
+  const file = el("input", { id: "model-file", type: "file", accept: ".onnx" });
+  const upload = el("button", { id: "model-upload" }, "Register file");
+  const card = el("pre", { id: "model-card", class: "model-card", hidden: "" });
+  const active = el("div", { id: "model-active" }, "");
+  root.replaceChildren(
+    el("h2", {}, "Action models"),
+    active,
+    table,
+    el("div", { class: "row" }, rollback, file, upload),
+    card,
+  );
+
+  async function refresh() {
+    const models = await get("/models");
+    const on = models.find((m) => m.active);
+    active.textContent = on ? `active: model ${on.id} — ${on.name} (${on.kind}, sha256 ${short(on.sha256)})` : "";
+    table.tBodies[0].replaceChildren(...models.slice().reverse().map((m) => el("tr",
+      { dataset: { modelId: m.id, active: m.active ? "true" : "false" } },
+      el("td", {}, m.id), el("td", {}, m.name), el("td", {}, m.kind), el("td", { class: "mono" }, short(m.sha256)),
+      el("td", {}, new Date(m.created_at).toLocaleString()),
+      el("td", {}, fixed((m.card.figures || {}).loso_accuracy)),
+      el("td", {}, el("button", { class: "model-card-button", onclick: () => showCard(m) }, "card")),
+      el("td", {}, m.active ? el("strong", {}, "active")
+        : el("button", { class: "model-activate", onclick: () => activate(m.id) }, "activate")))));
+  }
+
+  async function showCard(m) {
+    try {
+      const res = await fetch(`/api/v1/models/${m.id}/card.md`, { headers: authHeaders() });
+      const text = await res.text();
+      card.textContent = text || JSON.stringify(m.card, null, 1);
+      card.hidden = false;
+      card.dataset.modelId = m.id;
+    } catch (err) {
+      toast(`card: ${err.message}`);
+    }
+  }
+
+  async function activate(id) {
+    try {
+      await post(`/models/${id}/activate`);
+      toast(`model ${id} is active (the pipeline runs it from its next start)`, "ok");
+    } catch (err) {
+      toast(`activate: ${err.message}`);
+    }
+    await refresh();
+  }
+
+  rollback.addEventListener("click", async () => {
+    try {
+      const m = await post("/models/rollback");
+      toast(`rolled back to model ${m.id}`, "ok");
+    } catch (err) {
+      toast(`roll back: ${err.message}`);
+    }
+    await refresh();
+  });
+
+  upload.addEventListener("click", async () => {
+    const f = file.files && file.files[0];
+    if (!f) {
+      toast("choose an .onnx file first");
+      return;
+    }
+    try {
+      const m = await post("/models", { name: f.name, onnx_base64: await fileBase64(f) });
+      toast(`registered model ${m.id}`, "ok");
+    } catch (err) {
+      toast(`register: ${err.message}`);
+    }
+    await refresh();
+  });
+
+  refresh().catch((err) => toast(`models: ${err.message}`));
+  return { refresh };
+}
+
+function authHeaders() {
+  return token() ? { Authorization: `Bearer ${token()}` } : {};
+}

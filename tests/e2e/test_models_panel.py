@@ -1,0 +1,64 @@
+"""The action models panel in headless Chromium against the real app: register a model file from the
+dashboard, refuse a bad one, read a card, activate, roll back (issue 18 item 5); screenshots saved."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from tests.app.conftest import Served, make_settings
+from tests.app.models.onnx_files import three_class_model, with_metadata
+
+pytestmark = [pytest.mark.e2e, pytest.mark.slow]
+
+CHROMIUM = "/usr/bin/chromium"
+ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"]
+
+
+def test_models_panel_registers_activates_and_rolls_back(tmp_path: Path, artifacts_dir: Path) -> None:
+    from playwright.sync_api import expect, sync_playwright
+
+    if not Path(CHROMIUM).exists():
+        pytest.fail(f"{CHROMIUM} missing: apt-get install -y chromium chromium-driver")
+    good = with_metadata(tmp_path / "lab-model.onnx", note="from the dashboard")
+    bad = three_class_model(tmp_path / "three-classes.onnx")
+    with Served(make_settings(tmp_path), autostart=None, pipeline_factory=None) as served, \
+            sync_playwright() as pw:
+        browser = pw.chromium.launch(executable_path=CHROMIUM, args=ARGS)
+        page = browser.new_page(viewport={"width": 1400, "height": 1000})
+        errors: list[str] = []
+        page.on("pageerror", lambda exc: errors.append(str(exc)))
+        try:
+            page.goto(served.base)
+            panel = page.locator("#models-panel")
+            rows = panel.locator("#model-table tbody tr")
+            expect(rows).to_have_count(1, timeout=20_000)
+            expect(panel.locator("#model-active")).to_contain_text("active: model 1")
+
+            panel.locator("#model-file").set_input_files(str(bad))
+            panel.locator("#model-upload").click()
+            expect(page.locator("#toast")).to_contain_text("one output", timeout=10_000)
+            expect(rows).to_have_count(1)
+
+            panel.locator("#model-file").set_input_files(str(good))
+            panel.locator("#model-upload").click()
+            expect(rows).to_have_count(2, timeout=10_000)
+            new = panel.locator("#model-table tr[data-model-id='2']")
+            expect(new).to_have_attribute("data-active", "false")
+            new.locator("button.model-card-button").click()
+            expect(panel.locator("#model-card")).to_be_visible()
+            new.locator("button.model-activate").click()
+            expect(new).to_have_attribute("data-active", "true", timeout=10_000)
+            expect(panel.locator("#model-active")).to_contain_text("active: model 2")
+            panel.screenshot(path=str(artifacts_dir / "models-activated.png"))
+
+            panel.locator("#model-rollback").click()
+            expect(panel.locator("#model-table tr[data-model-id='1']")).to_have_attribute(
+                "data-active", "true", timeout=10_000
+            )
+            expect(new).to_have_attribute("data-active", "false")
+            panel.screenshot(path=str(artifacts_dir / "models-rolled-back.png"))
+        finally:
+            browser.close()
+        assert not errors, f"page errors: {errors}"
