@@ -11,6 +11,7 @@ from typing import IO, Any
 import numpy as np
 
 from pipeline.head.tracker import HeadEstimate
+from pipeline.navigation.navigators import NavigationFrame
 from pipeline.recognition.types import ActionEstimate
 from pipeline.tracking.types import TrackedView
 from pipeline.triangulation.types import Person3D
@@ -26,7 +27,9 @@ class FrameResult:
     people3d: 3D skeletons with user ids.
     navigator: user_id of the primary navigator, or None.
     action: the navigator's command, or None when there is no navigator.
-    heads: the navigator's head estimate (issue 20; empty when unknown or turned off).
+    heads: the navigators' head estimates (issue 20; empty when unknown or turned off).
+    navigation: each navigating person's command and the group's (issue 20), None when the
+        navigation stage does not run (no 3D).
     """
 
     frame_index: int
@@ -37,6 +40,7 @@ class FrameResult:
     action: ActionEstimate | None = None
     heads: tuple[HeadEstimate, ...] = ()
     extra: dict[str, Any] = field(default_factory=dict)
+    navigation: NavigationFrame | None = None
 
 
 def _num(x: float, nd: int = 4) -> float | None:

@@ -70,12 +70,15 @@ def receive_cmd(
         elif msg is None:
             typer.echo(f"INVALID {data[:120]!r}")
         elif msg["type"] == "locomotion":
-            typer.echo(f"#{msg['seq']:>6} locomotion user {msg['user_id']} {msg['action']:<8} "
+            user = "group" if msg["user_id"] is None else msg["user_id"]
+            typer.echo(f"#{msg['seq']:>6} locomotion user {user} {msg['action']:<8} "
                        f"conf {msg['confidence']:.2f} yaw {msg['yaw_deg']:7.1f} speed "
                        f"{msg['speed_mps']:.2f} pos {msg['position_m']}")
         elif msg["type"] == "head":
             typer.echo(f"#{msg['seq']:>6} head user {msg['user_id']} pos {msg['position_m']} forward "
                        f"{msg['forward']} up {msg['up']} predicted {msg['predicted_ms']:.0f} ms")
+        elif msg["type"] == "navigation":
+            typer.echo(f"#{msg['seq']:>6} navigation {msg['mode']} users {msg['user_ids']}")
         elif msg["type"] == "prompt":
             typer.echo(f"#{msg['seq']:>6} prompt {msg['label']:<8} {msg['remaining_s']:5.1f} s "
                        f"{msg['text']}")
@@ -98,6 +101,9 @@ def receive_cmd(
             f"locomotion {summary['locomotion_rate_hz'] or 0:.1f} Hz"
             + (f", latency p50 {lat['p50']:.1f} / p95 {lat['p95']:.1f} / p99 {lat['p99']:.1f} ms"
                if lat else ""), err=True)
+        if len(summary["by_user"]) > 1 or "group" in summary["by_user"]:
+            typer.echo("streams: " + ", ".join(f"{k}: {n}" for k, n in sorted(summary["by_user"].items())),
+                       err=True)
         for err in summary["errors"][:5]:
             typer.echo(f"  invalid: {err}", err=True)
     if stats.invalid:

@@ -48,6 +48,7 @@ from pipeline.errors import ConfigError
 from pipeline.head.config import HeadConfig
 from pipeline.identity.config import IdentityConfig
 from pipeline.machine import machine_fingerprint
+from pipeline.navigation.config import NavigationConfig
 from pipeline.planner.config import PlannerConfig
 from pipeline.pose.config import PoseConfig
 from pipeline.pose.tune import FINGERPRINT_KEYS, TUNED_KEYS, TuneConfig
@@ -209,6 +210,7 @@ class Settings(BaseSettings):
     tracks3d: Tracks3DParams = Tracks3DParams()
     identity: IdentityConfig = IdentityConfig()
     navigator: NavigatorConfig = NavigatorConfig()
+    navigation: NavigationConfig = NavigationConfig()
     recognition: RecognizerConfig = RecognizerConfig()
     head: HeadConfig = HeadConfig()
     runtime: RuntimeConfig = RuntimeConfig()

@@ -40,7 +40,7 @@ def fusion_factory(settings: Settings, cameras: list[Camera] | None,
     return FusionFactory(cameras=tuple(cameras) if cameras else None, camera_names=(),
                          tracking=settings.tracking, reconstruction=reconstruction,
                          navigator=settings.navigator, recognition=recognition or settings.recognition,
-                         head=settings.head)
+                         head=settings.head, navigation=settings.navigation)
 
 
 def build_pipeline(settings: Settings, cameras: list[Camera] | None = None,

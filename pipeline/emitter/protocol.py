@@ -7,6 +7,13 @@ One UTF-8 JSON object per datagram::
     {"v": 1, "type": "heartbeat", "seq", "ts", "state"}
     {"v": 1, "type": "head", "seq", "ts", "user_id", "position_m": [x, y, z],
      "forward": [x, y, z], "up": [x, y, z], "predicted_ms"}          (additive, issue 20)
+    {"v": 1, "type": "navigation", "seq", "ts", "mode", "user_ids"}   (additive, issue 20)
+
+Navigation modes (issue 20): in ``each`` mode one ``locomotion`` stream per navigator, each with
+its ``user_id`` (OSC ``/cave/locomotion/{user_id}``); in ``group`` mode one stream with
+``user_id`` null (OSC ``/cave/locomotion`` with user_id -1: OSC has no null). A ``navigation``
+datagram names the mode and the streams' user ids (the group's members) with every heartbeat
+and at once when they change.
 
 ``ts`` is Unix time in seconds: for ``locomotion`` and ``head`` the capture time of the camera
 frames the command was computed from (so a receiver sees the age of what it gets),
@@ -35,6 +42,10 @@ _LOCOMOTION_KEYS = {"v", "type", "seq", "ts", "user_id", "action", "confidence",
                     "speed_mps", "position_m"}
 _HEARTBEAT_KEYS = {"v", "type", "seq", "ts", "state"}
 _HEAD_KEYS = {"v", "type", "seq", "ts", "user_id", "position_m", "forward", "up", "predicted_ms"}
+_NAVIGATION_KEYS = {"v", "type", "seq", "ts", "mode", "user_ids"}  # additive (issue 20)
+NAVIGATION_MODES = ("single", "each", "group")
+MAX_NAVIGATION_IDS = 64
+OSC_GROUP_USER_ID = -1  # the group stream's user_id in OSC, which has no null
 _PROMPT_KEYS = {"v", "type", "seq", "ts", "text", "label", "remaining_s"}  # additive (issue 18)
 MAX_PROMPT_CHARS = 200
 OSC_HEAD_ADDRESS = "/cave/head"  # + "/{user_id}"
@@ -43,21 +54,26 @@ UNIT_TOLERANCE = 0.01  # forward and up are unit vectors to within this
 
 @dataclass(frozen=True, slots=True)
 class LocomotionCommand:
-    """The navigator's command for one frame.
+    """A navigator's (or the group's) command for one frame.
 
+    user_id: the navigator; None = the group's shared command (group mode, issue 20).
     timestamp_s: capture time of the frames it came from, ``time.monotonic()`` seconds.
     position_m: (x, y, z) floor position in the CAVE frame, metres.
+    per_user: one of several streams (each mode): OSC at ``/cave/locomotion/{user_id}``.
     """
 
-    user_id: int
+    user_id: int | None
     action: str
     confidence: float
     yaw_deg: float
     speed_mps: float
     position_m: tuple[float, float, float]
     timestamp_s: float
+    per_user: bool = False
 
     def __post_init__(self) -> None:
+        if self.per_user and self.user_id is None:
+            raise ValueError("a per-user stream needs a user_id, got None")
         if self.action not in ACTIONS:
             raise ValueError(f"action must be one of {ACTIONS}, got {self.action!r}")
         if len(self.position_m) != 3:
@@ -75,7 +91,7 @@ def locomotion_message(cmd: LocomotionCommand, seq: int, ts_unix: float) -> dict
         "type": "locomotion",
         "seq": int(seq),
         "ts": round(float(ts_unix), 6),
-        "user_id": int(cmd.user_id),
+        "user_id": None if cmd.user_id is None else int(cmd.user_id),
         "action": cmd.action,
         "confidence": _finite(min(max(cmd.confidence, 0.0), 1.0), 4),
         "yaw_deg": _finite(cmd.yaw_deg, 2),
@@ -97,17 +113,31 @@ def heartbeat_message(state: str, seq: int, ts_unix: float) -> dict[str, Any]:
 OSC_LOCOMOTION_TYPES = "isffffffd"
 
 
-def osc_locomotion_message(cmd: LocomotionCommand, ts_unix: float, address: str = OSC_ADDRESS) -> bytes:
-    """The OSC message ``address`` carrying ``cmd`` (types :data:`OSC_LOCOMOTION_TYPES`)."""
+def osc_locomotion_message(cmd: LocomotionCommand, ts_unix: float, address: str | None = None) -> bytes:
+    """The OSC message carrying ``cmd`` (types :data:`OSC_LOCOMOTION_TYPES`) at ``address``, by
+    default ``/cave/locomotion`` (``/cave/locomotion/{user_id}`` for a per-user stream)."""
     from pythonosc.osc_message_builder import OscMessageBuilder
 
-    values: list[Any] = [int(cmd.user_id), cmd.action, _finite(min(max(cmd.confidence, 0.0), 1.0), 4),
+    if address is None:
+        per_user = cmd.per_user and cmd.user_id is not None
+        address = f"{OSC_ADDRESS}/{cmd.user_id}" if per_user else OSC_ADDRESS
+    user = OSC_GROUP_USER_ID if cmd.user_id is None else int(cmd.user_id)
+    values: list[Any] = [user, cmd.action, _finite(min(max(cmd.confidence, 0.0), 1.0), 4),
                          _finite(cmd.yaw_deg, 2), _finite(cmd.speed_mps, 3),
                          *(_finite(v, 4) for v in cmd.position_m), float(ts_unix)]
     builder = OscMessageBuilder(address=address)
     for tag, value in zip(OSC_LOCOMOTION_TYPES, values, strict=True):
         builder.add_arg(value, arg_type=tag)
     return bytes(builder.build().dgram)
+
+
+def navigation_message(mode: str, user_ids: Any, seq: int, ts_unix: float) -> dict[str, Any]:
+    """The navigation mode and its streams' user ids (each: the navigators; group: its members;
+    single: the navigator, if any). Additive, issue 20."""
+    if mode not in NAVIGATION_MODES:
+        raise ValueError(f"mode must be one of {NAVIGATION_MODES}, got {mode!r}")
+    return {"v": PROTOCOL_VERSION, "type": "navigation", "seq": int(seq), "ts": round(float(ts_unix), 6),
+            "mode": mode, "user_ids": sorted(int(u) for u in user_ids)[:MAX_NAVIGATION_IDS]}
 
 
 def _vector(values: Any, nd: int) -> list[float]:
@@ -193,9 +223,11 @@ def validate_datagram(data: bytes | str | dict[str, Any]) -> dict[str, Any]:
         raise InputError(f"v: expected {PROTOCOL_VERSION}, got {msg.get('v')!r}")
     kind = msg.get("type")
     keys = {"locomotion": _LOCOMOTION_KEYS, "heartbeat": _HEARTBEAT_KEYS,
-            "head": _HEAD_KEYS, "prompt": _PROMPT_KEYS}.get(kind)  # type: ignore[arg-type]
+            "head": _HEAD_KEYS, "prompt": _PROMPT_KEYS,
+            "navigation": _NAVIGATION_KEYS}.get(kind)  # type: ignore[arg-type]
     if keys is None:
-        raise InputError(f"type: expected 'locomotion', 'heartbeat', 'head' or 'prompt', got {kind!r}")
+        raise InputError(f"type: expected 'locomotion', 'heartbeat', 'head', 'prompt' or 'navigation', "
+                         f"got {kind!r}")
     if missing := keys - msg.keys():
         raise InputError(f"{kind}: missing keys {sorted(missing)}")
     if extra := msg.keys() - keys:
@@ -211,7 +243,10 @@ def validate_datagram(data: bytes | str | dict[str, Any]) -> dict[str, Any]:
         return _validate_head(msg)
     if kind == "prompt":
         return _validate_prompt(msg)
-    _integer(msg, "user_id", 0)
+    if kind == "navigation":
+        return _validate_navigation(msg)
+    if msg["user_id"] is not None:  # null: the group's command (issue 20)
+        _integer(msg, "user_id", 0)
     if msg["action"] not in ACTIONS:
         raise InputError(f"action: expected one of {ACTIONS}, got {msg['action']!r}")
     if not 0.0 <= _number(msg, "confidence") <= 1.0:
@@ -259,4 +294,20 @@ def _validate_prompt(msg: dict[str, Any]) -> dict[str, Any]:
         raise InputError(f"label: expected one of {ACTIONS}, got {msg['label']!r}")
     if _number(msg, "remaining_s") < 0:
         raise InputError(f"remaining_s: expected a number >= 0, got {msg['remaining_s']!r}")
+    return msg
+
+
+def _validate_navigation(msg: dict[str, Any]) -> dict[str, Any]:
+    """The checks of a ``navigation`` datagram after the common ones."""
+    if msg["mode"] not in NAVIGATION_MODES:
+        raise InputError(f"mode: expected one of {NAVIGATION_MODES}, got {msg['mode']!r}")
+    ids = msg["user_ids"]
+    if not isinstance(ids, list) or len(ids) > MAX_NAVIGATION_IDS:
+        raise InputError(f"user_ids: expected a list of at most {MAX_NAVIGATION_IDS} user ids, got {ids!r}")
+    for i in range(len(ids)):
+        _integer({f"user_ids[{i}]": ids[i]}, f"user_ids[{i}]", 0)
+    if len(set(ids)) != len(ids):
+        raise InputError(f"user_ids: expected distinct user ids, got {ids!r}")
+    if msg["mode"] == "single" and len(ids) > 1:
+        raise InputError(f"user_ids: single mode has at most one navigator, got {ids!r}")
     return msg

@@ -1,5 +1,9 @@
 """The reference workstation receiver: validates each datagram, counts drops by ``seq``,
-measures rate and latency (``ts`` against the receive time)."""
+measures rate and latency (``ts`` against the receive time).
+
+It also checks the navigation modes (issue 20): once a sender has announced its mode in a
+``navigation`` datagram, each ``locomotion`` must fit it (``group``: ``user_id`` null; ``each``
+and ``single``: a user id among those announced); one that does not counts as invalid."""
 
 from __future__ import annotations
 
@@ -30,6 +34,8 @@ class ReceiverStats:
     first_s: float | None = None
     last_s: float | None = None
     errors: list[str] = field(default_factory=list)
+    by_user: dict[str, int] = field(default_factory=dict)  # locomotion per stream ("group" = null)
+    navigation: dict[str, dict[str, Any]] = field(default_factory=dict)  # sender -> last announcement
     _next_seq: dict[str, int] = field(default_factory=dict)
 
     def feed(self, data: bytes, sender: str, recv_unix: float) -> dict[str, Any] | None:
@@ -39,6 +45,8 @@ class ReceiverStats:
         self.last_s = recv_unix
         try:
             msg = validate_datagram(data)
+            if msg["type"] == "locomotion":
+                self._check_stream(msg, sender)
         except InputError as exc:
             self.invalid += 1
             if len(self.errors) < 20:
@@ -57,7 +65,25 @@ class ReceiverStats:
             self._next_seq[sender] = seq + 1
         if msg["type"] == "locomotion":
             self.latencies_ms.append((recv_unix - float(msg["ts"])) * 1000.0)
+            stream = "group" if msg["user_id"] is None else str(msg["user_id"])
+            self.by_user[stream] = self.by_user.get(stream, 0) + 1
+        elif msg["type"] == "navigation":
+            self.navigation[sender] = {"mode": msg["mode"], "user_ids": list(msg["user_ids"])}
         return msg
+
+    def _check_stream(self, msg: dict[str, Any], sender: str) -> None:
+        """InputError for a ``locomotion`` that contradicts the sender's announced navigation mode."""
+        nav = self.navigation.get(sender)
+        if nav is None:  # nothing announced (a sender before issue 20): no mode to check against
+            return
+        user, mode = msg["user_id"], nav["mode"]
+        if mode == "group" and user is not None:
+            raise InputError(f"locomotion: group mode sends user_id null, got {user!r}")
+        if mode != "group" and user is None:
+            raise InputError(f"locomotion: user_id null is the group's stream, but the mode is {mode}")
+        if mode != "group" and user not in nav["user_ids"]:
+            raise InputError(f"locomotion: user {user} is not among the announced navigators "
+                             f"{nav['user_ids']} ({mode} mode)")
 
     def summary(self) -> dict[str, Any]:
         span = (self.last_s - self.first_s) if self.first_s is not None and self.last_s is not None else 0.0
@@ -76,6 +102,8 @@ class ReceiverStats:
             "latency_ms": ({k: round(float(np.percentile(lat, q)), 3) for k, q in
                             (("p50", 50), ("p95", 95), ("p99", 99))} if lat.size else None),
             "errors": list(self.errors),
+            "by_user": dict(self.by_user),
+            "navigation": {k: dict(v) for k, v in self.navigation.items()},
         }
 
 

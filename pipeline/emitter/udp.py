@@ -6,6 +6,9 @@ repeats the current one so that ``locomotion`` arrives at ``rate_hz`` on average
 a navigator is tracked (see FRESH_GAP / REPEAT_GAP), and sends a ``heartbeat`` every
 ``heartbeat_s`` always. Each ``locomotion`` is followed by a ``head`` datagram per head estimate
 submitted with its command (issue 20), predicted to the moment it is sent (``HeadConfig``).
+Several commands submitted together (issue 20's ``each`` mode: one per navigator) go out together,
+one ``locomotion`` datagram each; :meth:`UdpEmitter.set_navigation` adds a ``navigation`` datagram
+(the mode and its streams' user ids) after each heartbeat and at once when it changes.
 ``seq`` counts per destination. Unicast, broadcast and multicast addresses all work
 (the socket has SO_BROADCAST and a multicast TTL).
 """
@@ -18,7 +21,7 @@ import logging
 import socket
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 from pipeline.emitter.protocol import (
@@ -27,6 +30,7 @@ from pipeline.emitter.protocol import (
     head_message,
     heartbeat_message,
     locomotion_message,
+    navigation_message,
     osc_head_message,
     osc_locomotion_message,
     prompt_message,
@@ -110,6 +114,10 @@ def resolve_endpoint(host: str, port: int) -> Endpoint:
     return str(infos[0][4][0]), int(port)
 
 
+def _encode_locomotion(cmd: LocomotionCommand, ts_unix: float, seq: int) -> bytes:
+    return encode(locomotion_message(cmd, seq, ts_unix))
+
+
 def _encode_head(pose: HeadPose, ts_unix: float, seq: int) -> bytes:
     return encode(head_message(pose, seq, ts_unix))
 
@@ -137,7 +145,8 @@ class UdpEmitter:
         self._endpoints: list[Endpoint] = []
         self._seq: dict[Endpoint, int] = {}
         self._osc: list[Endpoint] = []  # OSC destinations, sent from the same socket
-        self._command: LocomotionCommand | None = None
+        self._commands: tuple[LocomotionCommand, ...] = ()  # the current command(s); () = none
+        self._navigation: tuple[str, tuple[int, ...]] | None = None  # (mode, user ids) announced
         self._command_at = 0.0
         self._pending = False  # a fresh command waits to be sent
         self._last_was_fresh = False  # the last locomotion datagram carried a new command
@@ -186,24 +195,39 @@ class UdpEmitter:
             self._wake.set()
 
     # -- sending --------------------------------------------------------------------------
-    def submit(self, command: LocomotionCommand | None, heads: tuple[HeadEstimate, ...] = ()) -> None:
-        """The newest navigator command (None = no navigator) and the navigators' head estimates:
-        sent now, then repeated at the rate (each head predicted afresh for each send)."""
+    def submit(self, command: LocomotionCommand | Sequence[LocomotionCommand] | None,
+               heads: tuple[HeadEstimate, ...] = ()) -> None:
+        """The newest navigator command, or several (one per stream; None or () = no navigator),
+        and the navigators' head estimates: sent now, then repeated at the rate (each head
+        predicted afresh for each send)."""
+        commands = () if command is None else (command,) if isinstance(command, LocomotionCommand) \
+            else tuple(command)
         with self._lock:
-            self._command = command
+            self._commands = commands
             self._heads = tuple(heads) if self.head.enabled else ()
-            if command is None:
+            if not commands:
                 return
             now = time.monotonic()
             self._command_at = now
             self._pending = True
             if now - self._last_loco >= FRESH_GAP / self.config.rate_hz:
-                self._send_locomotion(command, now)
+                self._send_locomotion(commands, now)
                 self._pending = False
                 self._last_was_fresh = True
                 if self._on_sent is not None:
-                    self._on_sent(now - command.timestamp_s)
+                    self._on_sent(now - commands[0].timestamp_s)
             self._wake.set()  # the repeat thread may be sleeping until the next heartbeat
+
+    def set_navigation(self, mode: str, user_ids: Sequence[int]) -> None:
+        """The navigation mode and its streams' user ids, announced in a ``navigation`` datagram
+        after every heartbeat and at once when they change (issue 20)."""
+        navigation_message(mode, user_ids, 0, 1.0)  # validates the mode
+        value = (mode, tuple(sorted(int(u) for u in user_ids)))
+        with self._lock:
+            changed = value != self._navigation
+            self._navigation = value
+            if changed:
+                self._send_navigation(time.monotonic())
 
     def _next_gap(self) -> float:
         """Periods after the last datagram when the next is due: soon for a fresh command not
@@ -224,10 +248,13 @@ class UdpEmitter:
             self._seq[ep] = seq + 1
             self.sent += 1
 
-    def _send_locomotion(self, cmd: LocomotionCommand, now: float) -> None:
-        ts = cmd.timestamp_s + self._offset
-        self._send(lambda seq: encode(locomotion_message(cmd, seq, ts)))
-        osc = [osc_locomotion_message(cmd, ts)] if self._osc else []
+    def _send_locomotion(self, cmds: tuple[LocomotionCommand, ...], now: float) -> None:
+        osc = []
+        for cmd in cmds:
+            ts = cmd.timestamp_s + self._offset
+            self._send(functools.partial(_encode_locomotion, cmd, ts))
+            if self._osc:
+                osc.append(osc_locomotion_message(cmd, ts))
         for est in self._heads:
             pose = est.predict(self.head.horizon_s(now - est.timestamp_s))
             ts_head = est.timestamp_s + self._offset
@@ -254,16 +281,24 @@ class UdpEmitter:
         state = self._state
         self._send(lambda seq: encode(heartbeat_message(state, seq, ts)))
         self._last_beat = now
+        self._send_navigation(now)
+
+    def _send_navigation(self, now: float) -> None:
+        if self._navigation is None:
+            return
+        ts = now + self._offset
+        mode, ids = self._navigation
+        self._send(lambda seq: encode(navigation_message(mode, ids, seq, ts)))
 
     def tick(self, now: float | None = None) -> None:
         """Send what is due at ``now``: a repeated locomotion and/or a heartbeat."""
         now = time.monotonic() if now is None else now
         with self._lock:
-            cmd = self._command
-            if cmd is not None and now - self._command_at > self.config.stale_after_s:
-                cmd = self._command = None
-            if cmd is not None and now - self._last_loco >= self._next_gap() / self.config.rate_hz:
-                self._send_locomotion(cmd, now)
+            cmds = self._commands
+            if cmds and now - self._command_at > self.config.stale_after_s:
+                cmds = self._commands = ()
+            if cmds and now - self._last_loco >= self._next_gap() / self.config.rate_hz:
+                self._send_locomotion(cmds, now)
                 self._last_was_fresh = self._pending
                 self._pending = False
             if now - self._last_beat >= self.config.heartbeat_s:
@@ -279,7 +314,7 @@ class UdpEmitter:
             with self._lock:
                 now = time.monotonic()
                 wait = self._last_beat + self.config.heartbeat_s - now
-                if self._command is not None:
+                if self._commands:
                     wait = min(wait, self._last_loco + self._next_gap() * period - now)
             self._wake.wait(max(0.001, wait))
             self._wake.clear()

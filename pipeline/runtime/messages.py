@@ -74,6 +74,14 @@ class SetNavigator:
     user_id: int | None
 
 
+@dataclass(frozen=True, slots=True)
+class SetNavigation:
+    """Control message to the fusion stage: the navigation mode and its chosen people (issue 20)."""
+
+    mode: str
+    user_ids: tuple[int, ...] = ()
+
+
 def put_latest(q: Any, item: object, retries: int = 3) -> int:
     """Put without blocking; when the queue is full drop the oldest first. Returns how many were dropped."""
     dropped = 0

@@ -25,16 +25,16 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Literal, Protocol
 
-import numpy as np
-
 from pipeline.camera import Camera
-from pipeline.emitter.protocol import LocomotionCommand
 from pipeline.emitter.udp import EmitterConfig, UdpEmitter
 from pipeline.errors import InputError, SourceError
+from pipeline.navigation.config import NavigationConfig
+from pipeline.navigation.stream import frame_commands
+from pipeline.navigation.views import navigation_record
 from pipeline.results import FrameResult, action_record, person_record
 from pipeline.runtime.config import RuntimeConfig
 from pipeline.runtime.mailbox import Mailbox
-from pipeline.runtime.messages import FusedFrame, SetNavigator, WorkerEvent, put_latest
+from pipeline.runtime.messages import FusedFrame, SetNavigation, SetNavigator, WorkerEvent, put_latest
 from pipeline.runtime.metrics import RuntimeMetrics
 from pipeline.runtime.shm import FrameRing, RingSpec
 from pipeline.runtime.snapshot import person_labels, render_snapshot
@@ -335,8 +335,11 @@ class Pipeline:
 
     def _on_result(self, run: _Run, fused: FusedFrame) -> None:
         result, det = fused.result, fused.detected
-        cmd = _command(result)
-        self.emitter.submit(cmd, result.heads)
+        nav = result.navigation
+        if nav is not None:  # announced before the streams it names
+            streams = nav.group.members if nav.group is not None else nav.user_ids
+            self.emitter.set_navigation(nav.mode, streams)
+        self.emitter.submit(frame_commands(result), result.heads)
         sent = time.monotonic()
         ms = {
             "capture": det.detect_start_s - det.timestamp_s,
@@ -369,12 +372,20 @@ class Pipeline:
             for change in fused.navigator_changes:
                 self._event("navigator", f"navigator {change.previous} -> {change.current} ({change.reason})",
                             {"previous": change.previous, "current": change.current, "mode": change.mode})
+            mode = nav.mode if nav is not None else "single"
+            for c in nav.changes if nav is not None and mode != "single" else ():  # each person's own
+                who = "group" if c.user_id is None else f"user {c.user_id}"
+                own = nav.command_of(c.user_id) if nav is not None and c.user_id is not None else None
+                self._event("action", f"{who}: action {c.previous} -> {c.current} ({mode})",
+                            {"previous": c.previous, "label": c.current, "user_id": c.user_id, "mode": mode,
+                             "group": c.user_id is None,
+                             "action": action_record(own.action if own is not None else None)})
             label = result.action.label if result.action is not None else None
-            if label != self._last_action:
+            if label != self._last_action and mode == "single":
                 self._event("action", f"action {self._last_action} -> {label}",
                             {"previous": self._last_action, "label": label, "user_id": result.navigator,
                              "action": action_record(result.action)})
-                self._last_action = label
+            self._last_action = label
 
     def _supervise(self, run: _Run) -> None:
         while not run.stop.is_set():
@@ -454,7 +465,7 @@ class Pipeline:
         if run is None:
             return PipelineStatus(state, None, 0.0, 0, 0, RuntimeMetrics().latency_summary(), (), (),
                                   None, "auto", None, (), -1, error, tuple(self.emitter.endpoints),
-                                  self.emitter.sent)
+                                  self.emitter.sent, navigation_record(None, self.fusion.navigation))
         now = time.monotonic()
         latest = run.latest
         result = latest.result if latest is not None else FrameResult(-1, 0.0)
@@ -474,6 +485,7 @@ class Pipeline:
             action=action_record(result.action), people3d=tuple(person_record(p) for p in result.people3d),
             frame_index=result.frame_index, last_error=error,
             workstations=tuple(self.emitter.endpoints), emitted=self.emitter.sent,
+            navigation=navigation_record(result.navigation, self.fusion.navigation),
         )
 
     def latency_samples(self) -> dict[str, list[float]]:
@@ -515,6 +527,32 @@ class Pipeline:
                                      f"{', '.join(map(str, tracked)) or 'none'})")
             if run.control_q is not None:
                 put_latest(run.control_q, SetNavigator(user_id))
+
+    def set_navigation(self, mode: str, user_ids: Sequence[int] = ()) -> None:
+        """The navigation mode (issue 20): ``single``, ``each`` or ``group``, with the chosen people
+        (empty = everyone tracked). InputError, nothing changed, for an unknown mode or a user id
+        nobody has now; the mode also holds for the next runs."""
+        ids = list(user_ids)
+        try:
+            config = NavigationConfig(mode, tuple(ids), self.fusion.navigation.max_navigators)  # type: ignore[arg-type]
+        except ValueError as exc:
+            raise InputError(str(exc)) from None
+        with self._lock:
+            run = self._run
+            if ids:
+                if run is None:
+                    raise InputError("the pipeline is not running: nobody is tracked to choose")
+                people = run.latest.result.people3d if run.latest is not None else ()
+                tracked = sorted(p.user_id for p in people)
+                unknown = sorted(set(ids) - set(tracked))
+                if unknown:
+                    raise InputError(f"users {unknown} are not tracked (tracked users: "
+                                     f"{', '.join(map(str, tracked)) or 'none'})")
+            self.fusion = replace(self.fusion, navigation=config)
+            if run is not None and run.control_q is not None:
+                put_latest(run.control_q, SetNavigation(config.mode, config.user_ids))
+            self._event("navigator", f"navigation mode {config.mode} {list(config.user_ids) or 'everyone'}",
+                        {"mode": config.mode, "user_ids": list(config.user_ids)})
 
     def set_workstations(self, endpoints: list[tuple[str, int]]) -> None:
         """Replace the UDP destinations; InputError (nothing changes) for one that does not resolve."""
@@ -573,18 +611,6 @@ class Pipeline:
 
 
 # ------------------------------------------------------------------------------------ helpers
-def _command(result: FrameResult) -> LocomotionCommand | None:
-    if result.navigator is None or result.action is None:
-        return None
-    person = next((p for p in result.people3d if p.user_id == result.navigator), None)
-    pos = person.position_m if person is not None else np.zeros(3)
-    return LocomotionCommand(
-        user_id=int(result.navigator), action=result.action.label, confidence=result.action.confidence,
-        yaw_deg=float(result.action.yaw_deg), speed_mps=float(result.action.speed_mps),
-        position_m=(float(pos[0]), float(pos[1]), float(pos[2])), timestamp_s=result.timestamp_s,
-    )
-
-
 def _capture_group(spec: CaptureSpec, ring: RingSpec) -> Callable[[], list[WorkerDef]]:
     def build() -> list[WorkerDef]:
         return [(f"capture-{spec.camera}", capture_loop, (spec, ring))]

@@ -26,6 +26,8 @@ from pipeline.cave import CaveGeometry
 from pipeline.errors import ModelError
 from pipeline.head.config import HeadConfig
 from pipeline.head.tracker import HeadEstimate, HeadTracker
+from pipeline.navigation.config import NavigationConfig
+from pipeline.navigation.navigators import Navigators
 from pipeline.pose.config import PoseConfig
 from pipeline.pose.detector import PoseDetector
 from pipeline.pose.roi import RoiScheduler
@@ -122,8 +124,9 @@ class Fusion:
 
     def __init__(self, tracker: Tracker | None, reconstructor: Reconstructor | None,
                  selector: Selector | None, recognizer: Recognizer | None,
-                 heads: HeadTracker | None = None) -> None:
+                 heads: HeadTracker | None = None, navigation: Navigators | None = None) -> None:
         self.tracker = tracker
+        self.navigation = navigation  # issue 20: several navigators (None: single mode only)
         self.heads = heads
         self.reconstructor = reconstructor
         self.selector = selector
@@ -142,6 +145,14 @@ class Fusion:
         change = self.selector.set_auto() if user_id is None else self.selector.set_manual(user_id)
         if change is not None:
             self.changes.append(change)
+
+    def set_navigation(self, mode: str, user_ids: Sequence[int] = ()) -> None:
+        """The navigation mode (pipeline.navigation); InputError (nothing changes) for a bad one."""
+        if self.navigation is None:
+            from pipeline.errors import InputError
+
+            raise InputError("navigation modes need the 3D stage (a calibration)")
+        self.navigation.set_mode(mode, user_ids)
 
     def take_changes(self) -> tuple[Any, ...]:
         out, self.changes = tuple(self.changes), []
@@ -164,17 +175,27 @@ class Fusion:
                 self.changes.append(change)
             navigator = self.selector.current
         action = None
+        single = self.navigation is None or self.navigation.mode == "single"
         if navigator != self._navigator and self.recognizer is not None:
             self.recognizer.reset()
         self._navigator = navigator
-        if navigator is not None and self.recognizer is not None:
+        if single and navigator is not None and self.recognizer is not None:
             person = next((p for p in people if p.user_id == navigator), None)
             if person is not None:
                 action = self.recognizer.update(person.joints_m, frame.timestamp_s)
+        nav = None
+        users: tuple[int, ...] = () if navigator is None else (navigator,)
+        if self.navigation is not None:
+            nav = self.navigation.update(people, frame.timestamp_s, navigator, action)
+            if not single:  # each person's own state decides; the navigator's is theirs
+                own = nav.command_of(navigator) if navigator is not None else None
+                action = own.action if own is not None else None
+                users = nav.user_ids
         heads: tuple[HeadEstimate, ...] = ()
-        if self.heads is not None and navigator is not None:
-            heads = self.heads.update(people, frame.timestamp_s, users=(navigator,))
-        return FrameResult(frame.frame_index, frame.timestamp_s, tracked, people, navigator, action, heads)
+        if self.heads is not None and users:
+            heads = self.heads.update(people, frame.timestamp_s, users=users)
+        return FrameResult(frame.frame_index, frame.timestamp_s, tracked, people, navigator, action, heads,
+                           navigation=nav)
 
 
 @dataclass(frozen=True, slots=True)
@@ -191,10 +212,11 @@ class FusionFactory:
     navigator: NavigatorConfig = field(default_factory=NavigatorConfig)
     recognition: RecognizerConfig | None = field(default_factory=RecognizerConfig)  # None: no actions
     head: HeadConfig = field(default_factory=HeadConfig)
+    navigation: NavigationConfig = field(default_factory=NavigationConfig)
 
     def __call__(self) -> Fusion:
         tracker = MultiViewTracker(list(self.camera_names), self.tracking)
-        reconstructor = selector = recognizer = heads = None
+        reconstructor = selector = recognizer = heads = navigation = None
         if self.cameras is not None:
             try:
                 from pipeline.triangulation.navigator import NavigatorSelector
@@ -209,7 +231,17 @@ class FusionFactory:
                     recognizer = ActionRecognizer.from_config(self.recognition)
                 except ModelError as exc:  # 3D and the navigator still serve without actions
                     log.warning("no action recognition: %s", exc)
-        return Fusion(tracker, reconstructor, selector, recognizer, heads)  # type: ignore[arg-type]
+            navigation = Navigators(self.navigation, _per_person(recognizer))
+        return Fusion(tracker, reconstructor, selector, recognizer, heads,  # type: ignore[arg-type]
+                      navigation)
+
+
+def _per_person(recognizer: ActionRecognizer | None) -> Any:
+    """A factory of further recogniser states sharing ``recognizer``'s ONNX session (None: none)."""
+    if recognizer is None:
+        return None
+    session, config = recognizer.session, recognizer.config
+    return lambda: ActionRecognizer(session, config)
 
 
 # ---------------------------------------------------------------------------------- simulator

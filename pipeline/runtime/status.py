@@ -32,6 +32,8 @@ class PipelineStatus:
     action: {"label", "probs", "yaw_deg", "speed_mps"} or None.
     people3d: [{"user_id", "joints": [[x, y, z] or None] x 17, "reproj_px"}] for the 3D view.
     dropped: frames the sources delivered that no stage processed (multi-view frames).
+    navigation: {"mode", "chosen", "commands": [{"user_id", "action", "confidence", "action_record"}],
+        "group"} (issue 20; :func:`pipeline.navigation.views.navigation_record`).
     """
 
     state: State
@@ -50,6 +52,7 @@ class PipelineStatus:
     last_error: str | None = None
     workstations: tuple[tuple[str, int], ...] = ()
     emitted: int = 0
+    navigation: dict[str, Any] | None = None
 
     def to_dict(self) -> dict[str, Any]:
         return {name: getattr(self, name) for name in self.__dataclass_fields__}

@@ -35,6 +35,7 @@ from pipeline.runtime.mailbox import Mailbox, MailboxSpec
 from pipeline.runtime.messages import (
     DetectedFrame,
     FusedFrame,
+    SetNavigation,
     SetNavigator,
     WorkerEvent,
     WorkerEventKind,
@@ -306,6 +307,11 @@ def _fuse(ctx: _Ctx, fusion: Any, inbox: Mailbox, out: Mailbox, control_q: Any) 
                     fusion.set_navigator(msg.user_id)
                 except CavewalkError as exc:  # the user left between the request and now
                     ctx.report("info", f"navigator not changed: {exc}")
+            elif isinstance(msg, SetNavigation):
+                try:
+                    fusion.set_navigation(msg.mode, msg.user_ids)
+                except CavewalkError as exc:
+                    ctx.report("info", f"navigation mode not changed: {exc}")
         got = inbox.get(timeout=0.05)
         if got is None or not isinstance(got[0], DetectedFrame):
             continue

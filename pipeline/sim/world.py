@@ -12,7 +12,7 @@ from __future__ import annotations
 import logging
 import math
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -41,6 +41,8 @@ I64 = NDArray[np.int64]
 
 NAVIGATOR = "navigator"
 _CROSSFADE_S = 0.3
+# home spots of the stepping people after the navigator (issue 20: several navigators)
+STEPPER_HOMES_M: tuple[tuple[float, float], ...] = ((0.9, 0.9), (-0.9, -0.9), (0.9, -0.9))
 WALL_CLEARANCE_M = 0.45  # bystanders keep about half a metre from the screens
 
 
@@ -57,6 +59,8 @@ class SimConfig:
     observe: run the virtual cameras (False: ground truth only, ``views`` stay empty; faster).
     script: the navigator's routine file (JSON/TOML, :func:`pipeline.sim.script.load_script`);
         None = random routines.
+    people: people who step (the navigator and ``people - 1`` more, each with random routines
+        round a home spot of their own, :data:`STEPPER_HOMES_M`; issue 20), besides the bystanders.
     """
 
     fps: float = 30.0
@@ -70,8 +74,11 @@ class SimConfig:
     repeat_script: bool = False
     observe: bool = True
     script: Path | None = None
+    people: int = 1
 
     def __post_init__(self) -> None:
+        if not 1 <= int(self.people) <= 1 + len(STEPPER_HOMES_M):
+            raise InputError(f"sim people must be 1..{1 + len(STEPPER_HOMES_M)}, got {self.people}")
         if not math.isfinite(self.fps) or not 1.0 <= self.fps <= 240.0:
             raise InputError(f"sim fps must be in [1, 240], got {self.fps}")
         if not 0 <= int(self.bystanders) <= 8:
@@ -109,6 +116,7 @@ class SimFrame:
     view_people: tuple[I64, ...]
     tag: str = ""
     contacts: tuple[bool, bool] = (True, True)
+    labels: tuple[str, ...] = ()
 
     @property
     def navigator_joints(self) -> F64:
@@ -197,8 +205,9 @@ class _Navigator(_Actor):
         repeat: bool,
         chunk_s: float,
         home_xy: tuple[float, float],
+        name: str = NAVIGATOR,
     ) -> None:
-        super().__init__(NAVIGATOR, body, style, fps, rng)
+        super().__init__(name, body, style, fps, rng)
         self.script = script
         self.repeat = repeat
         self.chunk_s = chunk_s
@@ -298,8 +307,15 @@ class SimWorld:
     """Virtual cameras around a navigator and bystanders; each ``step()`` is one multi-view frame."""
 
     def __init__(
-        self, cave: CaveGeometry, cameras: list[Camera], config: SimConfig, script: MotionScript | None = None
+        self,
+        cave: CaveGeometry,
+        cameras: list[Camera],
+        config: SimConfig,
+        script: MotionScript | None = None,
+        steppers: Sequence[MotionScript] = (),
     ) -> None:
+        """steppers: the routines of further stepping people (``navigator2``, ...), each starting
+        where its script does; without them ``config.people - 1`` step random routines."""
         if not cameras:
             raise InputError("a simulated world needs at least one camera")
         self.cave = cave
@@ -308,6 +324,9 @@ class SimWorld:
         self._rng_views, rng_nav, *rng_people = (
             np.random.default_rng(s) for s in np.random.SeedSequence(config.seed).spawn(2 + config.bystanders)
         )
+        n_steppers = len(steppers) if steppers else int(config.people) - 1
+        rng_steppers = [np.random.default_rng(s) for s in
+                        np.random.SeedSequence([config.seed, 20]).spawn(n_steppers)]
         fps = config.fps
         nav_body = (
             body_from_height(config.navigator_height_m)
@@ -327,6 +346,14 @@ class SimWorld:
                 home_xy=home,
             )
         ]
+        for k, rng in enumerate(rng_steppers):
+            own = steppers[k] if steppers else None
+            self.actors.append(
+                _Navigator(sample_body(rng), sample_style(rng), fps, rng, script=own,
+                           repeat=config.repeat_script, chunk_s=config.chunk_s,
+                           home_xy=own.start_xy_m if own is not None else STEPPER_HOMES_M[k],
+                           name=f"{NAVIGATOR}{k + 2}")
+            )
         for i, rng in enumerate(rng_people):
             self.actors.append(
                 _Bystander(
@@ -375,6 +402,7 @@ class SimWorld:
             view_people=tuple(ids for _, ids in observed),
             tag=tag,
             contacts=contacts,
+            labels=tuple(s[1] for s in states),
         )
 
     def run(self, n_frames: int | None = None, realtime: bool = False) -> Iterator[SimFrame]:
