@@ -45,11 +45,42 @@ class CameraStatusPublic(BaseModel):
     last_error: str | None = None
 
 
+class CommandPublic(BaseModel):
+    """A person's own command (navigation modes each and group, issue 20; single: the navigator's)."""
+
+    label: str
+    confidence: float
+    yaw_deg: float | None = None
+    speed_mps: float | None = None
+    steps: dict[str, Any] | None = None  # the step strip's evidence and gate verdict
+
+
 class PersonPublic(BaseModel):
     user_id: int
     position_m: list[float] | None = None
     reproj_px: float | None = None
     is_navigator: bool = False
+    navigating: bool = False  # has a command of their own now
+    command: CommandPublic | None = None
+
+
+NavigationMode = Literal["single", "each", "group"]
+
+
+class GroupPublic(BaseModel):
+    """The room's command in group mode: a strict majority of the members, else still."""
+
+    label: str
+    confidence: float
+    members: list[int]
+    votes: dict[str, int]
+
+
+class NavigationPublic(BaseModel):
+    mode: NavigationMode = "single"
+    chosen: list[int] = Field(default_factory=list,
+                              description="The chosen people; empty = everyone tracked.")
+    group: GroupPublic | None = None
 
 
 class ActionPublic(BaseModel):
@@ -84,6 +115,7 @@ class StatusPublic(BaseModel):
     people: list[PersonPublic] = Field(default_factory=list)
     navigator: int | None = None
     navigator_mode: Literal["auto", "manual"] = "auto"
+    navigation: NavigationPublic = Field(default_factory=NavigationPublic)
     action: ActionPublic | None = None
     running_session_id: int | None = None
     active_calibration_id: int | None = None
@@ -93,22 +125,47 @@ class StatusPublic(BaseModel):
 
 
 class NavigatorUpdate(BaseModel):
-    """``{"user_id": 3}`` to pick a navigator, or ``{"mode": "auto"}`` to let the pipeline choose."""
+    """Who navigates.
+
+    - ``{"user_id": 3}``: single mode, user 3 chosen (``{"mode": "manual", "user_id": 3}`` too);
+    - ``{"mode": "auto"}`` or ``{"mode": "single"}``: single mode, the pipeline chooses;
+    - ``{"mode": "each"}`` / ``{"mode": "group"}``, optionally with ``"user_ids": [...]`` (the
+      chosen people; default everyone tracked): several navigators (issue 20).
+    """
 
     model_config = ConfigDict(extra="forbid")
 
     user_id: int | None = Field(None, ge=0, le=2**31 - 1)
-    mode: Literal["auto", "manual"] | None = None
+    mode: Literal["auto", "manual", "single", "each", "group"] | None = None
+    user_ids: list[int] | None = Field(None, max_length=64)
 
     @model_validator(mode="after")
     def _one_of(self) -> NavigatorUpdate:
-        if self.user_id is None and self.mode != "auto":
-            raise ValueError('give {"user_id": N} or {"mode": "auto"}')
-        if self.user_id is not None and self.mode == "auto":
-            raise ValueError('"user_id" and {"mode": "auto"} contradict each other')
+        if self.mode in ("each", "group"):
+            if self.user_id is not None:
+                raise ValueError(f'{self.mode} mode takes "user_ids": [...], not "user_id"')
+            ids = self.user_ids or []
+            if any(not 0 <= u <= 2**31 - 1 for u in ids):
+                raise ValueError(f"user_ids must be integers >= 0, got {ids}")
+            if len(set(ids)) != len(ids):
+                raise ValueError(f"user_ids must be distinct, got {ids}")
+            return self
+        if self.user_ids is not None:
+            raise ValueError('"user_ids" go with {"mode": "each"} or {"mode": "group"}')
+        if self.user_id is None and self.mode not in ("auto", "single"):
+            raise ValueError('give {"user_id": N}, {"mode": "auto"}, {"mode": "each"} or {"mode": "group"}')
+        if self.user_id is not None and self.mode in ("auto", "single"):
+            raise ValueError(f'"user_id" and {{"mode": "{self.mode}"}} contradict each other '
+                             '(single mode with a chosen navigator is {"user_id": N})')
         return self
+
+    @property
+    def navigation(self) -> NavigationMode:
+        return self.mode if self.mode in ("each", "group") else "single"  # type: ignore[return-value]
 
 
 class NavigatorPublic(BaseModel):
     navigator: int | None
     mode: Literal["auto", "manual"]
+    navigation: NavigationMode = "single"
+    user_ids: list[int] = Field(default_factory=list, description="The chosen people (each, group).")

@@ -87,6 +87,7 @@ def idle_snapshot(state: str = "stopped", source: str | None = None) -> dict[str
         "people": [],
         "navigator": None,
         "navigator_mode": "auto",
+        "navigation": {"mode": "single", "chosen": [], "group": None},
         "action": None,
         "ts": time.time(),
         "extra": {},
@@ -99,6 +100,25 @@ def _position(person: Mapping[str, Any]) -> list[float] | None:
         return None
     vals = [float(v) if v is not None else math.nan for v in pos]
     return [round(v, 4) for v in vals] if len(vals) == 3 and all(math.isfinite(v) for v in vals) else None
+
+
+def _command(c: Mapping[str, Any] | None) -> dict[str, Any] | None:
+    """A person's own command (issue 20): label, confidence and the step strip's evidence."""
+    if c is None:
+        return None
+    found = c.get("action")
+    action: Mapping[str, Any] = found if isinstance(found, Mapping) else {}
+    return {"label": str(c.get("label")), "confidence": float(c.get("confidence") or 0.0),
+            "yaw_deg": action.get("yaw_deg"), "speed_mps": action.get("speed_mps"),
+            "steps": action.get("steps")}
+
+
+def _group(g: Any) -> dict[str, Any] | None:
+    if not isinstance(g, Mapping):
+        return None
+    return {"label": str(g.get("label")), "confidence": float(g.get("confidence") or 0.0),
+            "members": [int(u) for u in g.get("members") or []],
+            "votes": {str(k): int(v) for k, v in (g.get("votes") or {}).items()}}
 
 
 def status_snapshot(status: Any) -> dict[str, Any]:
@@ -135,12 +155,19 @@ def status_snapshot(status: Any) -> dict[str, Any]:
     navigator = raw.get("navigator")
     snap["navigator"] = None if navigator is None else int(navigator)
     snap["navigator_mode"] = "manual" if raw.get("navigator_mode") == "manual" else "auto"
+    found = raw.get("navigation")
+    nav: Mapping[str, Any] = found if isinstance(found, Mapping) else {}
+    commands = {int(c["user_id"]): c for c in nav.get("commands") or [] if isinstance(c, Mapping)}
+    snap["navigation"] = {"mode": str(nav.get("mode") or "single"), "chosen": list(nav.get("chosen") or []),
+                          "group": _group(nav.get("group"))}
     snap["people"] = [
         {
             "user_id": int(p["user_id"]),
             "position_m": _position(p),
             "reproj_px": p.get("reproj_px"),
             "is_navigator": snap["navigator"] is not None and int(p["user_id"]) == snap["navigator"],
+            "navigating": int(p["user_id"]) in commands,
+            "command": _command(commands.get(int(p["user_id"]))),
         }
         for p in raw.get("people") or []
         if isinstance(p, Mapping) and p.get("user_id") is not None
@@ -211,6 +238,7 @@ class PipelineService:
         self.unavailable_reason = "" if factory else "the pipeline runtime is not available"
         self._rebuild = False
         self._result_sinks: tuple[Any, ...] = ()
+        self._navigation: str | None = None  # the operator's navigation mode, kept over rebuilds
 
     def send_prompt(self, text: str, label: str, remaining_s: float) -> None:
         """A ``prompt`` datagram to the workstations (the recording protocol's instruction)."""
@@ -257,6 +285,9 @@ class PipelineService:
                 if callable(add):
                     for sink in self._result_sinks:
                         add(sink)
+                set_navigation = getattr(self._pipeline, "set_navigation", None)
+                if self._navigation is not None and callable(set_navigation):
+                    set_navigation(self._navigation, ())  # the chosen ids belong to the last run
             # (re)start: the pipeline validates first, so a bad request leaves the running one as it was;
             # it reports its own state changes as events
             self._pipeline.start(source, videos)
@@ -292,6 +323,38 @@ class PipelineService:
         snap = self.snapshot()
         mode: Literal["auto", "manual"] = "manual" if user_id is not None else "auto"
         return (user_id if user_id is not None else snap["navigator"]), mode
+
+    def set_navigation(self, mode: str, user_ids: list[int]) -> dict[str, Any]:
+        """The navigation mode (issue 20) with its chosen people (empty = everyone tracked).
+        UnknownUser for an id nobody has now; InputError for a bad mode; nothing changes then."""
+        with self._lock:
+            now = self.snapshot()
+            if user_ids:
+                ids = sorted(p["user_id"] for p in now["people"])
+                unknown = sorted(set(user_ids) - set(ids))
+                if unknown or self._pipeline is None or now["state"] not in ("running", "starting"):
+                    raise UnknownUser(f"no person with user_id {unknown or user_ids} is tracked now "
+                                      f"(tracked: {ids or 'nobody'})")
+            set_navigation = getattr(self._pipeline, "set_navigation", None)
+            if self._pipeline is not None and callable(set_navigation):
+                try:
+                    set_navigation(mode, list(user_ids))
+                except InputError as exc:  # the pipeline's own, newer view of who is tracked
+                    if user_ids and "not tracked" in str(exc):
+                        raise UnknownUser(str(exc)) from exc
+                    raise
+            else:  # nothing built yet: the first start takes it
+                from pipeline.navigation.config import NavigationConfig
+
+                try:
+                    NavigationConfig(mode, tuple(user_ids))  # type: ignore[arg-type]
+                except ValueError as exc:
+                    raise InputError(str(exc)) from None
+                with self._snap_lock:
+                    self._snapshot["navigation"] = {"mode": mode, "chosen": [], "group": None}
+            self._navigation = mode
+        self.poll_once()
+        return {"mode": mode, "chosen": sorted(user_ids)}  # the fusion worker takes it within a frame
 
     def snapshot_jpeg(self, camera: str) -> bytes | None:
         pipeline = self._pipeline  # one reference read: no need to wait for a start or stop

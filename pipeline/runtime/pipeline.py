@@ -548,6 +548,8 @@ class Pipeline:
                 if unknown:
                     raise InputError(f"users {unknown} are not tracked (tracked users: "
                                      f"{', '.join(map(str, tracked)) or 'none'})")
+            if config == self.fusion.navigation:
+                return
             self.fusion = replace(self.fusion, navigation=config)
             if run is not None and run.control_q is not None:
                 put_latest(run.control_q, SetNavigation(config.mode, config.user_ids))

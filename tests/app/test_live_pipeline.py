@@ -71,7 +71,7 @@ def test_navigator_by_user_id_and_back_to_auto(served: Served) -> None:
         if r.status_code == 404 and "no person" in r.text:
             return None
         assert r.status_code == 200, r.text
-        assert r.json() == {"navigator": target, "mode": "manual"}
+        assert r.json() == {"navigator": target, "mode": "manual", "navigation": "single", "user_ids": []}
         return target, ids
 
     target, ids = wait_until(choose, "a tracked person made the navigator")

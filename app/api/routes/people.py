@@ -7,6 +7,7 @@ from fastapi import APIRouter, HTTPException, Response, status
 from app.api.deps import PipelineDep
 from app.schemas.live import NavigatorPublic, NavigatorUpdate, PersonPublic
 from app.services.live import UnknownUser
+from pipeline.errors import InputError
 
 router = APIRouter(tags=["people"])
 
@@ -19,20 +20,32 @@ def people(pipeline: PipelineDep) -> list[PersonPublic]:
 @router.get("/navigator", response_model=NavigatorPublic)
 def get_navigator(pipeline: PipelineDep) -> NavigatorPublic:
     snap = pipeline.snapshot()
-    return NavigatorPublic(navigator=snap["navigator"], mode=snap["navigator_mode"])
+    nav = snap.get("navigation") or {}
+    return NavigatorPublic(navigator=snap["navigator"], mode=snap["navigator_mode"],
+                           navigation=nav.get("mode", "single"), user_ids=nav.get("chosen", []))
 
 
 @router.put(
     "/navigator",
     response_model=NavigatorPublic,
-    responses={404: {"description": "No person with this user id is tracked now"}},
+    responses={404: {"description": "No person with this user id is tracked now"},
+               400: {"description": "The navigation mode cannot be set"}},
 )
 def put_navigator(body: NavigatorUpdate, pipeline: PipelineDep) -> NavigatorPublic:
+    """Pick the navigator (single mode) or the navigation mode (issue 20: each, group)."""
     try:
-        navigator, mode = pipeline.set_navigator(body.user_id)
+        if body.navigation == "single":
+            navigator, mode = pipeline.set_navigator(body.user_id)
+            chosen = pipeline.set_navigation("single", [])
+        else:
+            chosen = pipeline.set_navigation(body.navigation, list(body.user_ids or []))
+            navigator, mode = pipeline.snapshot()["navigator"], pipeline.snapshot()["navigator_mode"]
     except UnknownUser as exc:
         raise HTTPException(status.HTTP_404_NOT_FOUND, str(exc)) from exc
-    return NavigatorPublic(navigator=navigator, mode=mode)
+    except InputError as exc:
+        raise HTTPException(status.HTTP_400_BAD_REQUEST, str(exc)) from exc
+    return NavigatorPublic(navigator=navigator, mode=mode, navigation=chosen["mode"],
+                           user_ids=chosen["chosen"])
 
 
 @router.get(
