@@ -125,8 +125,13 @@ class _Person:
     label: Any = None  # "user 3" (+ "navigator") over the head
 
 
-def label_text(user_id: int, navigator: int | None) -> str:
-    return f"user {user_id}" + (" · navigator" if user_id == navigator else "")
+def label_text(user_id: int, navigator: int | None, command: Mapping[str, Any] | None = None) -> str:
+    """``user 3 · navigator · forward 87 %``: the id, the navigator, and the person's own command
+    (each and group modes; in single mode the navigator's)."""
+    text = f"user {user_id}" + (" · navigator" if user_id == navigator else "")
+    if command and command.get("label"):
+        text += f" · {command['label']} {100 * float(command.get('confidence') or 0.0):.0f} %"
+    return text
 
 
 def label_position(joints: F32) -> NDArray[np.float32] | None:
@@ -215,6 +220,8 @@ class Viewer:
         people3d = (snapshot.get("extra") or {}).get("people3d") or []
         navigator = snapshot.get("navigator")
         action = snapshot.get("action") or {}
+        commands = {int(p["user_id"]): p.get("command") for p in snapshot.get("people") or []
+                    if isinstance(p, Mapping) and p.get("user_id") is not None}
         scene = self.server.scene
         seen: set[int] = set()
         nav_joints: F32 | None = None
@@ -252,12 +259,12 @@ class Viewer:
                 if person.label is None and head is not None:
                     person.label = scene.add_label(
                         f"/people/{uid}/label",
-                        label_text(uid, navigator),
+                        label_text(uid, navigator, commands.get(uid)),
                         position=head,
                         anchor="bottom-center",
                     )
                 elif person.label is not None:
-                    person.label.text = label_text(uid, navigator)
+                    person.label.text = label_text(uid, navigator, commands.get(uid))
                     if head is not None:
                         person.label.position = head
                 if uid == navigator:

@@ -98,6 +98,11 @@ def test_scene_updates_in_place_and_port_is_free_after_stop(tmp_path: Path) -> N
         assert viewer.arrow is not None and viewer.arrow.visible
         assert viewer.people[3].label.text == "user 3 · navigator" and viewer.people[5].label.text == "user 5"
         assert viewer.people[3].label.position[2] > 1.8, "the label floats over the head"
+        snap["people"] = [{"user_id": 3, "command": {"label": "left", "confidence": 0.874}},
+                          {"user_id": 5, "command": {"label": "forward", "confidence": 0.6}}]
+        viewer.update(snap)  # each mode: every skeleton is labelled with its own command
+        assert viewer.people[3].label.text == "user 3 · navigator · left 87 %"
+        assert viewer.people[5].label.text == "user 5 · forward 60 %"
         moved = standing_person(0.5, 0)
         snap["extra"]["people3d"] = [{"user_id": 3, "joints": moved}]
         viewer.update(snap)

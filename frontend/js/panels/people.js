@@ -1,12 +1,18 @@
 // The people tracked now; a click makes one the navigator (PUT /navigator), or back to automatic.
+// The navigation mode (issue 20): single, each (everyone ticked, or everyone, has their own
+// stream) or group (one command for the room); each person's row shows their own command, its
+// confidence, and a strip of their command and feet over the last seconds.
 //
-// The list is updated in place, one button per user id, in id order: a person who stays tracked
+// The list is updated in place, one row per user id, in id order: a person who stays tracked
 // keeps the same button however often the status arrives and whatever order the tracker lists
 // people in. (Rebuilding the list whenever the order or the navigator changed detached the
 // button under the operator's pointer, so that a click on a busy machine could miss: issue 15 S3.)
 
 import { put, toast, el } from "../api.js";
 import { onStatus } from "../live.js";
+import { footTick } from "./steps.js";
+
+const STRIP = 60; // ticks per person: about six seconds at ten updates a second
 
 async function choose(body) {
   try {
@@ -16,7 +22,12 @@ async function choose(body) {
   }
 }
 
-function personButton(userId) {
+function push(strip, tick) {
+  strip.append(tick);
+  while (strip.childElementCount > STRIP) strip.firstElementChild.remove();
+}
+
+function personRow(userId) {
   return el(
     "li",
     { dataset: { userId } },
@@ -31,15 +42,57 @@ function personButton(userId) {
       `user ${userId}`,
       el("small", { class: "pos" }, ""),
     ),
+    el(
+      "div",
+      { class: "person-line" },
+      el("input", { type: "checkbox", class: "chosen", title: "one of the chosen people (each / group mode)",
+        "aria-label": `choose user ${userId}` }),
+      el("span", { class: "person-command none" }, "no command"),
+    ),
+    el("div", { class: "history person-strip commands", title: "this person's command, newest on the right" }),
+    el("div", { class: "history person-strip feet", title: "this person's feet: planted / swinging" }),
   );
+}
+
+function chosenIds(list) {
+  return [...list.querySelectorAll("li")]
+    .filter((li) => li.querySelector(".chosen").checked)
+    .map((li) => Number(li.dataset.userId));
+}
+
+function showPerson(row, p) {
+  const button = row.firstElementChild;
+  button.classList.toggle("navigator", Boolean(p.is_navigator));
+  const pos = button.querySelector(".pos");
+  const text = p.position_m ? ` (${p.position_m[0].toFixed(2)}, ${p.position_m[1].toFixed(2)}) m` : "";
+  if (pos.textContent !== text) pos.textContent = text;
+  const c = p.command;
+  const badge = row.querySelector(".person-command");
+  badge.className = `person-command ${c ? c.label : "none"}`;
+  badge.textContent = c ? `${c.label} ${(100 * c.confidence).toFixed(0)} %` : "no command";
+  row.dataset.command = c ? c.label : "";
+  push(row.querySelector(".commands"), el("span", { class: `tick ${c ? c.label : "none"}` }));
+  const feet = c && c.steps && c.steps.feet;
+  const moving = feet ? feet.find((f) => f && f.known && !f.planted) || feet[0] : null;
+  push(row.querySelector(".feet"), moving ? footTick(moving) : el("span", { class: "tick none" }));
 }
 
 export function mountPeople() {
   const list = document.getElementById("people-list");
+  const modes = document.getElementById("navigation-modes");
+  const groupText = document.getElementById("navigation-group");
   const rows = new Map(); // user id -> its <li>, kept while the person is tracked
   onStatus((s) => {
     document.getElementById("navigator").textContent = s.navigator ?? "none";
     document.getElementById("navigator-mode").textContent = s.navigator_mode;
+    const nav = s.navigation || { mode: "single", chosen: [], group: null };
+    for (const b of modes.querySelectorAll(".mode")) b.classList.toggle("active", b.dataset.mode === nav.mode);
+    modes.dataset.mode = nav.mode;
+    const g = nav.group;
+    groupText.textContent = nav.mode !== "group" ? "" : g
+      ? `room: ${g.label} ${(100 * g.confidence).toFixed(0)} % (votes ${Object.entries(g.votes)
+        .filter(([, n]) => n).map(([k, n]) => `${k} ${n}`).join(", ")})`
+      : "room: nobody tracked";
     const people = [...(s.people || [])].sort((a, b) => a.user_id - b.user_id);
     const now = new Set(people.map((p) => p.user_id));
     for (const [id, row] of rows) {
@@ -52,17 +105,20 @@ export function mountPeople() {
     for (const p of people) {
       let row = rows.get(p.user_id);
       if (!row) {
-        row = personButton(p.user_id);
+        row = personRow(p.user_id);
+        row.querySelector(".chosen").checked = (nav.chosen || []).includes(p.user_id);
         rows.set(p.user_id, row);
       }
       if (row !== before) list.insertBefore(row, before); // new, or out of place: nothing else moves
       else before = before.nextElementSibling;
-      const button = row.firstElementChild;
-      button.classList.toggle("navigator", Boolean(p.is_navigator));
-      const pos = button.querySelector(".pos");
-      const text = p.position_m ? ` (${p.position_m[0].toFixed(2)}, ${p.position_m[1].toFixed(2)}) m` : "";
-      if (pos.textContent !== text) pos.textContent = text;
+      showPerson(row, p);
     }
   });
+  for (const b of modes.querySelectorAll(".mode")) {
+    b.addEventListener("click", () => {
+      const mode = b.dataset.mode;
+      choose(mode === "single" ? { mode: "single" } : { mode, user_ids: chosenIds(list) });
+    });
+  }
   document.getElementById("navigator-auto").addEventListener("click", () => choose({ mode: "auto" }));
 }

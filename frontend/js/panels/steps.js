@@ -27,7 +27,7 @@ function cm(v) {
   return v == null ? "–" : `${(100 * v).toFixed(0)}`;
 }
 
-function footTick(foot) {
+export function footTick(foot) {
   if (!foot || !foot.known) return el("span", { class: "tick unknown", title: "not seen" });
   if (foot.planted) return el("span", { class: "tick planted", title: "planted" });
   const cls = foot.jump ? "jump" : foot.kind;

@@ -1,0 +1,72 @@
+"""The navigation modes on the dashboard, in headless Chromium against the real app (simulator with
+three stepping people, real recogniser): the mode buttons, each person's own command, confidence
+and strip, the chosen people of group mode and the room's command. Screenshots are test artifacts."""
+
+from __future__ import annotations
+
+import re
+from dataclasses import replace
+from pathlib import Path
+
+import httpx
+import pytest
+
+from tests.app.conftest import Served, make_settings
+from tests.waiting import HTTP_TIMEOUT_S
+
+pytestmark = [pytest.mark.e2e, pytest.mark.slow]
+
+CHROMIUM = "/usr/bin/chromium"
+ACTIONS = r"(still|forward|left|right) \d+ %"
+
+
+def test_the_people_list_follows_the_navigation_mode(tmp_path: Path, artifacts_dir: Path) -> None:
+    from playwright.sync_api import expect, sync_playwright
+
+    if not Path(CHROMIUM).exists():
+        pytest.fail(f"{CHROMIUM} missing: apt-get install -y chromium chromium-driver")
+    s = make_settings(tmp_path)
+    settings = s.model_copy(update={"sim": replace(s.sim, people=3, bystanders=0)})
+    with Served(settings) as served, sync_playwright() as pw:
+        served.wait_status(lambda st: len(st["people"]) == 3)
+        browser = pw.chromium.launch(
+            executable_path=CHROMIUM,
+            args=["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"],
+        )
+        page = browser.new_page(viewport={"width": 1600, "height": 1000})
+        errors: list[str] = []
+        page.on("pageerror", lambda exc: errors.append(str(exc)))
+        try:
+            page.goto(served.base)
+            panel = page.locator("#people-panel")
+            rows = page.locator("#people-list li")
+            expect(rows).to_have_count(3, timeout=30_000)
+            expect(panel.locator(".mode.active")).to_have_text("Single")
+            panel.locator(".mode[data-mode=each]").click()
+            expect(panel.locator(".mode.active")).to_have_text("Each", timeout=30_000)
+            for i in range(3):  # every person has a command of their own, with its confidence
+                expect(rows.nth(i).locator(".person-command")).to_have_text(re.compile(ACTIONS),
+                                                                     timeout=30_000)
+            page.wait_for_timeout(3000)  # a few seconds of strip for the screenshot
+            ticks = page.evaluate("() => [...document.querySelectorAll('#people-list .commands')]"
+                                  ".map((s) => s.querySelectorAll('.tick:not(.none)').length)")
+            assert len(ticks) == 3 and min(ticks) > 5, f"each person's strip fills: {ticks}"
+            panel.screenshot(path=str(artifacts_dir / "navigation-each.png"))
+
+            ids = [int(rows.nth(i).get_attribute("data-user-id") or -1) for i in range(2)]
+            for i in range(2):
+                rows.nth(i).locator(".chosen").check()
+            panel.locator(".mode[data-mode=group]").click()
+            expect(panel.locator(".mode.active")).to_have_text("Group", timeout=30_000)
+            expect(page.locator("#navigation-group")).to_contain_text("room:", timeout=30_000)
+            expect(rows.nth(2).locator(".person-command")).to_have_text("no command", timeout=30_000)
+            status = httpx.get(f"{served.base}/api/v1/status", timeout=HTTP_TIMEOUT_S).json()
+            assert status["navigation"]["chosen"] == sorted(ids), status["navigation"]
+            panel.screenshot(path=str(artifacts_dir / "navigation-group.png"))
+
+            panel.locator(".mode[data-mode=single]").click()
+            expect(panel.locator(".mode.active")).to_have_text("Single", timeout=30_000)
+            expect(page.locator("#navigation-group")).to_have_text("")
+        finally:
+            browser.close()
+        assert not errors, errors
