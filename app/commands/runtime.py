@@ -20,6 +20,7 @@ from pipeline.calibration.io import load_calibration
 from pipeline.demo_data import fetch_demo
 from pipeline.emitter.receiver import open_receiver_socket, receive
 from pipeline.errors import InputError
+from pipeline.navigation.config import NavigationConfig
 from pipeline.runtime.bench import Scenario, machine_info, run_scenario
 from pipeline.runtime.pipeline import Pipeline
 
@@ -118,9 +119,16 @@ def bench_cmd(
     flat_out: Annotated[bool, typer.Option("--flat-out/--no-flat-out",
                                            help="Also run the demo videos flat out.")] = True,
     warmup: Annotated[float, typer.Option("--warmup", help="Seconds run before measuring.")] = 2.0,
+    people: Annotated[list[int] | None, typer.Option(
+        "--people", help="Simulated stepping people, each a navigator of their own (navigation mode "
+        "each, 30 fps): one scenario per count given (repeatable, 1-4), in place of sim_60fps.")] = None,
+    navigation: Annotated[str, typer.Option(
+        "--navigation", help="The navigation mode of the --people scenarios: each, group or single.")]
+    = "each",
 ) -> None:
     """Throughput, dropped frames, per-stage and end-to-end latency, CPU and memory of the live
-    pipeline: the four real demo views paced at 30 fps (and flat out), and the simulator at 60 fps."""
+    pipeline: the four real demo views paced at 30 fps (and flat out), and the simulator at 60 fps
+    (or, with ``--people``, with 1-4 navigators at once: the cost of each extra navigator)."""
     signal.signal(signal.SIGTERM, signal.default_int_handler)  # SIGTERM ends like Ctrl-C: clean stop
     if source not in ("demo", "sim", "both"):
         raise InputError(f"--source must be demo, sim or both, got {source!r}")
@@ -130,7 +138,14 @@ def bench_cmd(
         raise InputError(f"--warmup must be >= 0, got {warmup}")
     if json_out is not None and json_out.exists() and json_out.is_dir():
         raise InputError(f"--json {json_out} is a folder")
-    scenarios = _scenarios(source, flat_out)
+    counts = list(dict.fromkeys(people or []))
+    if any(not 1 <= n <= 4 for n in counts):
+        raise InputError(f"--people must be 1-4 (the simulator's stepping people), got {counts}")
+    if counts and source == "demo":
+        raise InputError("--people needs the simulator: use --source sim or both")
+    if navigation not in ("single", "each", "group"):
+        raise InputError(f"--navigation must be single, each or group, got {navigation!r}")
+    scenarios = _scenarios(source, flat_out, counts, navigation)
     settings = get_settings()
     report: dict[str, Any] = {"machine": machine_info(settings.pose, settings.pose_model_path),
                               "duration_s": duration, "warmup_s": warmup,
@@ -151,7 +166,8 @@ def _nan_none(obj: Any) -> Any:
     return None
 
 
-def _scenarios(source: str, flat_out: bool) -> list[Scenario]:
+def _scenarios(source: str, flat_out: bool, people: list[int] | None = None,
+               navigation: str = "each") -> list[Scenario]:
     settings = get_settings()
     base = replace(settings.runtime, latency_window=1_000_000)
     out = []
@@ -169,12 +185,24 @@ def _scenarios(source: str, flat_out: bool) -> list[Scenario]:
         if flat_out:
             out.append(Scenario("demo_flat_out", demo_pipeline(0.0), "videos", demo.videos,
                                 "4 real views read as fast as they decode"))
-    if source in ("sim", "both"):
+    for n in people or ():  # issue 20: the cost of each extra navigator
+        mode = NavigationConfig(navigation, (), max(4, n))  # type: ignore[arg-type]
+        crowd = settings.model_copy(update={"navigation": mode})
+        sim_n = simulator_factory(crowd, replace(settings.sim, fps=30.0, people=n, bystanders=0))
+        config_n = replace(base, target_fps=30.0)
+        out.append(Scenario(f"sim_30fps_{navigation}_{n}p", _sim_pipeline(crowd, sim_n, config_n),
+                            "simulator", None,
+                            f"simulator at 30 fps, {n} stepping people, navigation {navigation}"))
+    if source in ("sim", "both") and not people:
         sim = simulator_factory(settings, replace(settings.sim, fps=60.0))
         config = replace(base, target_fps=60.0)
         out.append(Scenario("sim_60fps", lambda: build_pipeline(settings, None, sim, runtime=config),
                             "simulator", None, "simulator at 60 fps (detections, no pose model)"))
     return out
+
+
+def _sim_pipeline(settings: Any, sim: Any, config: Any) -> Callable[[], Pipeline]:
+    return lambda: build_pipeline(settings, None, sim, runtime=config)
 
 
 def _print_report(report: dict[str, Any]) -> None:
@@ -194,4 +222,8 @@ def _print_report(report: dict[str, Any]) -> None:
                    f"rss {r['rss_mb']['max']} MB")
         for stage, q in lat.items():
             typer.echo(f"  {stage:<11} p50 {q['p50']:8.2f}  p95 {q['p95']:8.2f}  p99 {q['p99']:8.2f} ms")
+        streams = (r.get("receiver") or {}).get("by_user") or {}
+        if len(streams) > 1:
+            typer.echo("  locomotion streams: "
+                       + ", ".join(f"user {k}: {n}" for k, n in sorted(streams.items())))
     sys.stdout.flush()

@@ -94,6 +94,9 @@ def test_receive_reports_invalid_datagrams_with_exit_1() -> None:
         (("receive", "--port", "9", "--count", "0"), "--count must be >= 1"),
         (("bench", "--source", "webcam"), "--source must be demo, sim or both"),
         (("bench", "--duration", "-1"), "--duration must be > 0"),
+        (("bench", "--people", "5"), "--people must be 1-4"),
+        (("bench", "--people", "2", "--navigation", "crowd"), "--navigation must be single, each or group"),
+        (("bench", "--source", "demo", "--people", "2"), "--people needs the simulator"),
     ],
 )
 def test_bad_arguments_exit_2_with_one_line(args: tuple[str, ...], message: str) -> None:
@@ -101,6 +104,22 @@ def test_bad_arguments_exit_2_with_one_line(args: tuple[str, ...], message: str)
     assert proc.returncode == 2, proc.stderr
     assert proc.stderr.strip().splitlines()[-1].startswith(f"error: {message}")
     assert "Traceback" not in proc.stderr
+
+
+@pytest.mark.slow
+def test_bench_with_two_people_streams_each_navigator(tmp_path: Path) -> None:
+    out = tmp_path / "bench.json"
+    proc = subprocess.run(cavewalk("bench", "--source", "sim", "--people", "2", "--duration", "2", "--warmup",
+                                   "1", "--json", str(out)),
+                          cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    report = json.loads(out.read_text())
+    assert list(report["scenarios"]) == ["sim_30fps_each_2p"], "--people replaces sim_60fps"
+    sim = report["scenarios"]["sim_30fps_each_2p"]
+    rx = sim["receiver"]
+    assert rx["invalid"] == 0, rx["errors"]
+    assert len(rx["by_user"]) == 2 and "group" not in rx["by_user"], f"two per-user streams: {rx['by_user']}"
+    assert rx["by_type"].get("navigation", 0) >= 1 and sim["cpu_percent"]["mean"] > 0
 
 
 @pytest.mark.slow
