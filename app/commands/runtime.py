@@ -122,9 +122,9 @@ def bench_cmd(
     people: Annotated[list[int] | None, typer.Option(
         "--people", help="Simulated stepping people, each a navigator of their own (navigation mode "
         "each, 30 fps): one scenario per count given (repeatable, 1-4), in place of sim_60fps.")] = None,
-    navigation: Annotated[str, typer.Option(
-        "--navigation", help="The navigation mode of the --people scenarios: each, group or single.")]
-    = "each",
+    navigation: Annotated[list[str] | None, typer.Option(
+        "--navigation", help="The navigation mode(s) of the --people scenarios: each (default), group or "
+        "single (repeatable: one scenario per mode and count, side by side in one run).")] = None,
 ) -> None:
     """Throughput, dropped frames, per-stage and end-to-end latency, CPU and memory of the live
     pipeline: the four real demo views paced at 30 fps (and flat out), and the simulator at 60 fps
@@ -143,9 +143,11 @@ def bench_cmd(
         raise InputError(f"--people must be 1-4 (the simulator's stepping people), got {counts}")
     if counts and source == "demo":
         raise InputError("--people needs the simulator: use --source sim or both")
-    if navigation not in ("single", "each", "group"):
-        raise InputError(f"--navigation must be single, each or group, got {navigation!r}")
-    scenarios = _scenarios(source, flat_out, counts, navigation)
+    modes = list(dict.fromkeys(navigation or ["each"]))
+    bad = [m for m in modes if m not in ("single", "each", "group")]
+    if bad:
+        raise InputError(f"--navigation must be single, each or group, got {bad[0]!r}")
+    scenarios = _scenarios(source, flat_out, counts, modes)
     settings = get_settings()
     report: dict[str, Any] = {"machine": machine_info(settings.pose, settings.pose_model_path),
                               "duration_s": duration, "warmup_s": warmup,
@@ -167,7 +169,7 @@ def _nan_none(obj: Any) -> Any:
 
 
 def _scenarios(source: str, flat_out: bool, people: list[int] | None = None,
-               navigation: str = "each") -> list[Scenario]:
+               modes: tuple[str, ...] | list[str] = ("each",)) -> list[Scenario]:
     settings = get_settings()
     base = replace(settings.runtime, latency_window=1_000_000)
     out = []
@@ -185,7 +187,7 @@ def _scenarios(source: str, flat_out: bool, people: list[int] | None = None,
         if flat_out:
             out.append(Scenario("demo_flat_out", demo_pipeline(0.0), "videos", demo.videos,
                                 "4 real views read as fast as they decode"))
-    for n in people or ():  # issue 20: the cost of each extra navigator
+    for navigation, n in ((m, n) for m in modes for n in people or ()):  # issue 20: each extra navigator
         mode = NavigationConfig(navigation, (), max(4, n))  # type: ignore[arg-type]
         crowd = settings.model_copy(update={"navigation": mode})
         sim_n = simulator_factory(crowd, replace(settings.sim, fps=30.0, people=n, bystanders=0))
