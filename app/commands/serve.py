@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import socket
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 from typing import Annotated
 
@@ -54,6 +55,8 @@ def run_server(
     db: Path | None,
     config: Path | None,
     emit: list[str] | None,
+    people: int | None = None,
+    navigation: str | None = None,
 ) -> None:
     if config is not None:  # serve and demo also take --config after the command name
         set_settings(load_settings(config))
@@ -68,7 +71,16 @@ def run_server(
         except ValueError as exc:
             raise InputError(f"--emit: {exc}") from None
         workstations.append(item)
-    settings = settings.model_copy(update={"server": server, "paths": paths, "workstations": workstations})
+    update: dict[str, object] = {"server": server, "paths": paths, "workstations": workstations}
+    if people is not None:  # demo: that many simulated people step (issue 20)
+        update["sim"] = replace(settings.sim, people=people)
+    if navigation is not None:
+        try:
+            update["navigation"] = replace(settings.navigation, mode=navigation,  # type: ignore[arg-type]
+                                           user_ids=())
+        except ValueError as exc:
+            raise InputError(f"--navigation: {exc}") from None
+    settings = settings.model_copy(update=update)
     set_settings(settings)
     if paths.db.exists() and paths.db.is_dir():
         raise ConfigError(f"--db {paths.db} is a folder, not a database file")
@@ -116,4 +128,19 @@ def _command(demo: bool, doc: str) -> Callable[..., None]:
 serve = app.command("serve")(
     _command(False, "The dashboard, REST API, WebSocket and viser 3D view (cameras from the settings).")
 )
-demo = app.command("demo")(_command(True, "``serve`` with a simulated CAVE and user: no cameras needed."))
+@app.command("demo")
+def demo(
+    host: HostOpt = None,
+    port: PortOpt = None,
+    viser_port: ViserOpt = None,
+    db: DbOpt = None,
+    config: ConfigOpt = None,
+    emit: EmitOpt = None,
+    people: Annotated[int | None, typer.Option(
+        "--people", help="Simulated people who step (default 1, plus the bystanders).", min=1, max=4)] = None,
+    navigation: Annotated[str | None, typer.Option(
+        "--navigation", help="Navigation mode to start in: single, each or group.")] = None,
+) -> None:
+    """``serve`` with a simulated CAVE and user: no cameras needed."""
+    run_server(demo=True, host=host, port=port, viser_port=viser_port, db=db, config=config, emit=emit,
+               people=people, navigation=navigation)

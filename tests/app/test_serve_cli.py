@@ -39,6 +39,7 @@ def busy_port() -> Iterator[int]:
         (["--db", "FOLDER"], "is a folder"),
         (["--config", "missing.toml"], "config file not found"),
         (["--db", "NOTADB"], "cannot be used: file is not a database"),
+        (["--navigation", "crowd"], "--navigation: navigation mode must be one of single, each, group"),
     ],
 )
 def test_bad_options_raise_a_cavewalk_error(
