@@ -30,6 +30,7 @@ from app.commands import (
     serve,
     simulate,
     study,
+    train,
     tune,
 )
 from app.core.config import load_settings, set_settings
@@ -75,6 +76,7 @@ cli.add_typer(simulate.app)  # cavewalk simulate
 cli.add_typer(plan.app)  # cavewalk plan
 cli.add_typer(record.app)  # cavewalk record
 cli.add_typer(export.app)  # cavewalk export
+cli.add_typer(train.app)  # cavewalk train
 cli.add_typer(tune.app)  # cavewalk tune
 
 

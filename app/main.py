@@ -41,6 +41,7 @@ from app.services.pipeline_factory import runtime_factory, simulator_factory
 from app.services.planner import PlannerService
 from app.services.recorder import RecorderService
 from app.services.session_timer import SessionTimer
+from app.services.training import TrainingService
 from app.viewer import Viewer
 from pipeline.calibration.io import calibration_to_dict
 
@@ -132,6 +133,7 @@ def create_app(
         if built is None:
             pipeline.unavailable_reason = reason
         models.on_change(pipeline.calibration_changed)  # a newly active model: rebuilt at the next start
+        app.state.training = training = TrainingService(settings, factory, models)
         calibration = CalibrationService(settings, factory, events, pipeline, viewer)
         active = calibration.active_cameras()
         if viewer is not None and active:
@@ -169,6 +171,7 @@ def create_app(
             yield
         finally:
             planner.close()
+            training.close()
             recorder.close()
             watch.close()
             session_timer.close()

@@ -44,7 +44,9 @@ class TrainCreate(StrictRequest):
     take_ids: list[int] = Field(min_length=1, max_length=200, description="Labelled takes to fine-tune on.")
     epochs: int = Field(2, ge=1, le=50)
     sim_routines: int = Field(8, ge=0, le=400, description="Simulated routines added to the takes.")
+    sim_duration_s: float = Field(12.0, ge=4, le=120, description="Seconds per simulated routine.")
     windows_per_epoch: int = Field(4096, ge=256, le=100_000)
+    heldout_routines: int = Field(2, ge=0, le=100, description="Simulated test routines (another seed).")
     loso: bool = Field(
         True, description="Leave-one-participant-out figures (one more fine-tune per participant)."
     )

@@ -109,6 +109,13 @@ class ModelService:
         with self._factory() as db:
             return model_public(repo.get_model(db, model_id))
 
+    def file_of(self, model_id: int) -> str:
+        """The model's file (checked: there and unchanged)."""
+        with self._factory() as db:
+            row = repo.get_model(db, model_id)
+            self._check_on_disk(row)
+            return row.file
+
     def card_markdown(self, model_id: int) -> str:
         with self._factory() as db:
             return repo.get_model(db, model_id).card_md
@@ -149,6 +156,10 @@ class ModelService:
     def on_change(self, callback: Callable[[], None]) -> None:
         """``callback()`` whenever another model becomes active (the pipeline rebuilds at its next start)."""
         self._models_changed = callback
+
+    def changed(self) -> None:
+        """Another model became active elsewhere (a training job's worker): rebuild at the next start."""
+        self._models_changed()
 
     def stale(self) -> bool:
         """True when the pipeline was built with another model than the active one (activated elsewhere,

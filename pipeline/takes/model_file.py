@@ -69,9 +69,11 @@ def _card_value_matches(key: str, card_value: Any, info: ModelFileInfo) -> bool:
         given = card_value.split(",") if isinstance(card_value, str) else card_value
         return isinstance(given, list | tuple) and tuple(str(c) for c in given) == info.classes
     if key == "window":
-        return not isinstance(card_value, bool) and isinstance(card_value, int | str) and str(
-            card_value
-        ) == str(info.window)
+        return (
+            not isinstance(card_value, bool)
+            and isinstance(card_value, int | str)
+            and str(card_value) == str(info.window)
+        )
     if key == "fps":
         try:
             return math.isclose(float(card_value), info.fps)

@@ -9,6 +9,7 @@ import pytest
 
 from tests.app.conftest import Served, make_settings
 from tests.app.models.onnx_files import three_class_model, with_metadata
+from tests.app.models.takes_data import index_takes, simulated_takes
 
 pytestmark = [pytest.mark.e2e, pytest.mark.slow]
 
@@ -59,6 +60,46 @@ def test_models_panel_registers_activates_and_rolls_back(tmp_path: Path, artifac
             )
             expect(new).to_have_attribute("data-active", "false")
             panel.screenshot(path=str(artifacts_dir / "models-rolled-back.png"))
+        finally:
+            browser.close()
+        assert not errors, f"page errors: {errors}"
+
+
+def test_the_fine_tune_button_runs_a_job_with_progress_and_registers_the_model(
+    tmp_path: Path, artifacts_dir: Path
+) -> None:
+    from playwright.sync_api import expect, sync_playwright
+
+    settings = make_settings(tmp_path)
+    with Served(settings, autostart=None, pipeline_factory=None) as served, sync_playwright() as pw:
+        with served.app.state.session_factory() as db:
+            index_takes(db, simulated_takes(tmp_path / "takes", duration_s=10.0))
+        browser = pw.chromium.launch(executable_path=CHROMIUM, args=ARGS)
+        page = browser.new_page(viewport={"width": 1400, "height": 1200})
+        errors: list[str] = []
+        page.on("pageerror", lambda exc: errors.append(str(exc)))
+        try:
+            page.goto(served.base)
+            panel = page.locator("#models-panel")
+            boxes = panel.locator("#train-takes input[type=checkbox]")
+            expect(boxes).to_have_count(2, timeout=20_000)
+            boxes.nth(0).check()
+            boxes.nth(1).check()
+            panel.locator("#train-epochs").fill("1")
+            panel.locator("#train-sim").fill("1")
+            panel.locator("#train-windows").fill("256")
+            panel.locator("#train-start").click()
+            state = panel.locator("#train-state")
+            expect(state).to_contain_text("job 1", timeout=10_000)
+            # a worker process that imports torch and fine-tunes three times on a shared 2-core machine
+            expect(state).to_have_attribute("data-state", "done", timeout=300_000)
+            expect(state).to_contain_text("registered as model 2")
+            expect(panel.locator("#train-log")).to_contain_text("fold P2")
+            row = panel.locator("#model-table tr[data-model-id='2']")
+            expect(row).to_contain_text("trained", timeout=10_000)
+            panel.screenshot(path=str(artifacts_dir / "models-fine-tuned.png"))
+            row.locator("button.model-card-button").click()
+            expect(panel.locator("#model-card")).to_contain_text("Leave-one-participant-out")
         finally:
             browser.close()
         assert not errors, f"page errors: {errors}"

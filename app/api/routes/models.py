@@ -12,11 +12,13 @@ from fastapi import APIRouter, Depends, Response, status
 from fastapi.requests import HTTPConnection
 
 from app.api.deps import IdPath
-from app.schemas.models import ModelPublic, ModelUpload
+from app.schemas.models import ModelPublic, ModelUpload, TrainCreate, TrainJobPublic
+from app.services.training import TrainRequest
 from pipeline.errors import InputError
 
 if TYPE_CHECKING:
     from app.services.models import ModelService
+    from app.services.training import TrainingService
 
 
 def get_models(conn: HTTPConnection) -> ModelService:
@@ -24,7 +26,13 @@ def get_models(conn: HTTPConnection) -> ModelService:
     return service
 
 
+def get_training(conn: HTTPConnection) -> TrainingService:
+    service: TrainingService = conn.app.state.training
+    return service
+
+
 ModelsDep = Annotated["ModelService", Depends(get_models)]
+TrainingDep = Annotated["TrainingService", Depends(get_training)]
 
 router = APIRouter(prefix="/models", tags=["models"])
 
@@ -44,8 +52,10 @@ def active_model(models: ModelsDep) -> dict[str, Any]:
     "",
     response_model=ModelPublic,
     status_code=status.HTTP_201_CREATED,
-    responses={400: {"description": "Not a four-class action model, or its card does not match it"},
-               409: {"description": "This file is registered already"}},
+    responses={
+        400: {"description": "Not a four-class action model, or its card does not match it"},
+        409: {"description": "This file is registered already"},
+    },
 )
 def upload_model(body: ModelUpload, models: ModelsDep) -> dict[str, Any]:
     """Register a model file (base64 ONNX) with its card; a refused file stores nothing."""
@@ -56,8 +66,35 @@ def upload_model(body: ModelUpload, models: ModelsDep) -> dict[str, Any]:
     with tempfile.TemporaryDirectory(prefix="cavewalk-upload-") as tmp:
         path = Path(tmp) / "upload.onnx"
         path.write_bytes(data)
-        return models.register(path, card=body.card, card_md=body.card_md, name=body.name,
-                               kind="uploaded", notes=body.notes)
+        return models.register(
+            path, card=body.card, card_md=body.card_md, name=body.name, kind="uploaded", notes=body.notes
+        )
+
+
+@router.post(
+    "/train",
+    response_model=TrainJobPublic,
+    status_code=status.HTTP_202_ACCEPTED,
+    responses={
+        400: {"description": "The train extra is missing, or a take has no labels"},
+        409: {"description": "A job is running, or a take is still recording"},
+    },
+)
+def start_training(body: TrainCreate, training: TrainingDep) -> dict[str, Any]:
+    """Fine-tune the active model on labelled takes (+ simulator data) in a worker; poll the job."""
+    req = TrainRequest(tuple(body.take_ids), body.epochs, body.sim_routines, body.windows_per_epoch,
+                       body.loso, body.activate, body.sim_duration_s, body.heldout_routines)  # fmt: skip
+    return training.start(req)
+
+
+@router.get("/train", response_model=list[TrainJobPublic])
+def training_jobs(training: TrainingDep) -> list[dict[str, Any]]:
+    return training.list()
+
+
+@router.get("/train/{job_id}", response_model=TrainJobPublic)
+def training_job(job_id: IdPath, training: TrainingDep) -> dict[str, Any]:
+    return training.get(job_id)
 
 
 @router.get("/{model_id}", response_model=ModelPublic)
@@ -65,22 +102,29 @@ def get_model(model_id: IdPath, models: ModelsDep) -> dict[str, Any]:
     return models.get(model_id)
 
 
-@router.get("/{model_id}/card.md", response_class=Response,
-            responses={200: {"content": {"text/markdown": {}}}})
+@router.get(
+    "/{model_id}/card.md", response_class=Response, responses={200: {"content": {"text/markdown": {}}}}
+)
 def model_card(model_id: IdPath, models: ModelsDep) -> Response:
     """The model card as Markdown."""
     return Response(models.card_markdown(model_id), media_type="text/markdown; charset=utf-8")
 
 
-@router.post("/{model_id}/activate", response_model=ModelPublic,
-             responses={409: {"description": "The model's file is missing or changed"}})
+@router.post(
+    "/{model_id}/activate",
+    response_model=ModelPublic,
+    responses={409: {"description": "The model's file is missing or changed"}},
+)
 def activate_model(model_id: IdPath, models: ModelsDep) -> dict[str, Any]:
     """Make the model the active one; the pipeline runs it from its next start."""
     return models.activate(model_id)
 
 
-@router.post("/rollback", response_model=ModelPublic,
-             responses={409: {"description": "No model was active before this one"}})
+@router.post(
+    "/rollback",
+    response_model=ModelPublic,
+    responses={409: {"description": "No model was active before this one"}},
+)
 def rollback_model(models: ModelsDep) -> dict[str, Any]:
     """Activate the model that was active before the active one."""
     return models.rollback()

@@ -32,12 +32,14 @@ export function mountModels(root) {
   const upload = el("button", { id: "model-upload" }, "Register file");
   const card = el("pre", { id: "model-card", class: "model-card", hidden: "" });
   const active = el("div", { id: "model-active" }, "");
+  const train = mountTraining(() => refresh());
   root.replaceChildren(
     el("h2", {}, "Action models"),
     active,
     table,
     el("div", { class: "row" }, rollback, file, upload),
     card,
+    train.node,
   );
 
   async function refresh() {
@@ -103,6 +105,77 @@ export function mountModels(root) {
 
   refresh().catch((err) => toast(`models: ${err.message}`));
   return { refresh };
+}
+
+// Fine-tuning: choose labelled takes, run `cavewalk train` in the server's worker, follow its progress.
+function mountTraining(onDone) {
+  const takes = el("div", { id: "train-takes", class: "row" });
+  const epochs = el("input", { id: "train-epochs", type: "number", min: "1", max: "50", value: "2", class: "narrow" });
+  const sim = el("input", { id: "train-sim", type: "number", min: "0", max: "400", value: "8", class: "narrow" });
+  const windows = el("input", { id: "train-windows", type: "number", min: "256", max: "100000", value: "4096",
+    class: "narrow", title: "training windows per epoch" });
+  const start = el("button", { id: "train-start" }, "Fine-tune on the chosen takes");
+  const bar = el("progress", { id: "train-progress", class: "train-progress", max: "1", value: "0" });
+  const state = el("div", { id: "train-state" }, "no training job");
+  const logBox = el("pre", { id: "train-log", class: "train-log" });
+  const node = el("div", { id: "train-section" },
+    el("h3", {}, "Fine-tune on takes"), takes,
+    el("div", { class: "row" }, el("label", {}, "epochs ", epochs), el("label", {}, "simulated routines ", sim),
+      el("label", {}, "windows/epoch ", windows), start),
+    bar, state, logBox);
+  let job = null;
+  let timer = null;
+
+  async function loadTakes() {
+    const rows = (await get("/takes")).filter((t) => t.status !== "recording");
+    takes.replaceChildren(...(rows.length ? rows.map((t) => el("label", { class: "train-take" },
+      el("input", { type: "checkbox", value: t.id, dataset: { takeId: t.id } }),
+      ` ${t.id}: ${t.participant_code || t.uid} (${t.protocol || "no protocol"})`))
+      : [el("span", {}, "no takes yet: record some with a protocol")]));
+  }
+
+  function show(j) {
+    job = j;
+    bar.value = j.progress;
+    state.textContent = `job ${j.id}: ${j.state} — ${j.message}`;
+    state.dataset.state = j.state;
+    logBox.textContent = j.log.join("\n");
+    start.disabled = j.state === "running";
+  }
+
+  async function poll() {
+    if (!job) return;
+    try {
+      show(await get(`/models/train/${job.id}`));
+    } catch (err) {
+      state.textContent = `training: ${err.message}`;
+    }
+    if (job.state !== "running") {
+      clearInterval(timer);
+      timer = null;
+      onDone();
+    }
+  }
+
+  start.addEventListener("click", async () => {
+    const ids = [...takes.querySelectorAll("input:checked")].map((i) => Number(i.value));
+    if (!ids.length) {
+      toast("choose at least one labelled take");
+      return;
+    }
+    try {
+      show(await post("/models/train", { take_ids: ids, epochs: Number(epochs.value), sim_routines: Number(sim.value),
+        windows_per_epoch: Number(windows.value) }));
+      timer = timer || setInterval(poll, 700);
+    } catch (err) {
+      toast(`fine-tune: ${err.message}`);
+      state.textContent = `not started: ${err.message}`;
+      state.dataset.state = "refused";
+    }
+  });
+
+  loadTakes().catch((err) => toast(`takes: ${err.message}`));
+  return { node, refresh: loadTakes };
 }
 
 function authHeaders() {

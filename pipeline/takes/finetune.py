@@ -1,0 +1,554 @@
+"""Fine-tuning the action model on recorded takes plus simulator data (``cavewalk train``; torch).
+
+The network starts from a registered ONNX model's own weights (the committed model by default):
+:func:`torch_from_onnx` reads the exported graph's convolutions (batch norm folded in by the export)
+back into :class:`~pipeline.recognition.model.SkeletonSlowFast`, whose batch norms then stay
+frozen at the identity, so the untrained network computes exactly what the file does.
+The data: every take's participant frames at the model's frame rate, mirrored (a mirrored left
+side step is a right one), with the step evidence of the run-time tracker; plus simulated routines
+(stepping and still behaviours) captured through the simulated CAVE cameras, so the model keeps
+what it knew. Windows are drawn with each source weighing (its frames) ** 0.5.
+
+Figures for the model card (:func:`train_on_takes`): leave-one-participant-out (each participant's
+takes scored by a model fine-tuned without them, next to the base model on the same frames), the
+pooled confusion matrix, and the base vs the new model on held-out simulated routines (another seed:
+the recognition issue's check that nothing was forgotten). Scores are those of the streaming
+recogniser (EMA, hysteresis, gate) replayed on the model's outputs (``evaluation.replay``).
+"""
+
+from __future__ import annotations
+
+import logging
+import tempfile
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass, replace
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pipeline.errors import CavewalkError, ModelError
+from pipeline.recognition import corpus
+from pipeline.recognition.dataset import LabelledSequence
+from pipeline.recognition.evaluation import network_trace, replay, scored
+from pipeline.recognition.features import FEATURES_V2
+from pipeline.recognition.metrics import Evaluation, evaluate
+from pipeline.recognition.recognizer import DEFAULT_MODEL_PATH, RecognizerConfig, model_info, open_session
+from pipeline.skeleton import ACTIONS
+from pipeline.takes.dataset import TakeData
+from pipeline.takes.model_file import sha256_file
+
+if TYPE_CHECKING:  # prepare and train import torch (the train extra): imported where they are used
+    from pipeline.recognition.prepare import Item
+
+log = logging.getLogger(__name__)
+FPS = 30.0  # the frame rate the corpus is prepared at (pipeline.recognition.prepare.FPS)
+
+Progress = Callable[[float, str], None]
+HELDOUT_SEED = 7919  # the model card's seed for simulated test routines (training used 0)
+
+
+class TrainingUnavailable(CavewalkError):
+    """The ``train`` extra (torch, onnx) is not installed."""
+
+
+def require_training() -> None:
+    """Raise :class:`TrainingUnavailable` with the install command when torch or onnx is missing."""
+    missing = []
+    for name in ("torch", "onnx"):
+        try:
+            __import__(name)
+        except ImportError:
+            missing.append(name)
+    if missing:
+        raise TrainingUnavailable(
+            f"training needs the 'train' extra ({', '.join(missing)} not installed): "
+            "pip install 'cavewalk[train]'"
+        )
+
+
+@dataclass(frozen=True, slots=True)
+class FinetuneConfig:
+    """Settings of one fine-tuning run (the ``cavewalk train`` options).
+
+    epochs x windows_per_epoch windows (batch_size each step) at learning rate lr (AdamW, cosine);
+    sim_routines of sim_duration_s simulated routines (stepping and still, in turn) join the takes;
+    loso: leave-one-participant-out figures (one more fine-tune per participant, when >= 2);
+    heldout_routines: simulated test routines (seed 7919) scored with the base and the new model.
+    """
+
+    epochs: int = 2
+    windows_per_epoch: int = 4096
+    batch_size: int = 128
+    lr: float = 5e-4
+    weight_decay: float = 1e-3
+    label_smoothing: float = 0.05
+    sim_routines: int = 8
+    sim_duration_s: float = 20.0
+    seed: int = 0
+    threads: int = 1
+    loso: bool = True
+    heldout_routines: int = 4
+
+    def __post_init__(self) -> None:
+        if self.epochs < 1 or self.windows_per_epoch < self.batch_size or self.batch_size < 1:
+            raise ValueError(
+                f"epochs >= 1 and windows_per_epoch >= batch_size >= 1, got {self.epochs}, "
+                f"{self.windows_per_epoch}, {self.batch_size}"
+            )
+        if not 0 < self.lr < 1 or self.sim_routines < 0 or self.heldout_routines < 0:
+            raise ValueError("lr must be in (0, 1); sim_routines and heldout_routines >= 0")
+        if self.sim_duration_s < 4:
+            raise ValueError(f"sim_duration_s must be >= 4 s, got {self.sim_duration_s}")
+
+
+# ----------------------------------------------------------------------------- ONNX -> torch
+def torch_from_onnx(path: Path) -> tuple[Any, dict[str, Any]]:
+    """(SkeletonSlowFast with the file's weights and frozen identity batch norms, the file's facts)."""
+    import onnx
+    import torch
+    from onnx import numpy_helper
+    from torch import nn
+
+    from pipeline.recognition.model import SkeletonSlowFast, SlowFastConfig
+
+    info = model_info(open_session(path))
+    proto = onnx.load(str(path))
+    init = {t.name: numpy_helper.to_array(t) for t in proto.graph.initializer}
+    convs: list[tuple[NDArray[Any], NDArray[Any] | None]] = []
+    head: tuple[NDArray[Any], NDArray[Any]] | None = None
+    for node in proto.graph.node:
+        if node.op_type == "Conv":
+            w = init.get(node.input[1])
+            b = init.get(node.input[2]) if len(node.input) > 2 else None
+            if w is None:
+                raise ModelError(
+                    f"{path.name}: a convolution's weights are not constants; cannot fine-tune it"
+                )
+            convs.append((w, b))
+        elif node.op_type == "Gemm":
+            w, b = init.get(node.input[1]), init.get(node.input[2]) if len(node.input) > 2 else None
+            if w is None or b is None:
+                raise ModelError(f"{path.name}: the classifier head's weights are not constants")
+            head = (w, b)
+    if head is None or len(convs) not in (3, 8):
+        raise ModelError(
+            f"{path.name}: not the skeleton SlowFast network cavewalk trains ({len(convs)} convolutions); "
+            "it can be run and evaluated but not fine-tuned"
+        )
+    fast = len(convs) == 8
+    cs, cin = convs[0][0].shape[:2]
+    cfg = SlowFastConfig(
+        in_channels=int(cin),
+        num_classes=len(ACTIONS),
+        window=info.window,
+        alpha=int(convs[2][0].shape[2]) if fast else 4,
+        slow_channels=int(cs),
+        beta=(convs[1][0].shape[0] / cs) if fast else 1 / 8,
+        fast_pathway=fast,
+    )
+    model = SkeletonSlowFast(cfg)
+    order = (
+        ["slow1", "fast1", "lat1", "slow2", "fast2", "lat2", "slow3", "fast3"]
+        if fast
+        else ["slow1", "slow2", "slow3"]
+    )  # the export's order: the forward pass's
+    with torch.no_grad():
+        for name, (w, b) in zip(order, convs, strict=True):
+            block = getattr(model, name)
+            conv = next(m for m in block if isinstance(m, nn.Conv1d))
+            bn = next(m for m in block if isinstance(m, nn.BatchNorm1d))
+            if tuple(conv.weight.shape) != w.shape:
+                raise ModelError(
+                    f"{path.name}: layer {name} is {w.shape}, expected {tuple(conv.weight.shape)}"
+                )
+            conv.weight.copy_(torch.from_numpy(np.array(w)))
+            bn.weight.fill_(1.0)
+            bias = np.array(b) if b is not None else np.zeros(w.shape[0], np.float32)
+            bn.bias.copy_(torch.from_numpy(bias))
+            bn.running_mean.zero_()
+            bn.running_var.fill_(1.0 - bn.eps)
+        if tuple(model.head.weight.shape) != head[0].shape:
+            raise ModelError(
+                f"{path.name}: head is {head[0].shape}, expected {tuple(model.head.weight.shape)}"
+            )
+        model.head.weight.copy_(torch.from_numpy(np.array(head[0])))
+        model.head.bias.copy_(torch.from_numpy(np.array(head[1])))
+    model.eval()
+    facts = {
+        "window": info.window,
+        "fps": info.fps,
+        "features": info.features,
+        "metadata": dict(open_session(path).get_modelmeta().custom_metadata_map),
+    }
+    return model, facts
+
+
+# ------------------------------------------------------------------------------------- data
+def take_items(takes: Sequence[TakeData], fps: float = FPS) -> list[Item]:
+    """Each take at the model's frame rate and mirrored, with its step evidence (source ``takes``)."""
+    from pipeline.recognition.prepare import Item, evidence_of
+
+    out = []
+    for td in takes:
+        seq = corpus.resample(td.seq, fps)
+        seq = LabelledSequence(seq.joints_m, seq.fps, seq.labels, seq.tags, None, "takes", td.uid)
+        for s, original in ((seq, True), (corpus.mirrored(seq), False)):
+            s32 = replace(s, joints_m=s.joints_m.astype(np.float32))
+            out.append(Item(f"takes:{td.uid}", s32, evidence_of(s), original))
+    return out
+
+
+def sim_items(
+    config: FinetuneConfig,
+    cache_dir: Path,
+    seed: int | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> list[Item]:
+    """Simulated routines (stepping and still behaviours in turn), captured and with evidence."""
+    from pipeline.recognition.prepare import SourceSpec, prepare_source
+
+    if config.sim_routines == 0:
+        return []
+    spec = SourceSpec.parse(f"sim=sim:stepping+still@{config.sim_routines}")
+    return prepare_source(
+        spec,
+        cache_dir,
+        config.sim_routines,
+        config.sim_duration_s,
+        config.seed if seed is None else seed,
+        progress=progress,
+    )
+
+
+# ---------------------------------------------------------------------------------- training
+def finetune(
+    base: Path,
+    items: Sequence[Item],
+    config: FinetuneConfig,
+    progress: Progress | None = None,
+    share: tuple[float, float] = (0.0, 1.0),
+) -> tuple[Any, dict[str, Any]]:
+    """Fine-tune the network of ``base`` on ``items``; (model in eval mode, metrics).
+
+    ``progress(fraction, message)`` after every epoch, the fraction within ``share`` of the whole job.
+    """
+    import torch
+    from torch import nn
+
+    from pipeline.recognition.prepare import to_dataset
+    from pipeline.recognition.train import batch_inputs, sampling_weights, window_ends
+
+    torch.manual_seed(config.seed)
+    torch.set_num_threads(config.threads)
+    rng = np.random.default_rng(config.seed)
+    model, facts = torch_from_onnx(base)
+    data = to_dataset(items)
+    features = facts["features"]
+    if features == FEATURES_V2 and data.evidence is None:
+        raise ModelError("features v2 need step evidence")
+    window = int(facts["window"])
+    ends_all = window_ends(data)
+    p_ends = sampling_weights(data, 0.5)
+    known = data.labels[data.labels >= 0]
+    freq = np.bincount(known, minlength=len(ACTIONS)) / max(len(known), 1)
+    inv = 1.0 / np.sqrt(np.maximum(freq, 1e-3))
+    loss_fn = nn.CrossEntropyLoss(
+        weight=torch.tensor(inv / inv.mean(), dtype=torch.float32), label_smoothing=config.label_smoothing
+    )
+    opt = torch.optim.AdamW(model.parameters(), lr=config.lr, weight_decay=config.weight_decay)
+    steps = config.windows_per_epoch // config.batch_size
+    sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, T_max=config.epochs * steps)
+    history = []
+    t0 = time.monotonic()
+    for epoch in range(config.epochs):
+        model.train()
+        for m in model.modules():  # the batch norms stay the file's (folded) identity
+            if isinstance(m, nn.BatchNorm1d):
+                m.eval()
+        ends = rng.choice(ends_all, size=steps * config.batch_size, replace=True, p=p_ends)
+        total = 0.0
+        for b in range(steps):
+            e = ends[b * config.batch_size : (b + 1) * config.batch_size]
+            x = torch.from_numpy(batch_inputs(data, e, window, features))
+            y = torch.from_numpy(data.labels[e])
+            opt.zero_grad()
+            loss = loss_fn(model(x), y)
+            loss.backward()
+            opt.step()
+            sched.step()
+            total += float(loss.item())
+        history.append({"epoch": epoch + 1, "loss": total / steps})
+        if progress is not None:
+            lo, hi = share
+            progress(
+                lo + (hi - lo) * (epoch + 1) / config.epochs,
+                f"epoch {epoch + 1}/{config.epochs}: loss {total / steps:.4f} "
+                f"({time.monotonic() - t0:.0f} s)",
+            )
+    model.eval()
+    return model, {
+        "history": history,
+        "train_s": time.monotonic() - t0,
+        "frames": len(data.labels),
+        "windows": config.epochs * steps * config.batch_size,
+        "facts": facts,
+    }
+
+
+def export(model: Any, out: Path, facts: dict[str, Any], extra: dict[str, str]) -> None:
+    from pipeline.recognition.train import export_onnx
+
+    meta = {k: v for k, v in facts["metadata"].items() if k not in ("window", "fps", "classes", "features")}
+    export_onnx(
+        model,
+        out,
+        int(facts["window"]),
+        float(facts["fps"]),
+        extra={**meta, **extra},
+        features=facts["features"],
+    )
+
+
+# -------------------------------------------------------------------------------- evaluation
+def score(model_path: Path, seqs: Sequence[LabelledSequence], exclude_s: float = 0.3) -> Evaluation:
+    """The streaming recogniser with ``model_path`` on labelled sequences (replayed on batched outputs)."""
+    session = open_session(model_path)
+    fps = model_info(session).fps
+    out = []
+    for s in seqs:
+        r = corpus.resample(s, fps)
+        trace = network_trace(session, r.joints_m, r.fps)
+        out.append(scored(r, replay(trace, RecognizerConfig(model_path=model_path))))
+    return evaluate(out, exclude_s)
+
+
+def summary(ev: Evaluation) -> dict[str, Any]:
+    return {
+        "accuracy": ev.accuracy,
+        "macro_f1": ev.macro_f1,
+        "frames": ev.frames,
+        "false_movement": ev.overall.false_movement,
+        "confusion": ev.confusion.tolist(),
+    }
+
+
+@dataclass(frozen=True, slots=True)
+class TrainingResult:
+    out: Path
+    card: dict[str, Any]
+    card_md: str
+
+
+def train_on_takes(
+    takes: Sequence[TakeData],
+    out: Path,
+    config: FinetuneConfig,
+    cache_dir: Path,
+    base: Path = DEFAULT_MODEL_PATH,
+    progress: Progress | None = None,
+) -> TrainingResult:
+    """Fine-tune ``base`` on the takes plus simulator data, write ``out`` and its card; the card's
+    figures: leave-one-participant-out, confusion matrix, held-out simulated routines."""
+    require_training()
+    say: Progress = progress or (lambda _f, _m: None)
+    t0 = time.monotonic()
+    participants = sorted({t.participant for t in takes})
+    say(0.0, f"{len(takes)} takes of {len(participants)} participants; preparing the data")
+    by_take = {t.uid: take_items([t]) for t in takes}
+    sim = sim_items(config, cache_dir, progress=lambda m: say(0.02, m))
+    heldout = [
+        it.seq
+        for it in sim_items(
+            replace(config, sim_routines=config.heldout_routines), cache_dir, seed=HELDOUT_SEED
+        )
+        if it.original
+    ]
+    prep_s = time.monotonic() - t0
+    folds = participants if config.loso and len(participants) >= 2 else []
+    n_runs = len(folds) + 1
+    fold_rows: list[dict[str, Any]] = []
+    pooled = np.zeros((4, 4), np.int64)
+    pooled_base = np.zeros((4, 4), np.int64)
+    with tempfile.TemporaryDirectory(prefix="cavewalk-loso-") as tmp:
+        for k, who in enumerate(folds):
+            train_items = [it for t in takes if t.participant != who for it in by_take[t.uid]] + sim
+            model, _m = finetune(
+                base, train_items, config, say, (0.05 + 0.9 * k / n_runs, 0.05 + 0.9 * (k + 1) / n_runs)
+            )
+            fold_path = Path(tmp) / f"fold-{k}.onnx"
+            export(model, fold_path, _m["facts"], {})
+            test = [t.seq for t in takes if t.participant == who]
+            tuned, before = score(fold_path, test), score(base, test)
+            pooled += tuned.confusion
+            pooled_base += before.confusion
+            fold_rows.append(
+                {
+                    "participant": who,
+                    "takes": len(test),
+                    "base": summary(before),
+                    "fine_tuned": summary(tuned),
+                }
+            )
+            say(
+                0.05 + 0.9 * (k + 1) / n_runs,
+                f"fold {who}: accuracy {_f(before.accuracy)} -> {_f(tuned.accuracy)}",
+            )
+    all_items = [it for t in takes for it in by_take[t.uid]] + sim
+    model, metrics = finetune(base, all_items, config, say, (0.05 + 0.9 * len(folds) / n_runs, 0.95))
+    trained = time.strftime("%Y-%m-%d %H:%M:%S")
+    export(
+        model,
+        out,
+        metrics["facts"],
+        {"trained": trained, "base_sha256": sha256_file(base), "sources": "takes,sim", "fine_tuned": "1"},
+    )
+    figures: dict[str, Any] = {}
+    if fold_rows:
+        acc = np.trace(pooled) / max(pooled.sum(), 1)
+        acc_b = np.trace(pooled_base) / max(pooled_base.sum(), 1)
+        figures |= {
+            "loso_accuracy": float(acc),
+            "loso_base_accuracy": float(acc_b),
+            "loso_confusion": pooled.tolist(),
+            "loso_base_confusion": pooled_base.tolist(),
+        }
+    on_takes = score(out, [t.seq for t in takes])
+    figures["takes_seen_in_training"] = summary(on_takes)
+    if heldout:
+        figures["heldout_sim"] = {
+            "routines": len(heldout),
+            "seed": HELDOUT_SEED,
+            "base": summary(score(base, heldout)),
+            "fine_tuned": summary(score(out, heldout)),
+        }
+    total_s = time.monotonic() - t0
+    card = {
+        "kind": "fine-tuned",
+        "base": {"file": str(base), "sha256": sha256_file(base)},
+        "trained": trained,
+        "data": {
+            "takes": [
+                {
+                    "uid": t.uid,
+                    "participant": t.participant,
+                    "frames": len(t.seq),
+                    "labels": corpus.label_counts([t.seq]),
+                }
+                for t in takes
+            ],
+            "participants": participants,
+            "sim_routines": config.sim_routines,
+            "sim_duration_s": config.sim_duration_s,
+            "training_frames": metrics["frames"],
+        },
+        "settings": asdict(config),
+        "history": metrics["history"],
+        "figures": figures,
+        "folds": fold_rows,
+        "times_s": {
+            "prepare": round(prep_s, 2),
+            "final_fine_tune": round(metrics["train_s"], 2),
+            "total": round(total_s, 2),
+        },
+    }
+    say(1.0, f"wrote {out} in {total_s:.0f} s")
+    return TrainingResult(out, card, card_markdown(card))
+
+
+def _confusion_md(conf: list[list[int]]) -> list[str]:
+    lines = ["| truth \\ predicted | " + " | ".join(ACTIONS) + " |", "|---" * (len(ACTIONS) + 1) + "|"]
+    for name, row in zip(ACTIONS, conf, strict=True):
+        lines.append(f"| {name} | " + " | ".join(str(v) for v in row) + " |")
+    return lines
+
+
+def _f(x: Any) -> str:
+    return f"{x:.3f}" if isinstance(x, float) else "—"
+
+
+def card_markdown(card: dict[str, Any]) -> str:
+    """The model card of a fine-tuned model, as Markdown."""
+    d, f, s = card["data"], card["figures"], card["settings"]
+    lines = [
+        f"# Model card: fine-tuned action model ({card['trained']})",
+        "",
+        f"Fine-tuned from `{Path(card['base']['file']).name}` (sha256 `{card['base']['sha256'][:16]}`) by "
+        "`cavewalk train` on recorded takes plus simulator data (batch norms frozen).",
+        "",
+        "## Data",
+        "",
+        "| take | participant | frames | still | forward | left | right | ignore |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for t in d["takes"]:
+        c = t["labels"]
+        lines.append(
+            f"| {t['uid']} | {t['participant']} | {t['frames']} | {c['still']} | {c['forward']} | "
+            f"{c['left']} | {c['right']} | {c['ignore']} |"
+        )
+    lines += [
+        "",
+        f"Plus {d['sim_routines']} simulated routines x {d['sim_duration_s']:g} s (stepping and still "
+        f"behaviours, seed {s['seed']}), all mirrored: {d['training_frames']} training frames.",
+        "",
+        f"Settings: {s['epochs']} epochs x {s['windows_per_epoch']} windows (batch {s['batch_size']}), AdamW "
+        f"lr {s['lr']:g} (cosine), label smoothing {s['label_smoothing']:g}, {s['threads']} torch thread(s).",
+        "",
+        "## Leave-one-participant-out",
+        "",
+    ]
+    if card["folds"]:
+        lines += [
+            "| participant | takes | base accuracy | fine-tuned accuracy | base false movement | "
+            "fine-tuned false movement |",
+            "|---|---|---|---|---|---|",
+        ]
+        for row in card["folds"]:
+            b, t = row["base"], row["fine_tuned"]
+            lines.append(
+                f"| {row['participant']} | {row['takes']} | {_f(b['accuracy'])} | {_f(t['accuracy'])} "
+                f"| {_f(b['false_movement'])} | {_f(t['false_movement'])} |"
+            )
+        lines += [
+            "",
+            f"Pooled: accuracy {_f(f['loso_accuracy'])} (base {_f(f['loso_base_accuracy'])}).",
+            "",
+            "Confusion matrix (pooled held-out participants, fine-tuned):",
+            "",
+        ]
+        lines += _confusion_md(f["loso_confusion"])
+    else:
+        lines.append("Not measured: it needs takes of at least two participants (or was switched off).")
+    seen = f["takes_seen_in_training"]
+    lines += [
+        "",
+        "## On the training takes (seen in training: not a held-out figure)",
+        "",
+        f"Accuracy {_f(seen['accuracy'])}, macro-F1 {_f(seen['macro_f1'])}, {seen['frames']} frames.",
+        "",
+    ]
+    lines += _confusion_md(seen["confusion"])
+    if "heldout_sim" in f:
+        h = f["heldout_sim"]
+        lines += [
+            "",
+            f"## Held-out simulated routines ({h['routines']}, seed {h['seed']})",
+            "",
+            "| model | accuracy | macro-F1 | false movement |",
+            "|---|---|---|---|",
+            f"| base | {_f(h['base']['accuracy'])} | {_f(h['base']['macro_f1'])} | "
+            f"{_f(h['base']['false_movement'])} |",
+            f"| fine-tuned | {_f(h['fine_tuned']['accuracy'])} | {_f(h['fine_tuned']['macro_f1'])} | "
+            f"{_f(h['fine_tuned']['false_movement'])} |",
+        ]
+    ts = card["times_s"]
+    lines += [
+        "",
+        f"Time: {ts['total']:.1f} s in all ({ts['prepare']:.1f} s preparing the data, "
+        f"{ts['final_fine_tune']:.1f} s the final fine-tune).",
+        "",
+    ]
+    return "\n".join(lines)

@@ -1,0 +1,47 @@
+"""Tiny labelled take folders for the training tests: simulated people (the simulator's routines,
+captured through the simulated CAVE cameras with their noise) written as takes by
+:func:`pipeline.takes.dataset.write_take`, and indexed like a server's takes."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from sqlalchemy.orm import Session
+
+from app.db.take_repository import create_take, finish_take_row
+from pipeline.recognition import corpus
+from pipeline.recognition.train import NoiseConfig, captured
+from pipeline.takes.dataset import write_take
+from pipeline.takes.files import relabel_take
+
+
+def simulated_takes(
+    root: Path, participants: int = 2, duration_s: float = 12.0, seed: int = 11
+) -> list[Path]:
+    """One take per participant (P1, P2, ...) of a mixed routine, labelled from the simulator's truth."""
+    seqs = captured(
+        corpus.simulated(participants, duration_s, 30.0, seed, kinds=("mixed",)), NoiseConfig(), seed
+    )
+    return [write_take(root / f"take-P{i + 1}", s, f"P{i + 1}") and root / f"take-P{i + 1}"
+            for i, s in enumerate(seqs)]  # fmt: skip
+
+
+def unlabelled_take(root: Path) -> Path:
+    """A take whose labels were all removed (no spans: no labels in its skeletons)."""
+    (folder,) = simulated_takes(root, participants=1, duration_s=6.0, seed=5)
+    relabel_take(folder, [])
+    return folder
+
+
+def index_takes(db: Session, folders: list[Path]) -> list[int]:
+    """The takes as rows of the takes index (what a server's recorder writes)."""
+    from pipeline.takes.files import load_manifest
+
+    ids = []
+    for f in folders:
+        m = load_manifest(f)
+        code = m.get("participant_code")
+        row = create_take(db, uid=m["id"], folder=str(f), status="recording", participant_code=code, files={})
+        finish_take_row(db, row.id, m, "complete")
+        ids.append(row.id)
+    return ids
