@@ -149,7 +149,7 @@ def create_app(
         app.state.watch = watch
         recorder = RecorderService(settings, factory, events, source=lambda: _recording_source(pipeline),
                                    sim_calibration=lambda: _sim_calibration(settings),
-                                   send_prompt=pipeline.send_prompt)
+                                   send_prompt=pipeline.send_prompt, video_controls=pipeline.video_controls)
         recorder.recover()  # a take the last server left recording is kept as incomplete
         pipeline.add_result_sink(recorder)
         app.state.recorder = recorder

@@ -31,6 +31,7 @@ from pipeline.takes.protocol import (
     shipped_protocols,
 )
 from pipeline.takes.recorder import TakeRecorder
+from pipeline.takes.video import VideoSession
 
 app = typer.Typer()
 
@@ -123,7 +124,7 @@ def _detail(r: Any) -> str:
 def _record_local(
     settings: Settings,
     source: str,
-    videos: dict[str, Path],
+    video_files: dict[str, Path],
     calibration: Path | None,
     protocol: Protocol | None,
     duration: float | None,
@@ -131,6 +132,7 @@ def _record_local(
     participant: str | None,
     out: Path,
     stop: threading.Event,
+    videos: bool = False,
 ) -> dict:
     cameras = load_calibration(calibration) if calibration else None
     sim = simulator_factory(settings)
@@ -150,17 +152,30 @@ def _record_local(
         "settings": settings_snapshot(settings),
     }
     spans = label_spans(protocol, margin, settings.takes.lead_s) if protocol else []
-    recorder = TakeRecorder(
-        out, manifest, settings.takes, protocol=protocol, spans=spans, duration_s=duration, calibration=cal
-    )
+    recorder: TakeRecorder | None = None
     try:
-        pipeline.start(source, videos or None)  # type: ignore[arg-type]
+        pipeline.start(source, video_files or None)  # type: ignore[arg-type]
         deadline = time.monotonic() + 120
         while pipeline.status().frame_index < 0:  # the first fused frame: the pipeline is up
             if stop.wait(0.2) or time.monotonic() > deadline:
                 raise SourceError(
                     f"the pipeline gave no frame ({pipeline.status().last_error or 'starting'})"
                 )
+        controls = pipeline.video_controls() if videos else {}
+        if videos and not controls:
+            raise InputError(
+                f"--videos: the {source} source has no camera images; use cameras or --video files"
+            )
+        recorder = TakeRecorder(
+            out,
+            manifest,
+            settings.takes,
+            protocol=protocol,
+            spans=spans,
+            duration_s=duration,
+            calibration=cal,
+            videos=VideoSession(controls, out / "videos", settings.takes) if controls else None,
+        )
         recorder.start()
         pipeline.add_sink(recorder)
         typer.echo(f"recording {out} from {source}", err=True)
@@ -174,7 +189,8 @@ def _record_local(
                 typer.echo(f"  [{p[0] + 1}/{len(protocol.steps) if protocol else 0}] {p[1].text}", err=True)
         return recorder.stop()
     finally:
-        pipeline.remove_sink(recorder)
+        if recorder is not None:
+            pipeline.remove_sink(recorder)
         pipeline.close()
 
 
@@ -247,10 +263,16 @@ def record_cmd(
     calibration: Annotated[
         Path | None, typer.Option("--calibration", help="Cameras of the videos/cameras.")
     ] = None,
+    with_videos: Annotated[
+        bool, typer.Option("--videos", help="Also one MP4 per camera (cameras or video files).")
+    ] = False,
     db: Annotated[
         Path | None,
-        typer.Option("--db", help="Without --url: the SQLite database that indexes the take (default: "
-                     "the settings' paths.db)."),
+        typer.Option(
+            "--db",
+            help="Without --url: the SQLite database that indexes the take (default: "
+            "the settings' paths.db).",
+        ),
     ] = None,
 ) -> None:
     """Record a take: 3D skeletons with user ids, 2D detections, the recogniser's outputs, the
@@ -274,6 +296,7 @@ def record_cmd(
             "protocol_toml": toml_text,
             "duration_s": duration,
             "margin_s": margin_s,
+            "videos": with_videos or None,
         }
         manifest = _record_remote(url, token, {k: v for k, v in body.items() if v is not None}, out, stop)
     else:
@@ -293,8 +316,20 @@ def record_cmd(
             raise InputError(f"--calibration: file not found: {calibration}")
         index_db = (db or settings.paths.db).expanduser()
         _check_index(index_db, out.name)
+        if with_videos and source == "simulator":
+            raise InputError("--videos: the simulator has no camera images; use --source cameras or videos")
         manifest = _record_local(
-            settings, source, videos, calibration, proto, duration, margin_s, participant, out, stop
+            settings,
+            source,
+            videos,
+            calibration,
+            proto,
+            duration,
+            margin_s,
+            participant,
+            out,
+            stop,
+            with_videos,
         )
         manifest["take_id"] = _index_take(index_db, out, manifest)
         write_json(out / MANIFEST, manifest)

@@ -125,6 +125,9 @@ def bench_cmd(
     navigation: Annotated[list[str] | None, typer.Option(
         "--navigation", help="The navigation mode(s) of the --people scenarios: each (default), group or "
         "single (repeatable: one scenario per mode and count, side by side in one run).")] = None,
+    videos: Annotated[str, typer.Option("--videos", help="off, on (record every camera's MP4 while "
+                                        "measuring, as a take does) or both (each demo scenario "
+                                        "without, then with).")] = "off",
 ) -> None:
     """Throughput, dropped frames, per-stage and end-to-end latency, CPU and memory of the live
     pipeline: the four real demo views paced at 30 fps (and flat out), and the simulator at 60 fps
@@ -147,7 +150,11 @@ def bench_cmd(
     bad = [m for m in modes if m not in ("single", "each", "group")]
     if bad:
         raise InputError(f"--navigation must be single, each or group, got {bad[0]!r}")
-    scenarios = _scenarios(source, flat_out, counts, modes)
+    if videos not in ("off", "on", "both"):
+        raise InputError(f"--videos must be off, on or both, got {videos!r}")
+    if videos != "off" and source == "sim":
+        raise InputError("--videos needs the demo (--source demo or both): the simulator has no images")
+    scenarios = _scenarios(source, flat_out, counts, modes, videos)
     settings = get_settings()
     report: dict[str, Any] = {"machine": machine_info(settings.pose, settings.pose_model_path),
                               "duration_s": duration, "warmup_s": warmup,
@@ -160,7 +167,7 @@ def bench_cmd(
     _print_report(report)
     if json_out is not None:
         json_out.parent.mkdir(parents=True, exist_ok=True)
-        json_out.write_text(json.dumps(report, indent=1, allow_nan=False, default=_nan_none))
+        json_out.write_text(json.dumps(_finite(report), indent=1, allow_nan=False, default=_nan_none))
         typer.echo(f"wrote {json_out}", err=True)
 
 
@@ -168,8 +175,19 @@ def _nan_none(obj: Any) -> Any:
     return None
 
 
+def _finite(obj: Any) -> Any:
+    """The report with NaN (a scenario that measured nothing) as null: JSON has no NaN."""
+    if isinstance(obj, float):
+        return obj if obj == obj and obj not in (float("inf"), float("-inf")) else None
+    if isinstance(obj, dict):
+        return {k: _finite(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [_finite(v) for v in obj]
+    return obj
+
+
 def _scenarios(source: str, flat_out: bool, people: list[int] | None = None,
-               modes: tuple[str, ...] | list[str] = ("each",)) -> list[Scenario]:
+               modes: tuple[str, ...] | list[str] = ("each",), videos: str = "off") -> list[Scenario]:
     settings = get_settings()
     base = replace(settings.runtime, latency_window=1_000_000)
     out = []
@@ -187,6 +205,12 @@ def _scenarios(source: str, flat_out: bool, people: list[int] | None = None,
         if flat_out:
             out.append(Scenario("demo_flat_out", demo_pipeline(0.0), "videos", demo.videos,
                                 "4 real views read as fast as they decode"))
+        if videos != "off":  # the same scenarios recording every camera's MP4, after each one without
+            with_videos = [replace(sc, name=f"{sc.name}_videos", notes=f"{sc.notes}; recording an MP4 "
+                                   "per camera (takes.video_*)", record_videos=settings.takes)
+                           for sc in out]
+            out = ([x for pair in zip(out, with_videos, strict=True) for x in pair] if videos == "both"
+                   else with_videos)
     for navigation, n in ((m, n) for m in modes for n in people or ()):  # issue 20: each extra navigator
         mode = NavigationConfig(navigation, (), max(4, n))  # type: ignore[arg-type]
         crowd = settings.model_copy(update={"navigation": mode})
@@ -228,4 +252,9 @@ def _print_report(report: dict[str, Any]) -> None:
         if len(streams) > 1:
             typer.echo("  locomotion streams: "
                        + ", ".join(f"user {k}: {n}" for k, n in sorted(streams.items())))
+        if r.get("videos"):
+            v = r["videos"]
+            typer.echo(f"  videos: {v['written_frames']} frames written "
+                       f"({v['written_fps_per_camera']:.1f} fps per camera), {v['dropped_frames']} dropped "
+                       f"by the encoders, {v['megabytes']} MB")
     sys.stdout.flush()

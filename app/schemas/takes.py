@@ -22,6 +22,7 @@ class TakeCreate(StrictRequest):
     margin_s: float | None = Field(None, description="Reaction margin after each label change, [0, 5] s.")
     lead_s: float | None = Field(None, description="Margin before each label change, [0, 5] s.")
     notes: Notes = ""
+    videos: bool = Field(False, description="Also one MP4 per camera (cameras or video files only).")
 
 
 class TakePublic(BaseModel):
@@ -54,6 +55,16 @@ class PromptPublic(BaseModel):
     next: str | None
 
 
+class VideoStatsPublic(BaseModel):
+    """One camera's video while a take records: frames written, dropped (the encoder was behind)."""
+
+    state: str
+    written: int
+    dropped: int
+    error: str | None = None
+    files: int = 0
+
+
 class RecordingPublic(BaseModel):
     """The take being recorded (``recording`` false and the rest null when none is)."""
 
@@ -64,6 +75,7 @@ class RecordingPublic(BaseModel):
     duration_s: float | None = None
     frames: int | None = None
     dropped: int | None = None
+    videos: dict[str, VideoStatsPublic] | None = None
     protocol: str | None = None
     prompt: PromptPublic | None = None
 

@@ -247,6 +247,12 @@ class PipelineService:
         if emitter is not None and hasattr(emitter, "send_prompt"):
             emitter.send_prompt(text, label, remaining_s)
 
+    def video_controls(self) -> dict[str, Any]:
+        """The running pipeline's camera video switches (``Pipeline.video_controls``; {}: none)."""
+        pipeline = self._pipeline  # one reference read: no need to wait for a start or stop
+        get = getattr(pipeline, "video_controls", None)
+        return dict(get()) if get is not None else {}
+
     def add_result_sink(self, sink: Any) -> None:
         """``sink.on_result(FrameResult)`` for every fused frame of this and every later pipeline."""
         with self._lock:

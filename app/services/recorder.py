@@ -44,6 +44,7 @@ from pipeline.takes.protocol import (
     shipped_protocols,
 )
 from pipeline.takes.recorder import TakeRecorder
+from pipeline.takes.video import VideoControl, VideoSession
 
 log = logging.getLogger(__name__)
 
@@ -60,6 +61,7 @@ class TakeRequest:
     margin_s: float | None = None
     lead_s: float | None = None
     notes: str = ""
+    videos: bool = False  # one MP4 per camera, written by the capture workers
 
 
 def takes_folder(settings: Settings) -> Path:
@@ -93,6 +95,7 @@ class RecorderService:
         sim_calibration: Callable[[], dict[str, Any] | None] = lambda: None,
         send_prompt: Callable[[str, str, float], None] | None = None,
         prompt_period_s: float = 0.5,
+        video_controls: Callable[[], dict[str, tuple[VideoControl, float]]] = dict,
     ) -> None:
         self.settings = settings
         self.config = settings.takes
@@ -106,6 +109,7 @@ class RecorderService:
         self._current_id: int | None = None
         self._send_prompt = send_prompt
         self._prompt_period_s = prompt_period_s
+        self._video_controls = video_controls
 
     # ----------------------------------------------------------------------------- recovery
     def recover(self) -> list[int]:
@@ -166,6 +170,10 @@ class RecorderService:
         source = self._source()
         if source is None:
             raise StateConflict("the pipeline is not running: start it (simulator, cameras or videos) first")
+        controls = self._video_controls() if req.videos else {}
+        if req.videos and not controls:
+            raise StateConflict(f"the {source} source has no camera images to record videos of; "
+                                "record videos from cameras or video files")
         with self._lock:
             if self._current is not None and not self._current.done:
                 raise StateConflict(f"take {self._current_id} is recording; stop it first")
@@ -222,6 +230,7 @@ class RecorderService:
                 duration_s=duration,
                 calibration=calibration,
                 on_done=functools.partial(self._finished, take_id),
+                videos=VideoSession(controls, folder / "videos", self.config) if controls else None,
             )
             try:
                 recorder.start()
@@ -310,6 +319,7 @@ class RecorderService:
             "duration_s": recorder.duration_s,
             "frames": recorder.written,
             "dropped": recorder.dropped,
+            "videos": recorder.videos.stats() if recorder.videos is not None else None,
             "protocol": recorder.protocol.name if recorder.protocol else None,
             "prompt": None,
         }

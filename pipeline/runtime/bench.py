@@ -12,6 +12,7 @@ import multiprocessing as mp
 import os
 import platform
 import queue as _queue
+import tempfile
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -27,6 +28,8 @@ from pipeline.machine import machine_facts
 from pipeline.pose.config import PoseConfig
 from pipeline.runtime.metrics import percentiles
 from pipeline.runtime.pipeline import Pipeline
+from pipeline.takes.config import TakesConfig
+from pipeline.takes.video import VideoSession
 
 log = logging.getLogger(__name__)
 
@@ -40,6 +43,7 @@ class Scenario:
     source: str
     videos: dict[str, Path] | None = None
     notes: str = ""
+    record_videos: TakesConfig | None = None  # while measuring, record every camera's MP4 (a take's)
 
 
 class ProcessSampler:
@@ -116,6 +120,9 @@ def run_scenario(scenario: Scenario, duration_s: float, warmup_timeout_s: float 
     port = int(port_q.get(timeout=60))
     pipeline = scenario.build()
     rx_summary: dict[str, Any] | None = None
+    videos: VideoSession | None = None
+    video_dir: tempfile.TemporaryDirectory[str] | None = None
+    video_stats: dict[str, Any] | None = None
     try:
         pipeline.set_workstations([("127.0.0.1", port)])
         pipeline.start(scenario.source, scenario.videos)  # type: ignore[arg-type]
@@ -133,6 +140,10 @@ def run_scenario(scenario: Scenario, duration_s: float, warmup_timeout_s: float 
         sampler = ProcessSampler()
         start = time.monotonic()
         s0 = pipeline.status()
+        if scenario.record_videos is not None:
+            video_dir = tempfile.TemporaryDirectory(prefix="cavewalk-bench-videos-")
+            videos = VideoSession(pipeline.video_controls(), Path(video_dir.name), scenario.record_videos)
+            videos.start(start, duration_s)
         next_report = start + 1.0
         while (now := time.monotonic()) - start < duration_s:
             time.sleep(min(0.25, max(0.0, next_report - now)))
@@ -149,7 +160,11 @@ def run_scenario(scenario: Scenario, duration_s: float, warmup_timeout_s: float 
         s1 = pipeline.status()
         samples = pipeline.latency_samples()
         sampler.sample()
+        if videos is not None:
+            video_stats = _video_summary(videos.stop(), Path(video_dir.name), elapsed)  # type: ignore[union-attr]
     finally:
+        if video_dir is not None:
+            video_dir.cleanup()
         go.set()
         stop_rx.set()
         pipeline.close()
@@ -177,7 +192,18 @@ def run_scenario(scenario: Scenario, duration_s: float, warmup_timeout_s: float 
         "rss_mb": _summary(sampler.rss_samples_mb),
         "cameras": list(s1.cameras),
         "receiver": rx_summary,
+        "videos": video_stats,
     }
+
+
+def _video_summary(per_camera: dict[str, dict[str, Any]], folder: Path, elapsed_s: float) -> dict[str, Any]:
+    """Frames written and dropped per camera while measuring, the rate written and the bytes."""
+    written = sum(int(c["written"]) for c in per_camera.values())
+    dropped = sum(int(c["dropped"]) for c in per_camera.values())
+    size = sum(p.stat().st_size for p in folder.rglob("*.mp4"))
+    return {"cameras": per_camera, "written_frames": written, "dropped_frames": dropped,
+            "written_fps_per_camera": round(written / elapsed_s / max(1, len(per_camera)), 2)
+            if elapsed_s > 0 else 0.0, "megabytes": round(size / 1e6, 2)}
 
 
 def _summary(values: list[float]) -> dict[str, float]:

@@ -45,6 +45,7 @@ from pipeline.runtime.tracker import guard_resource_tracker
 from pipeline.runtime.workers import CaptureSpec, DetectSpec, capture_loop, detect_loop, fuse_loop, sim_loop
 from pipeline.sources import source_kind
 from pipeline.sources.opencv import probe_video
+from pipeline.takes.video import VideoControl
 
 log = logging.getLogger(__name__)
 
@@ -80,6 +81,8 @@ class _Camera:
     last_sample_s: float = 0.0
     last_index: int = -1
     first_index: int | None = None
+    video: VideoControl | None = None  # the take's video of this camera (pipeline/takes/video.py)
+    capture_fps: float = 0.0  # the rate its worker captures at (the video's)
 
 
 @dataclass
@@ -236,14 +239,15 @@ class Pipeline:
                 (w, h), fps = probe_video(name, Path(uri))
                 capacity, native_fps = _slot_bytes(w, h), fps or 30.0
             ring = FrameRing.create(self.config.ring_slots, capacity, name)
-            run.cameras[name] = _Camera(name, ring)
             file_like = kind in ("video", "folder")
             pace_fps = (None if pace == 0 else pace or native_fps) if file_like else None
+            run.cameras[name] = cam = _Camera(name, ring, video=VideoControl.create(ctx),
+                                              capture_fps=pace_fps or native_fps)
             spec = CaptureSpec(name, uri, pace_fps=pace_fps,
                                loop=self.config.video_loop if file_like else False,
                                start_s=start_s, retry_s=self.config.camera_retry_s,
                                nice=self.config.capture_nice)
-            run.supervisor.add_group(f"capture-{name}", _capture_group(spec, ring.spec))
+            run.supervisor.add_group(f"capture-{name}", _capture_group(spec, ring.spec, cam.video))
         calibrated = None
         if self.cameras_calibrated is not None:
             calibrated = tuple(c for c in self.cameras_calibrated if c.name in plan)
@@ -562,6 +566,14 @@ class Pipeline:
         with self._lock:
             self._event("state", f"workstations: {endpoints}", {"workstations": [list(e) for e in endpoints]})
 
+    def video_controls(self) -> dict[str, tuple[VideoControl, float]]:
+        """Each capture worker's video switch and capture rate (a take's videos; {}: the simulator)."""
+        with self._lock:
+            run = self._run
+        if run is None:
+            return {}
+        return {n: (c.video, c.capture_fps) for n, c in run.cameras.items() if c.video is not None}
+
     def add_sink(self, sink: Any) -> None:
         """Hand every fused ``FrameResult`` to ``sink.on_result`` (collector thread: it must not block)."""
         with self._lock:
@@ -613,9 +625,10 @@ class Pipeline:
 
 
 # ------------------------------------------------------------------------------------ helpers
-def _capture_group(spec: CaptureSpec, ring: RingSpec) -> Callable[[], list[WorkerDef]]:
+def _capture_group(spec: CaptureSpec, ring: RingSpec, video: VideoControl | None = None
+                   ) -> Callable[[], list[WorkerDef]]:
     def build() -> list[WorkerDef]:
-        return [(f"capture-{spec.camera}", capture_loop, (spec, ring))]
+        return [(f"capture-{spec.camera}", capture_loop, (spec, ring, video))]
 
     return build
 

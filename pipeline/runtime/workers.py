@@ -46,6 +46,7 @@ from pipeline.runtime.shm import FrameRing, RingSpec, unlink_attached
 from pipeline.sources import open_source
 from pipeline.sources.grouper import FrameRef, GrouperConfig, MultiViewGrouper
 from pipeline.sources.opencv import Pacer
+from pipeline.takes.video import VideoControl, VideoTap
 from pipeline.tracking.types import TrackedView
 
 log = logging.getLogger(__name__)
@@ -159,13 +160,16 @@ def set_process_name(name: str) -> None:
 
 
 # ------------------------------------------------------------------------------------ capture
-def capture_loop(ctx: _Ctx, spec: CaptureSpec, ring_spec: RingSpec) -> None:
+def capture_loop(ctx: _Ctx, spec: CaptureSpec, ring_spec: RingSpec,
+                 video: VideoControl | None = None) -> None:
     """Open the camera, copy its frames into the ring; retry a camera that fails or vanishes.
 
     Frames the detector will not look at (it said when it next will, in the ring's
     header) are grabbed but not converted or copied: the dynamic frame rate saves the
     capture work too. Video files hand over their decoder's I420 frames (half the bytes
     of BGR, and no conversion of the whole frame; the detector converts its crops).
+    While a take records this camera's video (``video``, :mod:`pipeline.takes.video`),
+    every frame is converted and handed to its encoder thread, which never holds up the loop.
     """
     if spec.nice:
         try:
@@ -179,6 +183,7 @@ def capture_loop(ctx: _Ctx, spec: CaptureSpec, ring_spec: RingSpec) -> None:
         claimed.append(ring.claim(shape))
         return claimed[-1]
 
+    tap = VideoTap(video, spec.camera) if video is not None else None
     lost = False
     try:
         while ctx.running():
@@ -200,7 +205,12 @@ def capture_loop(ctx: _Ctx, spec: CaptureSpec, ring_spec: RingSpec) -> None:
                     if lost:
                         ctx.report("camera_ok", f"camera {spec.camera} delivers again")
                         lost = False
+                    taping = tap is not None and tap.active()
                     if time.monotonic() < ring.demand_s - slack_s:
+                        if tap is not None and taping:  # only the video wants it: into its own buffer
+                            own = source.retrieve()
+                            if own is not None:
+                                tap.offer(own.image, own.timestamp_s, owned=True)
                         continue  # the detector will not look before then: skip the conversion
                     claimed.clear()
                     frame = source.retrieve(into_ring)  # decoded straight into the ring's next slot
@@ -209,6 +219,8 @@ def capture_loop(ctx: _Ctx, spec: CaptureSpec, ring_spec: RingSpec) -> None:
                             ring.publish(frame.image.shape, frame.timestamp_s, frame.index)
                         else:
                             ring.write(frame.image, frame.timestamp_s, frame.index)
+                        if tap is not None and taping:
+                            tap.offer(frame.image, frame.timestamp_s)
             except SourceError as exc:
                 ctx.report("camera_lost", str(exc))
                 lost = True
@@ -216,6 +228,8 @@ def capture_loop(ctx: _Ctx, spec: CaptureSpec, ring_spec: RingSpec) -> None:
             finally:
                 source.close()
     finally:
+        if tap is not None:
+            tap.close()
         ring.close()
 
 

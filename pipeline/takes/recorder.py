@@ -6,7 +6,9 @@ pipeline). A writer thread turns the frames into ``frames.jsonl`` lines on the t
 (``t`` = seconds since the take started, ``ts`` = Unix time) and gets them to the disk at least
 every ``flush_interval_s`` (fsync), so a crash loses at most that much. The take stops when told,
 or by itself once its duration has passed; then :func:`~pipeline.takes.files.finish_take` builds
-the skeletons and the checksums.
+the skeletons and the checksums. With ``videos``, the capture workers write one MP4 per camera
+into ``videos/`` from the take's start to its end (:mod:`pipeline.takes.video`); the manifest's
+``videos`` gives each camera's frames written and dropped.
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ from pipeline.results import FrameResult, frame_record
 from pipeline.takes.config import TakesConfig
 from pipeline.takes.files import CALIBRATION, FRAMES, MANIFEST, finish_take, write_json, write_spans
 from pipeline.takes.protocol import LabelSpan, Protocol, Step
+from pipeline.takes.video import VideoSession
 
 log = logging.getLogger(__name__)
 
@@ -49,6 +52,7 @@ class TakeRecorder:
         calibration: dict[str, Any] | None = None,
         on_done: Callable[[dict[str, Any]], None] | None = None,
         clock: Callable[[], float] = time.monotonic,
+        videos: VideoSession | None = None,
     ) -> None:
         self.folder = Path(folder)
         self.config = config or TakesConfig()
@@ -63,6 +67,7 @@ class TakeRecorder:
         self._calibration = calibration
         self._on_done = on_done
         self._clock = clock
+        self.videos = videos
         self._frames: deque[FrameResult] = deque(maxlen=self.config.queue_frames)
         self._cv = threading.Condition()
         self._stopping = False
@@ -97,8 +102,12 @@ class TakeRecorder:
             write_json(self.folder / CALIBRATION, self._calibration)
         if self._spans:
             write_spans(self.folder, self._spans)
+        if self.videos is not None:
+            self._manifest["videos"] = {cam: {"state": "recording"} for cam in self.videos.controls}
         write_json(self.folder / MANIFEST, self._manifest)
         self._file = (self.folder / FRAMES).open("ab")
+        if self.videos is not None:  # the capture workers write videos/<camera>.mp4 on the take's clock
+            self.videos.start(self.t0, self.duration_s)
         self._thread = threading.Thread(target=self._run, name=f"take-{self.folder.name}", daemon=True)
         self._thread.start()
 
@@ -207,6 +216,8 @@ class TakeRecorder:
                 self._file.close()
                 self._file = None
             self._manifest["dropped_frames"] = self.dropped
+            if self.videos is not None:  # the files are closed before their checksums are taken
+                self._manifest["videos"] = self.videos.stop()
             if self.error:
                 self._manifest["error"] = self.error
             self._final = finish_take(

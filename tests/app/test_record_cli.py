@@ -6,15 +6,18 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+import zipfile
 from collections.abc import Iterator
 from pathlib import Path
 
+import av
 import numpy as np
 import pytest
 
 from app.db.engine import make_engine, make_session_factory
 from app.db.migrate import prepare_database
 from app.db.take_repository import create_take, take_by_uid
+from pipeline.demo_data import DemoData
 from pipeline.takes.files import check_files
 from tests.app.conftest import Served, make_settings
 from tests.app.test_cli_errors import run_cli
@@ -29,6 +32,7 @@ ROOT = Path(__file__).resolve().parents[2]
         (["--protocol", "four-actions", "--margin", "9"], "--margin must be"),
         (["--protocol", "four-actions", "--margin", "-0.1"], "--margin must be"),
         ([], "give --duration or --protocol"),
+        (["--duration", "2", "--videos"], "the simulator has no camera images"),
         (["--duration", "0"], "--duration must be"),
         (["--duration", "2", "--source", "tv"], "--source must be"),
         (["--duration", "2", "--source", "videos"], "needs --video"),
@@ -187,3 +191,46 @@ def test_record_on_a_running_server_fetches_the_take(served: Served, tmp_path: P
     assert manifest["status"] == "complete" and manifest["participant_code"] == "R1"
     assert check_files(out) == [], "every file came with a matching sha256"
     assert manifest["take_id"] == 1 and (out / "labels.csv").read_text().startswith("t_start,t_end,label")
+
+
+@pytest.mark.slow
+def test_record_from_the_demo_videos_writes_a_video_per_camera_on_the_takes_clock(
+    tmp_path: Path, demo_data: DemoData
+) -> None:
+    out, db = tmp_path / "vtake", tmp_path / "index.db"
+    cams = ("cam01", "cam02")
+    args = [f"--video={c}={demo_data.videos[c]}" for c in cams]
+    proc = subprocess.run(
+        [sys.executable, "-m", "app.cli", "record", "--out", str(out), "--source", "videos", *args,
+         "--calibration", str(demo_data.calibration), "--duration", "3", "--videos", "--db", str(db)],
+        cwd=ROOT, capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    manifest = json.loads((out / "take.json").read_text())
+    assert check_files(out) == [], "every video is listed with its sha256"
+    written = 0
+    for cam in cams:
+        stats = manifest["videos"][cam]
+        assert stats["state"] == "closed" and stats["error"] is None, stats
+        name = f"videos/{cam}.mp4"
+        print(f"{cam}: {stats['written']} frames written, {stats['dropped']} dropped in 3 s")
+        if not stats["written"]:  # a capture worker (niced) that got no CPU in the take: no file
+            assert name not in manifest["files"] and not (out / name).exists(), stats
+            continue
+        written += stats["written"]
+        assert name in manifest["files"], sorted(manifest["files"])
+        with av.open(str(out / name)) as c:
+            frames = list(c.decode(video=0))
+        assert len(frames) == stats["written"], (len(frames), stats)
+        times = [float(f.time) for f in frames]
+        assert all(0 <= t < 3.0 for t in times) and times == sorted(times), times
+        assert (frames[0].width, frames[0].height) == (1080, 1920), "as captured (no long_side)"
+    assert written >= 1, manifest["videos"]
+    # the zip holds them byte for byte
+    zipped = tmp_path / "vtake.zip"
+    proc = subprocess.run([sys.executable, "-m", "app.cli", "export", str(out), "--out", str(zipped)],
+                          cwd=ROOT, capture_output=True, text=True, timeout=120)  # fmt: skip
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    with zipfile.ZipFile(zipped) as zf:
+        for name in (n for n in manifest["files"] if n.startswith("videos/")):
+            assert zf.read(f"vtake/{name}") == (out / name).read_bytes(), name

@@ -104,6 +104,7 @@ def test_a_protocol_take_from_the_simulator_is_written_indexed_and_labelled(serv
         ({"protocol": "four-actions", "margin_s": -1}, 422, "margin_s must be"),
         ({"duration_s": 3, "session_id": 999}, 404, "session 999 not found"),
         ({}, 422, "needs a duration_s or a protocol"),
+        ({"duration_s": 3, "videos": True}, 409, "the simulator source has no camera images"),
     ],
 )
 def test_bad_take_requests_are_refused_and_store_nothing(

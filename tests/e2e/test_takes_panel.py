@@ -73,6 +73,22 @@ def test_record_a_take_from_the_dashboard(tmp_path: Path, artifacts_dir: Path) -
             panel.locator("#label-save").click()
             expect(panel.locator("#label-info")).to_have_text("saved", timeout=10_000)
             panel.screenshot(path=str(artifacts_dir / "takes-label-editor.png"))
+            # the exports: the labels table has the operator's relabelling, the TRC Pose2Sim's header
+            with page.expect_download() as got:
+                row.locator("a.take-export[data-format='labels']").click()
+            table = Path(got.value.path()).read_text().splitlines()
+            assert table[0].startswith("take,participant_code,user_id,frame,t_s,label"), table[:2]
+            assert any(",right," in line for line in table[1:]), "the edited labels are exported"
+            with page.expect_download() as got:
+                row.locator("a.take-export[data-format='trc']").click()
+            assert got.value.suggested_filename.endswith(".trc")
+            assert Path(got.value.path()).read_text().startswith("PathFileType\t4\t(X/Y/Z)")
+            row.screenshot(path=str(artifacts_dir / "takes-export-links.png"))
+            # videos of the simulator: it has no camera images; one clear message, nothing stored
+            panel.locator("#take-videos").check()
+            panel.locator("#take-start").click()
+            expect(page.locator("#toast")).to_contain_text("has no camera images", timeout=10_000)
+            panel.locator("#take-videos").uncheck()
             # a bad margin: one clear message, no take stored
             panel.locator("#take-margin").fill("9")
             panel.locator("#take-start").click()

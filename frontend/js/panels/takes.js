@@ -17,6 +17,8 @@ export function mountTakes(root) {
     placeholder: "s", class: "narrow", title: "seconds (empty: the protocol's length)" });
   const margin = el("input", { id: "take-margin", type: "number", min: "0", max: "5", step: "0.1",
     value: "0.5", class: "narrow", title: "reaction margin: seconds labelled ignore after each change" });
+  const videos = el("input", { id: "take-videos", type: "checkbox",
+    title: "one MP4 per camera (cameras or video files; the simulator has no images)" });
   const start = el("button", { id: "take-start" }, "Record");
   const stop = el("button", { id: "take-stop", disabled: "" }, "Stop");
   const state = el("div", { id: "take-state", class: "take-state" }, "not recording");
@@ -29,7 +31,7 @@ export function mountTakes(root) {
   root.replaceChildren(
     el("h2", {}, "Takes ", el("small", {}, promptLink)),
     el("div", { class: "row" }, code, protocol, el("label", {}, "duration ", duration),
-      el("label", {}, "margin ", margin, " s"), start, stop),
+      el("label", {}, "margin ", margin, " s"), el("label", {}, videos, " videos"), start, stop),
     state, table,
   );
   const editor = mountLabelEditor(root);
@@ -52,8 +54,29 @@ export function mountTakes(root) {
       el("td", {}, t.id), el("td", {}, t.uid), el("td", {}, t.participant_code || "–"),
       el("td", {}, t.protocol || "–"), el("td", { class: "status" }, t.status),
       el("td", {}, num(t.duration_s)), el("td", {}, t.frames),
-      el("td", {}, t.status === "recording" ? "" : el("button", { class: "take-labels",
-        onclick: () => editor.open(t) }, "labels")))));
+      el("td", {}, ...(t.status === "recording" ? [] : [el("button", { class: "take-labels",
+        onclick: () => editor.open(t) }, "labels"), ...exportLinks(t)])))));
+  }
+
+  // Downloads: the take's files + videos + TRC + labels table (zip), the participant's TRC
+  // (Pose2Sim/OpenSim), the per-frame labels CSV (R/SPSS, when the take has labels).
+  function exportLinks(t) {
+    const link = (format, text, title) => el("a", { class: "take-export", dataset: { format },
+      href: withToken(`/api/v1/takes/${t.id}/export?format=${format}`), download: "", title }, text);
+    const links = [link("zip", "zip", "the take's files, videos, TRC and labels table"),
+      link("trc", "TRC", "the participant's markers (metres, Y-up) for Pose2Sim / OpenSim")];
+    if (t.files && t.files["labels.csv"]) links.push(link("labels", "CSV", "one row per frame (R, SPSS)"));
+    return links;
+  }
+
+  function videoText(v) {
+    if (!v) return "";
+    const cams = Object.values(v);
+    const written = cams.reduce((n, c) => n + c.written, 0);
+    const dropped = cams.reduce((n, c) => n + c.dropped, 0);
+    const errors = cams.filter((c) => c.error).map((c) => c.error);
+    return `, videos: ${written} frames written${dropped ? `, ${dropped} dropped` : ""}`
+      + (errors.length ? ` (${errors[0]})` : "");
   }
 
   async function poll() {
@@ -63,7 +86,7 @@ export function mountTakes(root) {
         current = cur;
         const p = cur.prompt;
         state.textContent = `recording take ${cur.take_id}: ${num(cur.elapsed_s)} / ${num(cur.duration_s, 0)} s, `
-          + `${cur.frames} frames${cur.dropped ? `, ${cur.dropped} dropped` : ""}`
+          + `${cur.frames} frames${cur.dropped ? `, ${cur.dropped} dropped` : ""}${videoText(cur.videos)}`
           + (p ? ` — step ${p.index + 1}/${p.steps}: “${p.text}” (${p.label}), ${num(p.remaining_s)} s left` : "");
         state.dataset.recording = "true";
         start.disabled = true;
@@ -86,6 +109,7 @@ export function mountTakes(root) {
     if (code.value) body.participant_code = code.value;
     if (protocol.value) body.protocol = protocol.value;
     if (duration.value) body.duration_s = Number(duration.value);
+    if (videos.checked) body.videos = true;
     try {
       await post("/takes", body);
       await poll();
