@@ -122,7 +122,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, nargs="+", default=[3, 4, 5, 6])
     modes = ["single", "each", "group"]
-    ap.add_argument("--modes", nargs="+", default=modes, choices=modes)
+    ap.add_argument("--modes", nargs="*", default=modes, choices=modes)
     ap.add_argument("--cost", type=int, nargs="*", default=[], help="people counts (1-4) for the CPU cost")
     ap.add_argument("--json", type=Path)
     args = ap.parse_args()

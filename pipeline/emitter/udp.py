@@ -196,13 +196,20 @@ class UdpEmitter:
 
     # -- sending --------------------------------------------------------------------------
     def submit(self, command: LocomotionCommand | Sequence[LocomotionCommand] | None,
-               heads: tuple[HeadEstimate, ...] = ()) -> None:
+               heads: tuple[HeadEstimate, ...] = (),
+               navigation: tuple[str, Sequence[int]] | None = None) -> None:
         """The newest navigator command, or several (one per stream; None or () = no navigator),
         and the navigators' head estimates: sent now, then repeated at the rate (each head
-        predicted afresh for each send)."""
+        predicted afresh for each send). ``navigation`` (mode, user ids): as
+        :meth:`set_navigation`, in the same step, so no datagram of the old streams can follow
+        the announcement of the new ones."""
         commands = () if command is None else (command,) if isinstance(command, LocomotionCommand) \
             else tuple(command)
+        if navigation is not None:
+            navigation_message(navigation[0], navigation[1], 0, 1.0)  # validates the mode
         with self._lock:
+            if navigation is not None:
+                self._announce(navigation[0], navigation[1])
             self._commands = commands
             self._heads = tuple(heads) if self.head.enabled else ()
             if not commands:
@@ -222,12 +229,14 @@ class UdpEmitter:
         """The navigation mode and its streams' user ids, announced in a ``navigation`` datagram
         after every heartbeat and at once when they change (issue 20)."""
         navigation_message(mode, user_ids, 0, 1.0)  # validates the mode
-        value = (mode, tuple(sorted(int(u) for u in user_ids)))
         with self._lock:
-            changed = value != self._navigation
+            self._announce(mode, user_ids)
+
+    def _announce(self, mode: str, user_ids: Sequence[int]) -> None:
+        value = (mode, tuple(sorted(int(u) for u in user_ids)))
+        if value != self._navigation:
             self._navigation = value
-            if changed:
-                self._send_navigation(time.monotonic())
+            self._send_navigation(time.monotonic())
 
     def _next_gap(self) -> float:
         """Periods after the last datagram when the next is due: soon for a fresh command not

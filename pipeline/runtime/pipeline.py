@@ -340,10 +340,8 @@ class Pipeline:
     def _on_result(self, run: _Run, fused: FusedFrame) -> None:
         result, det = fused.result, fused.detected
         nav = result.navigation
-        if nav is not None:  # announced before the streams it names
-            streams = nav.group.members if nav.group is not None else nav.user_ids
-            self.emitter.set_navigation(nav.mode, streams)
-        self.emitter.submit(frame_commands(result), result.heads)
+        streams = None if nav is None else (nav.mode, nav.group.members if nav.group else nav.user_ids)
+        self.emitter.submit(frame_commands(result), result.heads, streams)  # announced, then sent
         sent = time.monotonic()
         ms = {
             "capture": det.detect_start_s - det.timestamp_s,

@@ -39,9 +39,8 @@ def test_receive_checks_each_and_group_streams_and_rejects_a_stream_that_contrad
         for _ in range(3):
             emitter.submit([command(1, "forward"), command(2, "left"), command(3, "right")])
             time.sleep(0.03)
-        emitter.set_navigation("group", [1, 2, 3])
-        for _ in range(2):
-            emitter.submit(command(None, "still", per_user=False))
+        for _ in range(2):  # the announcement and the stream in one step (the pipeline's way)
+            emitter.submit(command(None, "still", per_user=False), navigation=("group", [1, 2, 3]))
             time.sleep(0.03)
         time.sleep(0.03)
         emitter.submit(command(2, "left"))  # a per-user stream while group mode is announced
