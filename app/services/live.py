@@ -47,6 +47,7 @@ class PipelineFacade(Protocol):
     def set_navigator(self, user_id: int | None) -> None: ...
     def drain_events(self) -> list[Any]: ...
     def snapshot_jpeg(self, camera: str) -> bytes | None: ...
+    def send_prompt(self, text: str, label: str, remaining_s: float) -> None: ...
 
 
 class LiveSink(Protocol):
@@ -242,10 +243,9 @@ class PipelineService:
 
     def send_prompt(self, text: str, label: str, remaining_s: float) -> None:
         """A ``prompt`` datagram to the workstations (the recording protocol's instruction)."""
-        with self._lock:
-            emitter = getattr(self._pipeline, "emitter", None)
-        if emitter is not None and hasattr(emitter, "send_prompt"):
-            emitter.send_prompt(text, label, remaining_s)
+        pipeline = self._pipeline  # one reference read: never waits for a start or stop
+        if pipeline is not None:
+            pipeline.send_prompt(text, label, remaining_s)
 
     def video_controls(self) -> dict[str, Any]:
         """The running pipeline's camera video switches (``Pipeline.video_controls``; {}: none)."""

@@ -11,6 +11,14 @@ one ``locomotion`` datagram each; :meth:`UdpEmitter.set_navigation` adds a ``nav
 (the mode and its streams' user ids) after each heartbeat and at once when it changes.
 ``seq`` counts per destination. Unicast, broadcast and multicast addresses all work
 (the socket has SO_BROADCAST and a multicast TTL).
+
+In the live runtime two emitters share one stream (issue 16, item 3): the fusion worker's
+(role ``fusion``: every result goes out the moment it is fused) and the main process's
+(role ``standby``: the heartbeats while no fusion worker sends). They share the socket and
+a :class:`SharedStream` (``pipeline.runtime.stream.StreamBook``): one ``seq`` for every
+destination, counted across both and across restarts, the endpoints (the standby sets them,
+the fusion emitter follows), and the fusion emitter's tick, which tells the standby to
+stay silent.
 """
 
 from __future__ import annotations
@@ -23,6 +31,7 @@ import threading
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Literal, Protocol
 
 from pipeline.emitter.protocol import (
     LocomotionCommand,
@@ -50,6 +59,30 @@ Endpoint = tuple[str, int]
 # result that is a little late); with slower results repeats fill the gaps: 60 Hz on average.
 FRESH_GAP = 0.75
 REPEAT_GAP = 1.25
+TICK_S = 0.1  # an emitter with a shared stream wakes at least this often (the fusion one ticks it)
+Role = Literal["sole", "fusion", "standby"]
+
+
+class SharedStream(Protocol):
+    """The state two emitters of one stream share (``pipeline.runtime.stream.StreamBook``)."""
+
+    @property
+    def sent(self) -> int: ...
+
+    @property
+    def version(self) -> int: ...
+
+    def take_seq(self) -> int: ...
+
+    def add_sent(self, n: int) -> None: ...
+
+    def tick(self, now: float | None = None) -> None: ...
+
+    def fusion_sends(self, now: float | None = None) -> bool: ...
+
+    def set_endpoints(self, udp: list[Endpoint], osc: list[Endpoint]) -> None: ...
+
+    def endpoints(self) -> tuple[int, list[Endpoint], list[Endpoint]]: ...
 
 
 def parse_endpoint(value: str) -> Endpoint:
@@ -129,19 +162,36 @@ def is_multicast(address: str) -> bool:
         return False
 
 
+def stream_socket(config: EmitterConfig) -> socket.socket:
+    """The UDP socket of a stream (broadcast allowed, the multicast TTL set)."""
+    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_BROADCAST, 1)
+    sock.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_TTL, config.multicast_ttl)
+    return sock
+
+
 class UdpEmitter:
-    """Sends the locomotion stream; thread-safe; ``start()``/``stop()`` run the repeat thread."""
+    """Sends the locomotion stream; thread-safe; ``start()``/``stop()`` run the repeat thread.
+
+    shared / role / sock: one stream sent by two emitters (see the module docstring); without
+    ``shared`` the emitter is the stream's sole sender (role ``sole``, its own socket).
+    """
 
     def __init__(self, config: EmitterConfig, endpoints: list[Endpoint] | None = None,
                  osc_endpoints: list[Endpoint] | None = None,
-                 on_sent: Callable[[float], None] | None = None, head: HeadConfig | None = None) -> None:
+                 on_sent: Callable[[float], None] | None = None, head: HeadConfig | None = None, *,
+                 shared: SharedStream | None = None, role: Role = "sole",
+                 sock: socket.socket | None = None) -> None:
+        if (shared is None) != (role == "sole"):
+            raise ValueError(f"role {role!r} and shared={shared!r} do not go together")
         self.config = config
         self.head = head or HeadConfig()
+        self.role = role
+        self._shared = shared
+        self._version = -1  # of the shared endpoints this emitter follows (role fusion)
         self._heads: tuple[HeadEstimate, ...] = ()
         self._lock = threading.Lock()
-        self._sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        self._sock.setsockopt(socket.SOL_SOCKET, socket.SO_BROADCAST, 1)
-        self._sock.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_TTL, config.multicast_ttl)
+        self._sock = sock if sock is not None else stream_socket(config)
         self._endpoints: list[Endpoint] = []
         self._seq: dict[Endpoint, int] = {}
         self._osc: list[Endpoint] = []  # OSC destinations, sent from the same socket
@@ -158,18 +208,26 @@ class UdpEmitter:
         self._stop = threading.Event()
         self._wake = threading.Event()
         self._thread: threading.Thread | None = None
-        self.sent = 0
+        self._sent = 0
         self.errors = 0
-        self.set_endpoints(endpoints or [])
-        if osc_endpoints:
-            self.set_osc_endpoints(osc_endpoints)
+        if role != "fusion":
+            self.set_endpoints(endpoints or [])
+            if osc_endpoints:
+                self.set_osc_endpoints(osc_endpoints)
+
+    @property
+    def sent(self) -> int:
+        """Datagrams sent (one per destination; with a shared stream, by both of its emitters)."""
+        return self._shared.sent if self._shared is not None else self._sent
 
     # -- configuration -------------------------------------------------------------------
     def set_endpoints(self, endpoints: list[Endpoint]) -> None:
         """Replace the destinations (resolved first; on error nothing changes)."""
-        resolved = [resolve_endpoint(h, p) for h, p in endpoints]
+        resolved = list(dict.fromkeys(resolve_endpoint(h, p) for h, p in endpoints))
         with self._lock:
-            self._endpoints = list(dict.fromkeys(resolved))
+            if self._shared is not None:
+                self._shared.set_endpoints(resolved, self._osc)
+            self._endpoints = resolved
             self._seq = {ep: self._seq.get(ep, 0) for ep in self._endpoints}
 
     @property
@@ -179,9 +237,17 @@ class UdpEmitter:
 
     def set_osc_endpoints(self, endpoints: list[Endpoint]) -> None:
         """Replace the OSC destinations of ``/cave/locomotion`` (resolved first; on error nothing changes)."""
-        resolved = [resolve_endpoint(h, p) for h, p in endpoints]
+        resolved = list(dict.fromkeys(resolve_endpoint(h, p) for h, p in endpoints))
         with self._lock:
-            self._osc = list(dict.fromkeys(resolved))
+            if self._shared is not None:
+                self._shared.set_endpoints(self._endpoints, resolved)
+            self._osc = resolved
+
+    def _follow(self) -> None:
+        """Role fusion: take the endpoints the standby set, when they changed (lock held)."""
+        if self._shared is None or self.role != "fusion" or self._shared.version == self._version:
+            return
+        self._version, self._endpoints, self._osc = self._shared.endpoints()
 
     def set_state(self, state: str) -> None:
         """The state the heartbeats report; a change goes out at once in an extra heartbeat."""
@@ -247,6 +313,19 @@ class UdpEmitter:
         return REPEAT_GAP if self._last_was_fresh else 1.0
 
     def _send(self, build: Callable[[int], bytes]) -> None:
+        self._follow()
+        if self._shared is not None:  # one seq per datagram for every destination, shared
+            if not self._endpoints:
+                return
+            data = build(self._shared.take_seq())
+            for ep in self._endpoints:
+                try:
+                    self._sock.sendto(data, ep)
+                except OSError as exc:
+                    self.errors += 1
+                    log.debug("send to %s:%d failed: %s", ep[0], ep[1], exc)
+            self._shared.add_sent(len(self._endpoints))
+            return
         for ep in self._endpoints:
             seq = self._seq[ep]
             try:
@@ -255,7 +334,7 @@ class UdpEmitter:
                 self.errors += 1
                 log.debug("send to %s:%d failed: %s", ep[0], ep[1], exc)
             self._seq[ep] = seq + 1
-            self.sent += 1
+            self._sent += 1
 
     def _send_locomotion(self, cmds: tuple[LocomotionCommand, ...], now: float) -> None:
         osc = []
@@ -302,6 +381,11 @@ class UdpEmitter:
     def tick(self, now: float | None = None) -> None:
         """Send what is due at ``now``: a repeated locomotion and/or a heartbeat."""
         now = time.monotonic() if now is None else now
+        if self._shared is not None:
+            if self.role == "fusion":
+                self._shared.tick(now)
+            elif self._shared.fusion_sends(now):
+                return  # the fusion worker sends the stream now
         with self._lock:
             cmds = self._commands
             if cmds and now - self._command_at > self.config.stale_after_s:
@@ -325,6 +409,8 @@ class UdpEmitter:
                 wait = self._last_beat + self.config.heartbeat_s - now
                 if self._commands:
                     wait = min(wait, self._last_loco + self._next_gap() * period - now)
+                if self._shared is not None:
+                    wait = min(wait, TICK_S)
             self._wake.wait(max(0.001, wait))
             self._wake.clear()
 

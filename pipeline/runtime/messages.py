@@ -65,6 +65,7 @@ class FusedFrame:
     navigator_mode: str = "auto"
     dropped_here: int = 0
     navigator_changes: tuple[Any, ...] = ()  # pipeline.triangulation.navigator.NavigatorChange
+    sent_s: float | None = None  # when the fusion worker's sinks (the UDP stream) had it (monotonic)
 
 
 @dataclass(frozen=True, slots=True)
@@ -80,6 +81,15 @@ class SetNavigation:
 
     mode: str
     user_ids: tuple[int, ...] = ()
+
+
+@dataclass(frozen=True, slots=True)
+class SendPrompt:
+    """Control message to the fusion stage: one ``prompt`` datagram on its stream."""
+
+    text: str
+    label: str
+    remaining_s: float
 
 
 def put_latest(q: Any, item: object, retries: int = 3) -> int:

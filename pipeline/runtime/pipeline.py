@@ -4,11 +4,14 @@ Topology (one process per box; frames in shared memory, small results in bounded
 
     capture cam01 ─┐ shm ring
     capture cam02 ─┼──────────> detect (grouping + batched pose) ──q──> fuse ──q──> main: collector
-    ...           ─┘                                                                 └─> emitter (UDP/OSC)
+    ...           ─┘                                                     └─> UDP/OSC stream (StreamSink)
     simulator ───────────────────────────────────────────────────q──> fuse ──q──> (same)
 
 Everything here is thread-safe and returns quickly; the work happens in the worker
-processes and in two threads of the main process (collector, supervision).
+processes and in two threads of the main process (collector, supervision). The fusion
+worker sends the UDP stream itself; the main process's emitter (role ``standby``) sends the
+heartbeats while no fusion worker does, from the same socket and with the same ``seq``
+(:mod:`pipeline.runtime.stream`).
 """
 
 from __future__ import annotations
@@ -26,20 +29,28 @@ from pathlib import Path
 from typing import Any, Literal, Protocol
 
 from pipeline.camera import Camera
-from pipeline.emitter.udp import EmitterConfig, UdpEmitter
+from pipeline.emitter.udp import EmitterConfig, UdpEmitter, stream_socket
 from pipeline.errors import InputError, SourceError
 from pipeline.navigation.config import NavigationConfig
-from pipeline.navigation.stream import frame_commands
 from pipeline.navigation.views import navigation_record
 from pipeline.results import FrameResult, action_record, person_record
 from pipeline.runtime.config import RuntimeConfig
 from pipeline.runtime.mailbox import Mailbox
-from pipeline.runtime.messages import FusedFrame, SetNavigation, SetNavigator, WorkerEvent, put_latest
+from pipeline.runtime.messages import (
+    FusedFrame,
+    SendPrompt,
+    SetNavigation,
+    SetNavigator,
+    WorkerEvent,
+    put_latest,
+)
 from pipeline.runtime.metrics import RuntimeMetrics
 from pipeline.runtime.shm import FrameRing, RingSpec
+from pipeline.runtime.sinks import ResultSink, StreamSpec
 from pipeline.runtime.snapshot import person_labels, render_snapshot
 from pipeline.runtime.stages import FusionFactory
 from pipeline.runtime.status import PipelineEvent, PipelineStatus, State
+from pipeline.runtime.stream import StreamBook
 from pipeline.runtime.supervisor import Supervisor, WorkerDef, drain
 from pipeline.runtime.tracker import guard_resource_tracker
 from pipeline.runtime.workers import CaptureSpec, DetectSpec, capture_loop, detect_loop, fuse_loop, sim_loop
@@ -128,10 +139,13 @@ class Pipeline:
         self._events: deque[PipelineEvent] = deque(maxlen=EVENT_LOG_SIZE)
         self._last_action: str | None = None
         self._snapshots: dict[str, tuple[float, bytes]] = {}
-        self._sinks: tuple[Any, ...] = ()  # after-fusion sinks: on_result(FrameResult) (the take recorder)
+        self._sinks: tuple[ResultSink, ...] = ()  # main-process sinks (the take recorder)
         emitter = emitter or EmitterConfig()
+        self._emitter_config = emitter
+        self._book = StreamBook.create()  # seq, endpoints: shared with the fusion worker's stream
+        self._sock = stream_socket(emitter)
         self.emitter = UdpEmitter(emitter, list(workstations), emitter.osc_endpoints or None,
-                                  head=self.fusion.head)
+                                  head=self.fusion.head, shared=self._book, role="standby", sock=self._sock)
         self.emitter.set_state("stopped")
         self.emitter.start()
 
@@ -209,10 +223,12 @@ class Pipeline:
                 run.det_box, run.out_box = Mailbox.create("det"), Mailbox.create("fused")
                 det, out = run.det_box.spec, run.out_box.spec
 
+                stream = self._stream_spec()
+
                 def build_sim() -> list[WorkerDef]:
                     run.control_q = ctx.Queue(maxsize=16)
                     return [("simulator", sim_loop, (sim, sim.fps, det)),
-                            ("fuse", fuse_loop, (fusion, det, out, run.control_q))]
+                            ("fuse", fuse_loop, (fusion, det, out, run.control_q, stream))]
 
                 run.supervisor.add_group("chain", build_sim)
             else:
@@ -263,13 +279,18 @@ class Pipeline:
 
         run.det_box, run.out_box = Mailbox.create("det"), Mailbox.create("fused")
         det, out = run.det_box.spec, run.out_box.spec
+        stream = self._stream_spec()
 
         def build_chain() -> list[WorkerDef]:
             run.control_q = ctx.Queue(maxsize=16)
             return [("detect", detect_loop, (dspec, rings, pose, det)),
-                    ("fuse", fuse_loop, (fusion, det, out, run.control_q))]
+                    ("fuse", fuse_loop, (fusion, det, out, run.control_q, stream))]
 
         run.supervisor.add_group("chain", build_chain)
+
+    def _stream_spec(self) -> StreamSpec:
+        return StreamSpec(self._emitter_config, self.fusion.head, self._book.spec, self._sock,
+                          self.config.stall_after_s)
 
     def stop(self) -> None:
         """Stop every worker, free the shared memory; the heartbeat goes on with state ``stopped``."""
@@ -287,8 +308,8 @@ class Pipeline:
         self._run = None
         if run is None:
             return
-        self.emitter.submit(None)
         self._teardown(run)
+        self._book.release()  # no fusion worker sends now: the standby emitter does
 
     def _teardown(self, run: _Run) -> None:
         run.stop.set()
@@ -318,6 +339,7 @@ class Pipeline:
         """Stop the pipeline and the emitter (the heartbeat ends too)."""
         self.stop()
         self.emitter.close()
+        self._book.unlink()
 
     # ---------------------------------------------------------------------- main-process threads
     def _collect(self, run: _Run) -> None:
@@ -340,9 +362,7 @@ class Pipeline:
     def _on_result(self, run: _Run, fused: FusedFrame) -> None:
         result, det = fused.result, fused.detected
         nav = result.navigation
-        streams = None if nav is None else (nav.mode, nav.group.members if nav.group else nav.user_ids)
-        self.emitter.submit(frame_commands(result), result.heads, streams)  # announced, then sent
-        sent = time.monotonic()
+        sent = fused.sent_s if fused.sent_s is not None else fused.fuse_end_s  # the fusion worker sent it
         ms = {
             "capture": det.detect_start_s - det.timestamp_s,
             "detect": det.detect_end_s - det.detect_start_s,
@@ -350,6 +370,7 @@ class Pipeline:
             "emit": sent - fused.fuse_end_s,
             "end_to_end": sent - det.timestamp_s,
         }
+        now = time.monotonic()
         if run.first_source_index is None:
             run.first_source_index = det.source_index
         elif det.source_index + 5 < run.last_source_index:  # the source restarted from frame 0
@@ -357,9 +378,9 @@ class Pipeline:
             run.first_source_index = det.source_index
             run.last_source_index = det.source_index
         run.last_source_index = max(run.last_source_index, det.source_index)
-        run.metrics.frame(sent, {k: v * 1000.0 for k, v in ms.items()}, 0)
+        run.metrics.frame(now, {k: v * 1000.0 for k, v in ms.items()}, 0)
         run.latest = fused
-        run.last_result_s = sent
+        run.last_result_s = now
         run.supervisor.note_progress()
         for sink in self._sinks:  # each returns at once (queues its own work)
             try:
@@ -431,7 +452,6 @@ class Pipeline:
                 if ev.worker == "chain" and self._run is run:  # no results until it is back
                     self._state = "error"
                     self.emitter.set_state("error")
-                    self.emitter.submit(None)
         with self._lock:
             self._event(kind, f"{ev.worker}: {ev.kind} {ev.message}".strip(),
                         {"worker": ev.worker, "kind": ev.kind, "message": ev.message})
@@ -572,13 +592,21 @@ class Pipeline:
             return {}
         return {n: (c.video, c.capture_fps) for n, c in run.cameras.items() if c.video is not None}
 
-    def add_sink(self, sink: Any) -> None:
+    def send_prompt(self, text: str, label: str, remaining_s: float) -> None:
+        """One ``prompt`` datagram on the stream (by the fusion worker while it sends the stream)."""
+        run = self._run
+        if run is not None and run.control_q is not None and self._book.fusion_sends():
+            put_latest(run.control_q, SendPrompt(text, label, remaining_s))
+        else:
+            self.emitter.send_prompt(text, label, remaining_s)
+
+    def add_sink(self, sink: ResultSink) -> None:
         """Hand every fused ``FrameResult`` to ``sink.on_result`` (collector thread: it must not block)."""
         with self._lock:
             if sink not in self._sinks:
                 self._sinks = (*self._sinks, sink)
 
-    def remove_sink(self, sink: Any) -> None:
+    def remove_sink(self, sink: ResultSink) -> None:
         with self._lock:
             self._sinks = tuple(s for s in self._sinks if s is not sink)
 

@@ -98,16 +98,7 @@ class FrameRing:
     @classmethod
     def attach(cls, spec: RingSpec) -> FrameRing:
         """Attach to an existing ring without registering it with the resource tracker."""
-        original = resource_tracker.register
-        resource_tracker.register = lambda *a, **k: None  # type: ignore[assignment]
-        try:
-            shm = shared_memory.SharedMemory(name=spec.shm_name, create=False)
-        except FileNotFoundError as exc:
-            raise SourceError(f"shared-memory ring {spec.shm_name} does not exist") from exc
-        finally:
-            resource_tracker.register = original  # type: ignore[assignment]
-        _attached.add(spec.shm_name)
-        return cls(spec, shm, owner=False)
+        return cls(spec, attach_segment(spec.shm_name), owner=False)
 
     def _slot_base(self, slot: int) -> int:
         return _GLOBAL_WORDS + _SLOT_WORDS * slot
@@ -216,6 +207,21 @@ class FrameRing:
         self.close()
         with contextlib.suppress(FileNotFoundError):
             self._shm.unlink()
+
+
+def attach_segment(name: str) -> shared_memory.SharedMemory:
+    """Attach to an existing segment without registering it with the resource tracker (so this
+    process's exit never unlinks it); remembered for :func:`unlink_attached`."""
+    original = resource_tracker.register
+    resource_tracker.register = lambda *a, **k: None  # type: ignore[assignment]
+    try:
+        shm = shared_memory.SharedMemory(name=name, create=False)
+    except FileNotFoundError as exc:
+        raise SourceError(f"shared-memory segment {name} does not exist") from exc
+    finally:
+        resource_tracker.register = original  # type: ignore[assignment]
+    _attached.add(name)
+    return shm
 
 
 def unlink_attached() -> list[str]:

@@ -35,6 +35,7 @@ from pipeline.runtime.mailbox import Mailbox, MailboxSpec
 from pipeline.runtime.messages import (
     DetectedFrame,
     FusedFrame,
+    SendPrompt,
     SetNavigation,
     SetNavigator,
     WorkerEvent,
@@ -43,6 +44,7 @@ from pipeline.runtime.messages import (
 )
 from pipeline.runtime.metrics import AdaptiveRate, ema
 from pipeline.runtime.shm import FrameRing, RingSpec, unlink_attached
+from pipeline.runtime.sinks import StreamSink, StreamSpec
 from pipeline.sources import open_source
 from pipeline.sources.grouper import FrameRef, GrouperConfig, MultiViewGrouper
 from pipeline.sources.opencv import Pacer
@@ -298,40 +300,58 @@ def detect_loop(ctx: _Ctx, spec: DetectSpec, ring_specs: tuple[RingSpec, ...],
 
 # ------------------------------------------------------------------------------------- fusion
 def fuse_loop(ctx: _Ctx, fusion_factory: Callable[[], Any], in_box: MailboxSpec, out_box: MailboxSpec,
-              control_q: Any) -> None:
-    """Tracking, triangulation, navigator and recognition on the newest detected frame."""
+              control_q: Any, stream: StreamSpec | None = None) -> None:
+    """Tracking, triangulation, navigator and recognition on the newest detected frame; the
+    result goes to the UDP stream at once (``stream``), then to the main process."""
     fusion = fusion_factory()
     inbox, out = Mailbox.attach(in_box), Mailbox.attach(out_box)
+    sink = StreamSink.open(stream) if stream is not None else None
     try:
-        _fuse(ctx, fusion, inbox, out, control_q)
+        _fuse(ctx, fusion, inbox, out, control_q, sink)
     finally:
+        if sink is not None:
+            sink.close()
         inbox.close()
         out.close()
 
 
-def _fuse(ctx: _Ctx, fusion: Any, inbox: Mailbox, out: Mailbox, control_q: Any) -> None:
+def _fuse(ctx: _Ctx, fusion: Any, inbox: Mailbox, out: Mailbox, control_q: Any,
+          sink: StreamSink | None) -> None:
     while ctx.running():
-        while True:
-            try:
-                msg = control_q.get_nowait()
-            except _queue.Empty:
-                break
-            if isinstance(msg, SetNavigator):
-                try:
-                    fusion.set_navigator(msg.user_id)
-                except CavewalkError as exc:  # the user left between the request and now
-                    ctx.report("info", f"navigator not changed: {exc}")
-            elif isinstance(msg, SetNavigation):
-                try:
-                    fusion.set_navigation(msg.mode, msg.user_ids)
-                except CavewalkError as exc:
-                    ctx.report("info", f"navigation mode not changed: {exc}")
+        _control(ctx, fusion, control_q, sink)
         got = inbox.get(timeout=0.05)
+        if sink is not None:
+            sink.check(time.monotonic())
         if got is None or not isinstance(got[0], DetectedFrame):
             continue
         item, skipped = got
         result = fusion.update(item)
-        out.put(FusedFrame(result, item, time.monotonic(), fusion.mode, skipped, fusion.take_changes()))
+        fused_s = time.monotonic()
+        sent_s = None
+        if sink is not None:
+            sink.on_result(result)
+            sent_s = time.monotonic()
+        out.put(FusedFrame(result, item, fused_s, fusion.mode, skipped, fusion.take_changes(), sent_s))
+
+
+def _control(ctx: _Ctx, fusion: Any, control_q: Any, sink: StreamSink | None) -> None:
+    while True:
+        try:
+            msg = control_q.get_nowait()
+        except _queue.Empty:
+            return
+        if isinstance(msg, SetNavigator):
+            try:
+                fusion.set_navigator(msg.user_id)
+            except CavewalkError as exc:  # the user left between the request and now
+                ctx.report("info", f"navigator not changed: {exc}")
+        elif isinstance(msg, SetNavigation):
+            try:
+                fusion.set_navigation(msg.mode, msg.user_ids)
+            except CavewalkError as exc:
+                ctx.report("info", f"navigation mode not changed: {exc}")
+        elif isinstance(msg, SendPrompt) and sink is not None:
+            sink.send_prompt(msg.text, msg.label, msg.remaining_s)
 
 
 # ---------------------------------------------------------------------------------- simulator

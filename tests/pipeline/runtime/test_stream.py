@@ -1,0 +1,170 @@
+"""The UDP stream is sent by the fusion worker (issue 16, item 3): real workers, a real UDP socket.
+
+The main process's collector (and every main-process sink) can be stuck and fresh locomotion
+still arrives; ``seq`` goes on, from one sender address, across a killed fusion worker; the
+shared book hands ``seq`` and the endpoints between the two emitters of one stream.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import os
+import signal
+import socket
+import threading
+import time
+from typing import Any
+
+import pytest
+
+from pipeline.emitter.udp import EmitterConfig, UdpEmitter, stream_socket
+from pipeline.errors import InputError
+from pipeline.recognition.recognizer import DEFAULT_MODEL_PATH
+from pipeline.results import FrameResult
+from pipeline.runtime.pipeline import Pipeline
+from pipeline.runtime.stream import MAX_ENDPOINTS, StreamBook
+from tests.waiting import wait_until
+
+from .live import wait_for
+
+needs_model = pytest.mark.skipif(not DEFAULT_MODEL_PATH.is_file(), reason="the trained action model")
+
+
+class Recorder:
+    """Every datagram with its sender address, in a thread (a real bound socket)."""
+
+    def __init__(self) -> None:
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sock.bind(("127.0.0.1", 0))
+        self.sock.settimeout(0.1)
+        self.port: int = self.sock.getsockname()[1]
+        self.got: list[tuple[tuple[str, int], dict[str, Any]]] = []
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            try:
+                data, addr = self.sock.recvfrom(65535)
+            except TimeoutError:
+                continue
+            self.got.append((addr, json.loads(data)))
+
+    def of_type(self, kind: str) -> list[dict[str, Any]]:
+        return [m for _, m in list(self.got) if m["type"] == kind]
+
+    def fresh_locomotion(self) -> int:
+        """Locomotion datagrams that carry a new result (a new ``ts``; repeats carry the old one)."""
+        return len({m["ts"] for m in self.of_type("locomotion")})
+
+    def close(self) -> None:
+        self._stop.set()
+        self._thread.join(timeout=2)
+        self.sock.close()
+
+
+@pytest.fixture()
+def recorder() -> Any:
+    rx = Recorder()
+    yield rx
+    rx.close()
+
+
+class StuckSink:
+    """A main-process sink that blocks the collector's thread until released."""
+
+    def __init__(self) -> None:
+        self.entered = threading.Event()
+        self.release = threading.Event()
+
+    def on_result(self, result: FrameResult) -> None:
+        self.entered.set()
+        self.release.wait(120)
+
+
+@pytest.mark.slow
+@needs_model
+def test_fresh_locomotion_arrives_while_the_main_process_collector_is_stuck(
+    sim_pipeline: Pipeline, recorder: Recorder
+) -> None:
+    sim_pipeline.set_workstations([("127.0.0.1", recorder.port)])
+    sim_pipeline.start("simulator")
+    wait_until(lambda: recorder.fresh_locomotion() >= 5, "locomotion from the running pipeline")
+    stuck = StuckSink()
+    sim_pipeline.add_sink(stuck)
+    try:
+        assert stuck.entered.wait(120), "the collector handed a result to the sink"
+        before = recorder.fresh_locomotion()
+        processed = sim_pipeline.status().processed
+        # with the send in the main process, a stuck collector sent nothing new (repeats for
+        # stale_after_s, then silence); from the fusion worker, every new result goes out
+        wait_until(lambda: recorder.fresh_locomotion() >= before + 30,
+                   "30 new locomotion results while the collector is stuck")
+        assert sim_pipeline.status().processed == processed, "the collector really was stuck meanwhile"
+    finally:
+        stuck.release.set()
+        sim_pipeline.remove_sink(stuck)
+
+
+@pytest.mark.slow
+@needs_model
+def test_seq_goes_on_from_one_sender_across_a_killed_fusion_worker(
+    sim_pipeline: Pipeline, recorder: Recorder
+) -> None:
+    sim_pipeline.set_workstations([("127.0.0.1", recorder.port)])
+    sim_pipeline.start("simulator")
+    wait_until(lambda: recorder.fresh_locomotion() >= 5, "locomotion from the running pipeline")
+    fuse = sim_pipeline.workers()["fuse"]
+    os.kill(fuse, signal.SIGKILL)
+    wait_for(lambda: sim_pipeline.workers().get("fuse") not in (None, fuse), 60, "a new fusion worker")
+    count = len(recorder.of_type("locomotion"))
+    wait_until(lambda: len(recorder.of_type("locomotion")) >= count + 30, "locomotion from the new worker")
+    sim_pipeline.send_prompt("Walk forward", "forward", 3.0)  # by the fusion worker, on its stream
+    wait_until(lambda: recorder.of_type("prompt"), "the prompt from the running pipeline")
+    sim_pipeline.stop()
+    wait_until(lambda: any(m["state"] == "stopped" for m in recorder.of_type("heartbeat")),
+               "a heartbeat that says stopped (the main process's emitter)")
+    sim_pipeline.send_prompt("Stand still", "still", 1.0)  # by the main process's emitter
+    wait_until(lambda: len(recorder.of_type("prompt")) == 2, "the prompt of the stopped pipeline")
+    assert [m["text"] for m in recorder.of_type("prompt")] == ["Walk forward", "Stand still"]
+    senders = {addr for addr, _ in recorder.got}
+    assert len(senders) == 1, f"one socket sends the stream, whichever process: {senders}"
+    seqs = [m["seq"] for _, m in recorder.got]
+    assert all(b > a for a, b in itertools.pairwise(seqs)), "seq never repeats or goes back"
+    assert seqs == list(range(seqs[0], seqs[0] + len(seqs))), "one seq per datagram, no gap"
+
+
+def test_the_book_hands_seq_and_endpoints_between_the_two_emitters() -> None:
+    book = StreamBook.create()
+    rx = Recorder()
+    sock = stream_socket(EmitterConfig())
+    config = EmitterConfig(heartbeat_s=10.0)
+    standby = UdpEmitter(config, [("127.0.0.1", rx.port)], shared=book, role="standby", sock=sock)
+    fusion = UdpEmitter(config, shared=StreamBook.attach(book.spec), role="fusion", sock=sock)
+    try:
+        standby.tick(time.monotonic())  # nobody else sends: the standby's heartbeat goes out
+        assert fusion.endpoints == [], "the fusion emitter follows the book when it sends"
+        t = time.monotonic()
+        fusion.tick(t)  # ticks the book, follows the endpoints, sends its own heartbeat
+        assert fusion.endpoints == [("127.0.0.1", rx.port)]
+        assert book.fusion_sends(t + 0.05)
+        standby.set_state("running")
+        standby.tick(t + 0.1)  # the fusion emitter sends now: the standby stays silent
+        book.release()
+        standby.tick(time.monotonic())  # the fusion emitter is gone: the standby's heartbeat goes out
+        wait_until(lambda: len(rx.got) >= 3, "three heartbeats")
+        assert [m["seq"] for _, m in rx.got] == [0, 1, 2], "one seq, shared"
+        assert [m["state"] for _, m in rx.got] == ["stopped", "stopped", "running"]
+        assert standby.sent == fusion.sent == 3, "both count the stream's datagrams"
+        with pytest.raises(InputError, match="at most"):
+            standby.set_endpoints([("127.0.0.1", p) for p in range(1000, 1001 + MAX_ENDPOINTS)])
+        assert book.endpoints()[1] == [("127.0.0.1", rx.port)], "a rejected list changes nothing"
+        with pytest.raises(ValueError, match="do not go together"):
+            UdpEmitter(config, role="fusion")
+    finally:
+        standby.close()
+        fusion.close()
+        rx.close()
+        book.unlink()
