@@ -144,8 +144,9 @@ def main() -> None:
         if m == "group":
             print("group  the room (still / forward): per seed "
                   + " ".join(f"{r['group_accuracy']:.2f}" for r in rs))
-        print(f"{m:<6} fusion CPU per frame {1000 * np.mean([r['cpu_s_per_frame'] for r in rs]):.1f} ms "
-              "(process time, this process)")
+        cpu_ms = 1000 * np.mean([r["cpu_s_per_frame"] for r in rs])
+        print(f"{m:<6} simulator + fusion CPU per frame {cpu_ms:.1f} "
+              "ms (process time of this process; --cost times the fusion stage alone)")
     for c in costs:
         print(f"cost   {c['people']} people, {c['mode']:<6}: fusion CPU {c['fusion_cpu_ms_mean']:.2f} "
               f"ms/frame (p50 {c['fusion_cpu_ms_p50']:.2f}), {c['navigators_mean']:.2f} navigators")
