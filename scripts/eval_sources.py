@@ -11,13 +11,16 @@ captured through the simulated CAVE cameras and our triangulation) but with its 
 only the original clips are scored (not mirrored, own speed). Every model's outputs are
 computed once (:func:`evaluation.network_trace`) and the streaming recogniser's filter and gate
 replayed (:func:`evaluation.replay`, checked against ``ActionRecognizer`` in
-tests/pipeline/recognition/test_evaluation.py), with the recogniser's default settings and, with
-``--both``, also without the gate. Figures from :func:`metrics.evaluate` (``cavewalk evaluate``'s).
+tests/pipeline/recognition/test_evaluation.py), with the recogniser's default settings, with
+``--both`` also without the gate, and with each ``--gate-variant NAME:KEY=VALUE,...`` (gate settings
+changed from the defaults, e.g. ``before:hold_still_prob=0,late_still_prob=1,jump_air_s=inf``).
+Figures from :func:`metrics.evaluate` (``cavewalk evaluate``'s).
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import sys
 from dataclasses import replace
@@ -29,12 +32,30 @@ sys.path.insert(0, str(ROOT / "scripts"))
 
 from loso_action import summary  # noqa: E402
 
+from pipeline.recognition.bout import GateConfig  # noqa: E402
 from pipeline.recognition.evaluation import network_trace, replay, step_frames  # noqa: E402
 from pipeline.recognition.metrics import ScoredSequence, evaluate, text_report  # noqa: E402
 from pipeline.recognition.prepare import SourceSpec, prepare_corpus  # noqa: E402
 from pipeline.recognition.recognizer import RecognizerConfig, open_session  # noqa: E402
 
 DEFAULT_SOURCES = ("sim=sim:stepping+mixed+still-heavy@48", "still=sim:still@32", "gait@24")
+
+
+def gate_variant(text: str) -> tuple[str, GateConfig]:
+    """``NAME:KEY=VALUE,...`` -> (NAME, the default GateConfig with those settings)."""
+    name, _, body = text.partition(":")
+    if not name or not body:
+        raise SystemExit(f"error: --gate-variant wants NAME:KEY=VALUE,..., got {text!r}")
+    fields = {f.name: f.type for f in dataclasses.fields(GateConfig)}
+    changes: dict[str, object] = {}
+    for item in body.split(","):
+        key, _, value = item.partition("=")
+        if key not in fields:
+            raise SystemExit(f"error: unknown gate setting {key!r} (known: {', '.join(fields)})")
+        changes[key] = (
+            value if key == "rhythm" else (value == "true" if key == "evidence_direction" else float(value))
+        )
+    return name, replace(GateConfig(), **changes)  # type: ignore[arg-type]
 
 
 def main() -> int:
@@ -45,6 +66,12 @@ def main() -> int:
     ap.add_argument("--duration", type=float, default=40.0)
     ap.add_argument("--cache", type=Path, default=Path("/tmp/cavewalk-action-cache"))
     ap.add_argument("--both", action="store_true", help="also without the gate")
+    ap.add_argument(
+        "--gate-variant",
+        action="append",
+        default=[],
+        help="NAME:KEY=VALUE,... gate settings changed from the defaults (repeat)",
+    )
     ap.add_argument("--report", action="store_true", help="print the full text report per source")
     ap.add_argument("--json", type=Path, default=None)
     args = ap.parse_args()
@@ -52,6 +79,7 @@ def main() -> int:
     def say(msg: str) -> None:
         print(msg, flush=True)
 
+    variants = [gate_variant(v) for v in args.gate_variant]
     specs = [SourceSpec.parse(s) for s in (args.source or DEFAULT_SOURCES)]
     items = [
         it
@@ -60,16 +88,20 @@ def main() -> int:
     ]
     frames = [step_frames(it.seq.joints_m, it.seq.fps) for it in items]
     out: dict[str, dict[str, dict[str, object]]] = {}
-    gates = (True, False) if args.both else (True,)
+    base = RecognizerConfig()
+    runs: list[tuple[str, RecognizerConfig]] = [("", base)]
+    if args.both:
+        runs.append((" (no gate)", replace(base, gate=False)))
+    runs += [(f" ({name})", replace(base, gate_config=g)) for name, g in variants]
     for model in args.model:
         session = open_session(model)
         traces = [
             network_trace(session, it.seq.joints_m, it.seq.fps, frames=f)
             for it, f in zip(items, frames, strict=True)
         ]
-        for gate in gates:
-            config = replace(RecognizerConfig(model_path=model), gate=gate)
-            key = f"{model.name}{'' if gate else ' (no gate)'}"
+        for suffix, run_config in runs:
+            config = replace(run_config, model_path=model)
+            key = f"{model.name}{suffix}"
             out[key] = {}
             for spec in specs:
                 scored = [

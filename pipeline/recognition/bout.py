@@ -16,13 +16,19 @@ What a user expects (MODEL_CARD.md, "Behaviour"):
   ``pause_margin_s``, within [``min_allowance_s``, ``max_allowance_s``] after the touch-down;
   before two lift-offs are known, ``first_allowance_s``; an interval that broke a bout, up to
   ``max_interval_s``, still counts as the person's rhythm when the stepping resumes. If the next
-  lift-off does not come by then, the rhythm has broken and the bout ends (``still``) there.
+  lift-off does not come by then, the rhythm has broken and the bout ends (``still``) there, unless
+  the network is sure the bout goes on (smoothed p(still) below ``hold_still_prob``): then the pause
+  may last up to ``max_allowance_s`` (a longer pause than the person has shown yet).
+- **Stops stay fast**: past the pause the person's *median* rhythm allows, a smoothed p(still) of
+  ``late_still_prob`` already ends the bout (the longest-interval deadline is only for pauses the
+  network does not call a stop).
 - **The network can stop a bout**: a whole swing during which the network's probability of
   moving never reached ``stop_prob`` (a pivot step while turning on the spot, a kick) ends it,
   and so does a pause (``min_pause_s`` after a touch-down) in which the network is sure, with
   ``pause_still_prob``, that the person has stopped (it has learnt what a last step looks like);
-  a crouch, a jump or a body that is not upright (bent far over, lying, crawling: an unfamiliar
-  posture) ends it at once, and so does a pivot (the body turning more than
+  a crouch, a jump (both feet took off together; a foot still up ``jump_air_s`` after the other
+  one landed is a step, not a jump: running) or a body that is not upright (bent far over,
+  lying, crawling: an unfamiliar posture) ends it at once, and so does a pivot (the body turning more than
   ``max_turn_deg`` during one swing: a turn on the spot).
 - **Direction** (forward / left / right): the network's smoothed probabilities among the moving
   classes, weighted by the evidence of the newest step (``evidence_weight``): a foot opening
@@ -71,11 +77,14 @@ class GateConfig:
     max_interval_s: float = 2.2
     min_swing_s: float = 0.1
     rhythm: str = "max"  # the person's step interval: "max" or "median" of their last three
+    hold_still_prob: float = 0.35  # the deadline waits while the network's p(still) stays below this
+    late_still_prob: float = 0.35  # past the median rhythm's due time, this p(still) ends the bout
+    jump_air_s: float = 0.6  # a "jump" foot still up this long after the other landed: a step
 
     def __post_init__(self) -> None:
         if self.rhythm not in RHYTHMS:
             raise ValueError(f"rhythm must be one of {', '.join(RHYTHMS)}, got {self.rhythm!r}")
-        for name in ("start_prob", "stop_prob", "pause_still_prob"):
+        for name in ("start_prob", "stop_prob", "pause_still_prob", "hold_still_prob", "late_still_prob"):
             v = getattr(self, name)
             if not 0 <= v <= 1:
                 raise ValueError(f"{name} must be in [0, 1], got {v}")
@@ -96,6 +105,8 @@ class GateConfig:
                 f"min_allowance_s ({self.min_allowance_s}) must not exceed "
                 f"max_allowance_s ({self.max_allowance_s})"
             )
+        if not self.jump_air_s >= 0:
+            raise ValueError(f"jump_air_s must be >= 0 (inf: never), got {self.jump_air_s}")
         if self.pause_gain < 1 or self.evidence_weight < 1:
             raise ValueError(
                 f"pause_gain and evidence_weight must be >= 1, got {self.pause_gain}, {self.evidence_weight}"
@@ -172,6 +183,7 @@ class BoutGate:
         self._last_lift_t = math.nan
         self._bout_land_t = math.nan  # newest touch-down of the bout
         self._bout_steps = 0
+        self._land_seen = [-math.inf, -math.inf]  # when each foot's newest touch-down was reported
 
     def _stance_ok(self, frame: StepFrame, k: int) -> bool:
         """The other foot carries the body (planted and not taking off too: no jump), or it has been
@@ -183,14 +195,26 @@ class BoutGate:
             return not other.rising
         return self._swing_lift[1 - k] < self._swing_lift[k] - 0.1
 
-    def _allowance(self) -> float:
+    def _jump(self, frame: StepFrame, k: int) -> bool:
+        """Foot ``k``'s swing is part of a jump: the tracker says both feet took off together, and it
+        is not a foot still up ``jump_air_s`` after the other one landed (a jump lands on both feet
+        together; a foot that stays up is stepping, e.g. running, whose feet overlap in the air)."""
+        f, other = frame.feet[k], frame.feet[1 - k]
+        if not f.jump:
+            return False
+        if f.planted:
+            return True
+        return not (other.planted and frame.t - self._land_seen[1 - k] > self.config.jump_air_s)
+
+    def _allowance(self, rhythm: str | None = None) -> float:
         """How long after the newest touch-down the next lift-off may come: when the person's rhythm
         says it is due (``pause_gain`` x the longest of their last three step intervals after the
         newest lift-off) + ``pause_margin_s``, within [min_allowance_s, max_allowance_s]."""
         c = self.config
         if not self._intervals or not math.isfinite(self._bout_land_t):
             return c.first_allowance_s
-        interval = max(self._intervals) if c.rhythm == "max" else float(np.median(self._intervals))
+        rhythm = rhythm or c.rhythm
+        interval = max(self._intervals) if rhythm == "max" else float(np.median(self._intervals))
         due = self._last_lift_t + c.pause_gain * interval - self._bout_land_t
         return float(min(max(due + c.pause_margin_s, c.min_allowance_s), c.max_allowance_s))
 
@@ -209,6 +233,10 @@ class BoutGate:
         p_move = float(1.0 - p[_STILL])
         ev = evidence_direction(frame)
         ev_name = ACTIONS[ev] if ev is not None else None
+        for k, f in enumerate(frame.feet):
+            if f.landed:
+                self._land_seen[k] = t
+        jump = [self._jump(frame, k) for k in (0, 1)]
         landed_steps: list[float] = []  # max p(moving) of bout swings that ended now
         for k, f in enumerate(frame.feet):
             if f.lifted:
@@ -223,7 +251,7 @@ class BoutGate:
             elif not f.planted and math.isfinite(self._swing_lift[k]):
                 self._swing_maxp[k] = max(self._swing_maxp[k], p_move)
             if f.landed and math.isfinite(self._swing_lift[k]):
-                if not f.jump:
+                if not jump[k]:
                     if self._active:
                         landed_steps.append(self._swing_maxp[k])
                     if self._active or self._swing_maxp[k] >= c.start_prob:  # a step of this person's
@@ -231,7 +259,7 @@ class BoutGate:
                 self._swing_lift[k] = math.nan
         swings = [
             k for k, f in enumerate(frame.feet)
-            if not f.planted and f.known and not f.jump and math.isfinite(self._swing_lift[k])
+            if not f.planted and f.known and not jump[k] and math.isfinite(self._swing_lift[k])
         ]  # fmt: skip
         stepping = [
             k for k in swings
@@ -239,7 +267,7 @@ class BoutGate:
             and abs(frame.feet[k].turn_deg) <= c.max_turn_deg
         ]  # fmt: skip
         pivot = any(abs(frame.feet[k].turn_deg) > c.max_turn_deg for k in swings)
-        jumping = any(not f.planted and f.jump for f in frame.feet)
+        jumping = any(not f.planted and jump[k] for k, f in enumerate(frame.feet))
 
         if frame.crouched:
             return self._end("crouched", ev_name)
@@ -273,7 +301,12 @@ class BoutGate:
             self._bout_land_t = t
         deadline = self._bout_land_t + self._allowance()
         if t > deadline + 1e-9:
+            if p[_STILL] < c.hold_still_prob and t <= self._bout_land_t + c.max_allowance_s + 1e-9:
+                # late for the rhythm, but the network is sure the bout goes on: a longer pause
+                return GateVerdict(True, self._label, "pause", ev_name, self._allowance(), deadline)
             return self._end("rhythm-broke", ev_name)
+        if p[_STILL] >= c.late_still_prob and t > self._bout_land_t + self._allowance("median") + 1e-9:
+            return self._end("network-still", ev_name)  # late for the usual rhythm and the network agrees
         if p[_STILL] >= c.pause_still_prob and t - self._bout_land_t >= c.min_pause_s:
             return self._end("network-still", ev_name)  # the network sees the bout has ended
         return GateVerdict(True, self._label, "pause", ev_name, self._allowance(), deadline)

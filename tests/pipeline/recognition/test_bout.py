@@ -31,9 +31,12 @@ def _gate(
     return np.array([v.label for v in out]), out, contacts
 
 
+RHYTHM_ONLY = GateConfig(hold_still_prob=0.0)  # the rhythm rule alone (FWD never says still)
+
+
 def test_a_slow_bout_is_one_command_through_its_pauses() -> None:
     swings = march(1.0, 10, 1.0, 0.4)  # 0.6 s both feet down between steps
-    labels, verdicts, _ = _gate(Scene(13.0, swings), FWD)
+    labels, verdicts, _ = _gate(Scene(13.0, swings), FWD, config=RHYTHM_ONLY)
     t = np.arange(len(labels)) / FPS
     first_lift, last_land = swings[0].t0, swings[-1].t1
     inside = (t > first_lift + 0.3) & (t < last_land)
@@ -49,9 +52,48 @@ def test_a_slow_bout_is_one_command_through_its_pauses() -> None:
     assert {v.reason for v in verdicts} >= {"planted", "stepping", "pause", "rhythm-broke"}
 
 
+def _with_one_long_pause(n_after: int) -> tuple[Swing, ...]:
+    """A march every 0.6 s (0.3 s swings), one 0.9 s pause after the 4th step, then ``n_after`` steps."""
+    return march(1.0, 4, 0.6, 0.3) + march(1.0 + 3 * 0.6 + 1.2, n_after, 0.6, 0.3)
+
+
+def test_a_longer_pause_holds_while_the_network_is_sure_the_bout_goes_on() -> None:
+    swings = _with_one_long_pause(4)
+    t_pause = (swings[3].t1, swings[4].t0)
+    for config, commands in ((GateConfig(), 1), (RHYTHM_ONLY, 2)):
+        labels, _, _ = _gate(Scene(8.0, swings), FWD, config=config)
+        t = np.arange(len(labels)) / FPS
+        held = labels[(t > t_pause[0]) & (t < t_pause[1])]
+        runs = int(np.sum((labels[1:] != S) & (labels[:-1] == S)))
+        assert runs == commands, (
+            f"{config.hold_still_prob=}: {runs} commands for a bout with a 0.9 s pause "
+            f"(held {np.mean(held == F):.0%} of the pause)"
+        )
+
+
+def test_a_stop_after_an_irregular_bout_comes_at_the_usual_rhythm_when_the_network_agrees() -> None:
+    # after the long pause the longest of the last three intervals is 1.2 s, the median 0.6 s
+    swings = _with_one_long_pause(2)
+    last_land = swings[-1].t1
+    n = round(8.0 * FPS)
+    stopping = np.array([0.5, 0.3, 0.1, 0.1])  # the network leaning to still, not sure (< 0.75)
+    probs = [FWD if i / FPS < last_land else stopping for i in range(n + 1)]
+    stops = {}
+    for name, config in (
+        ("default", GateConfig()),
+        ("longest interval only", GateConfig(late_still_prob=1.0)),
+    ):
+        labels, _, _ = _gate(Scene(8.0, swings), probs, config=config)
+        t = np.arange(len(labels)) / FPS
+        stops[name] = t[(t > last_land) & (labels == S)][0] - last_land
+    # due 0.6 s after the last lift-off (0.3 s after the touch-down) + 0.2 s margin + tracker delay
+    assert stops["default"] <= 0.3 + 0.2 + 0.2, stops
+    assert stops["longest interval only"] > stops["default"] + 0.3, stops
+
+
 def test_the_bout_ends_when_the_rhythm_breaks() -> None:
     swings = march(1.0, 12, 0.5, 0.32)  # a brisk march, then standing
-    labels, _, _ = _gate(Scene(10.0, swings), FWD)
+    labels, _, _ = _gate(Scene(10.0, swings), FWD, config=RHYTHM_ONLY)
     t = np.arange(len(labels)) / FPS
     start = t[labels == F][0] - swings[0].t0
     stop = t[(t > swings[-1].t1) & (labels == S)][0] - swings[-1].t1
@@ -119,3 +161,16 @@ def test_choose_direction_and_config_checks() -> None:
         GateConfig(start_prob=1.5)
     with pytest.raises(ValueError, match="min_allowance_s"):
         GateConfig(min_allowance_s=2.0, max_allowance_s=1.0)
+
+
+def test_a_foot_still_up_long_after_the_other_landed_is_a_step_not_a_jump() -> None:
+    # both feet leave together (the tracker's jump sign), but the left lands at 1.25 s while the
+    # right stays up until 2.0 s: no two-footed jump lands like that (running, a missed touch-down)
+    swings = (Swing(0, 1.0, 1.25, peak=0.12), Swing(1, 1.0, 2.0, peak=0.25), *march(2.4, 4, 0.6, 0.3))
+    for air, moves_early in ((0.3, True), (float("inf"), False)):
+        labels, verdicts, _ = _gate(Scene(6.0, swings), FWD, config=GateConfig(jump_air_s=air))
+        t = np.arange(len(labels)) / FPS
+        early = (t > 1.5) & (t < 2.0)  # the left has landed (~1.4 s), the right is still up
+        assert bool((labels[early] == F).any()) is moves_early, (
+            f"{air=}: {[v.reason for v, e in zip(verdicts, early, strict=True) if e]}"
+        )
