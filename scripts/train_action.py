@@ -49,6 +49,11 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--window", type=int, default=_T.window, help="frames per window (a multiple of 4)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument(
+        "--augment",
+        action="store_true",
+        help="augment the training windows (train.augment_windows: speed, legs, step height, lost joints)",
+    )
+    ap.add_argument(
         "--threads", type=int, default=1, help="torch threads (1 is fastest on a busy 2-core machine)"
     )
 
@@ -64,6 +69,7 @@ def train_config(args: argparse.Namespace, features: str) -> TrainConfig:
         seed=args.seed,
         threads=args.threads,
         features=features,
+        augment=args.augment,
     )
 
 

@@ -50,7 +50,7 @@ from pipeline.recognition.steps import StepConfig, StepTracker
 from pipeline.sim.body import sample_body
 from pipeline.sim.motion import simulate_user
 from pipeline.sim.script import random_script
-from pipeline.skeleton import ACTIONS
+from pipeline.skeleton import ACTIONS, NUM_JOINTS, J
 from pipeline.triangulation.dlt import triangulate_linear
 
 log = logging.getLogger(__name__)
@@ -114,6 +114,27 @@ class TrainConfig:
     transition_window_s: float = 0.5
     features: str = FEATURES_V2  # v1: joints only; v2: joints + step evidence
     source_power: float = 0.5  # sampling: each source weighs (its frames) ** power
+    augment: bool = False  # window augmentation (:func:`augment_windows`): speed, proportions, dropout
+
+
+@dataclass(frozen=True, slots=True)
+class AugmentConfig:
+    """Per-window augmentation of the training windows (:func:`augment_windows`), drawn uniformly.
+
+    speed: the window is read at this many source frames per model frame (a slower or brisker
+        version of the same movement; the step-evidence channels are read at the same frames).
+    leg_scale: the legs (hips to ankles) relative to the trunk (other body proportions).
+    step_scale: the feet's height above their lowest point in the window (a lower or higher step).
+    drop_prob: chance of a window losing ``drop_joints`` random joints for its whole length.
+    jitter_m: extra per-frame joint noise (metres, sigma).
+    """
+
+    speed: tuple[float, float] = (0.75, 1.3)
+    leg_scale: tuple[float, float] = (0.9, 1.1)
+    step_scale: tuple[float, float] = (0.7, 1.3)
+    drop_prob: float = 0.3
+    drop_joints: tuple[int, int] = (1, 4)
+    jitter_m: tuple[float, float] = (0.0, 0.01)
 
 
 @dataclass(frozen=True, slots=True)
@@ -298,15 +319,79 @@ def transition_weights(data: Dataset, window_s: float, weight: float) -> NDArray
     return w
 
 
+_FEET = [J["l_ankle"], J["r_ankle"]]
+_SWING = [5, 12]  # evidence channels (features.evidence_vector): swing time of each foot
+_HEIGHTS = [1, 4, 8, 11]  # foot height and vertical displacement of each foot
+_KNEES = [J["l_knee"], J["r_knee"]]
+
+
+def augmented_index(
+    data: Dataset, ends: NDArray[np.int64], window: int, rng: np.random.Generator, config: AugmentConfig
+) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+    """(B, window) frame indices of windows ending at ``ends``, each read at a random speed (B, 1)."""
+    seq = np.searchsorted(data.starts, ends, side="right") - 1
+    first = data.starts[seq]
+    speed = rng.uniform(*config.speed, size=(len(ends), 1))
+    back = np.rint(np.arange(window - 1, -1, -1)[None, :] * speed).astype(np.int64)
+    return np.maximum(ends[:, None] - back, first[:, None]), speed
+
+
+def augment_windows(
+    joints: NDArray[np.floating], rng: np.random.Generator, config: AugmentConfig
+) -> tuple[NDArray[np.float32], NDArray[np.float64]]:
+    """Windows (B, T, 17, 3) with other leg proportions, step heights (the scale, (B, 1)), lost
+    joints and noise."""
+    j = np.array(joints, dtype=np.float64)
+    b = j.shape[0]
+    hips = np.stack([j[:, :, J["l_hip"]], j[:, :, J["r_hip"]]], axis=2)  # (B, T, 2, 3)
+    leg = rng.uniform(*config.leg_scale, size=(b, 1, 1, 1))
+    for side, (knee, ankle) in enumerate(zip(_KNEES, _FEET, strict=True)):
+        hip = hips[:, :, side : side + 1]
+        j[:, :, [knee, ankle]] = hip + leg * (j[:, :, [knee, ankle]] - hip)
+    # the legs got longer or shorter: the body stands on the same floor
+    low = np.nanmin(j[:, :, _FEET, 2], axis=(1, 2))[:, None, None]
+    shift = np.nanmin(joints[:, :, _FEET, 2], axis=(1, 2))[:, None, None] - low
+    j[..., 2] += np.nan_to_num(shift)
+    # a higher or lower step: each foot's and knee's height above its lowest point in the window
+    step = rng.uniform(*config.step_scale, size=(b, 1))
+    for joint in _FEET + _KNEES:
+        z = j[:, :, joint, 2]
+        base = np.nanmin(z, axis=1, keepdims=True)
+        j[:, :, joint, 2] = base + step * (z - base)
+    sigma = rng.uniform(*config.jitter_m, size=(b, 1, 1, 1))
+    j += sigma * rng.standard_normal(j.shape)
+    for i in np.flatnonzero(rng.random(b) < config.drop_prob):
+        n = int(rng.integers(config.drop_joints[0], config.drop_joints[1] + 1))
+        j[i, :, rng.choice(NUM_JOINTS, size=n, replace=False)] = np.nan
+    return j.astype(np.float32), step
+
+
 def batch_inputs(
-    data: Dataset, ends: NDArray[np.int64], window: int, features: str = FEATURES_V1
+    data: Dataset,
+    ends: NDArray[np.int64],
+    window: int,
+    features: str = FEATURES_V1,
+    rng: np.random.Generator | None = None,
+    augment: AugmentConfig | None = None,
 ) -> NDArray[np.float32]:
-    idx = _window_index(data, ends, window)
-    feats = window_features(data.joints[idx], data.fps)
+    """Model inputs of the windows ending at ``ends``; with ``augment`` (and ``rng``) augmented."""
+    speed = step = None
+    if augment is not None and rng is not None:
+        idx, speed = augmented_index(data, ends, window, rng, augment)
+        joints, step = augment_windows(data.joints[idx], rng, augment)
+        feats = window_features(joints, data.fps)
+    else:
+        idx = _window_index(data, ends, window)
+        feats = window_features(data.joints[idx], data.fps)
     if features == FEATURES_V2:
         if data.evidence is None:
             raise ValueError("features v2 need the dataset's step evidence (dataset_from_sequences)")
-        return to_model_input_v2(feats, data.evidence[idx])
+        ev = data.evidence[idx]
+        if speed is not None and step is not None:  # the evidence read at the same speed and step height
+            ev = ev.copy()
+            ev[..., _SWING] = np.minimum(ev[..., _SWING] / speed[..., None], 1.0)
+            ev[..., _HEIGHTS] = np.clip(ev[..., _HEIGHTS] * step[..., None], -0.5, 1.0)
+        return to_model_input_v2(feats, ev)
     return to_model_input(feats)
 
 
@@ -405,6 +490,8 @@ def train_model(
     sched = torch.optim.lr_scheduler.OneCycleLR(
         opt, max_lr=config.lr, total_steps=config.epochs * steps_per_epoch, pct_start=0.15
     )
+    augment = AugmentConfig() if config.augment else None
+    aug_rng = np.random.default_rng(config.seed + 1)
     val_ends = window_ends(val, stride=3)
     val_ends = val_ends[val.labels[val_ends] >= 0]
     x_val = torch.from_numpy(batch_inputs(val, val_ends, config.window, config.features))
@@ -417,7 +504,7 @@ def train_model(
         total = 0.0
         for b in range(steps_per_epoch):
             e = ends[b * config.batch_size : (b + 1) * config.batch_size]
-            x = torch.from_numpy(batch_inputs(train, e, config.window, config.features))
+            x = torch.from_numpy(batch_inputs(train, e, config.window, config.features, aug_rng, augment))
             y = torch.from_numpy(train.labels[e])
             opt.zero_grad()
             w = frame_w[torch.from_numpy(e)]

@@ -4,9 +4,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from pipeline.recognition.features import EVIDENCE_CHANNELS, FEATURES_V2
 from pipeline.recognition.train import (
+    AugmentConfig,
     Dataset,
     NoiseConfig,
+    augment_windows,
+    augmented_index,
+    batch_inputs,
     capture,
     gather_windows,
     transition_weights,
@@ -15,6 +20,7 @@ from pipeline.recognition.train import (
 from pipeline.sim.body import body_from_height
 from pipeline.sim.motion import simulate_user
 from pipeline.sim.script import MotionScript, Segment
+from pipeline.skeleton import J
 
 
 def test_capture_adds_triangulation_like_error_and_unknown_joints() -> None:
@@ -63,3 +69,59 @@ def test_windows_repeat_the_first_frame_of_their_own_sequence() -> None:
 def test_transition_weights_mark_the_time_after_a_change_but_not_a_new_sequence() -> None:
     w = transition_weights(_toy(), window_s=0.2, weight=2.0)
     assert w.tolist() == [1, 1, 1, 2, 2, 1, 1, 1, 2, 2]
+
+
+def _march_windows() -> np.ndarray:
+    m = simulate_user(MotionScript((Segment("forward", 3.0),)), body_from_height(1.75), 30.0, seed=3)
+    return m.joints_m[None, 30:62].astype(np.float32)  # (1, 32, 17, 3)
+
+
+def test_augmentation_changes_only_what_it_says() -> None:
+    w = _march_windows()
+    rng = np.random.default_rng(0)
+    same = AugmentConfig(speed=(1, 1), leg_scale=(1, 1), step_scale=(1, 1), drop_prob=0.0, jitter_m=(0, 0))
+    out, step = augment_windows(w, rng, same)
+    np.testing.assert_allclose(out, w, atol=1e-6, err_msg="no change when every range is the identity")
+    legs = AugmentConfig(
+        speed=(1, 1), leg_scale=(1.1, 1.1), step_scale=(1, 1), drop_prob=0.0, jitter_m=(0, 0)
+    )
+    out, _ = augment_windows(w, rng, legs)
+    hip, ankle = J["l_hip"], J["l_ankle"]
+    ratio = np.linalg.norm(out[0, :, ankle] - out[0, :, hip], axis=-1) / np.linalg.norm(
+        w[0, :, ankle] - w[0, :, hip], axis=-1
+    )
+    np.testing.assert_allclose(ratio, 1.1, rtol=1e-4, err_msg="the legs are 10 % longer")
+    feet = [J["l_ankle"], J["r_ankle"]]
+    assert abs(float(np.min(out[0, :, feet, 2]) - np.min(w[0, :, feet, 2]))) < 1e-5, "on the same floor"
+    trunk = out[0, :, J["nose"]] - out[0, :, J["l_hip"]]
+    np.testing.assert_allclose(
+        trunk, w[0, :, J["nose"]] - w[0, :, J["l_hip"]], atol=1e-5, err_msg="same trunk"
+    )
+    high = AugmentConfig(
+        speed=(1, 1), leg_scale=(1, 1), step_scale=(1.3, 1.3), drop_prob=0.0, jitter_m=(0, 0)
+    )
+    out, step = augment_windows(w, rng, high)
+    lift = np.ptp(out[0, :, J["l_ankle"], 2]) / np.ptp(w[0, :, J["l_ankle"], 2])
+    assert abs(lift - 1.3) < 1e-4 and float(step[0, 0]) == 1.3, "the step is 30 % higher"
+    drop = AugmentConfig(drop_prob=1.0, drop_joints=(2, 2))
+    out, _ = augment_windows(w, rng, drop)
+    lost = np.isnan(out[0]).all(axis=(0, 2))
+    assert lost.sum() == 2, f"two joints lost for the whole window, got {lost.sum()}"
+
+
+def test_a_faster_reading_covers_more_source_frames_and_its_evidence_too() -> None:
+    n = 300
+    joints = np.repeat(_march_windows()[0, :1], n, axis=0)
+    evidence = np.zeros((n, EVIDENCE_CHANNELS), np.float32)
+    evidence[:, 5] = 0.6  # the left foot's swing time
+    data = Dataset(joints, np.zeros(n, np.int64), np.array([0, n]), 30.0, evidence, ("a",))
+    rng = np.random.default_rng(0)
+    idx, _speed = augmented_index(data, np.array([200]), 32, rng, AugmentConfig(speed=(1.25, 1.25)))
+    assert idx[0, -1] == 200 and idx[0, -1] - idx[0, 0] == round(31 * 1.25), idx[0]
+    x = batch_inputs(
+        data, np.array([200]), 32, FEATURES_V2, rng, AugmentConfig(speed=(1.25, 1.25), drop_prob=0.0)
+    )
+    assert x.shape == (1, 17 * 7 + EVIDENCE_CHANNELS, 32)
+    np.testing.assert_allclose(
+        x[0, 17 * 7 + 5], 0.6 / 1.25, rtol=1e-5, err_msg="a swing read faster is shorter"
+    )
