@@ -40,6 +40,7 @@ from app.services.models import ModelService
 from app.services.pipeline_factory import runtime_factory, simulator_factory
 from app.services.planner import PlannerService
 from app.services.recorder import RecorderService
+from app.services.replay import TakeReplay
 from app.services.session_timer import SessionTimer
 from app.services.training import TrainingService
 from app.viewer import Viewer
@@ -153,6 +154,7 @@ def create_app(
         recorder.recover()  # a take the last server left recording is kept as incomplete
         pipeline.add_result_sink(recorder)
         app.state.recorder = recorder
+        app.state.replay = TakeReplay(viewer)
         session_timer = SessionTimer(factory, events)
         app.state.session_timer = session_timer
         if running is not None:  # its run time goes on (or is over) across a restart

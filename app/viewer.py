@@ -12,6 +12,7 @@ import contextlib
 import io
 import logging
 import math
+import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -31,6 +32,8 @@ F32 = NDArray[np.float32]
 NAVIGATOR_COLOR = (255, 140, 0)
 #: where the viser server listens; the app proxies it to the network (app/api/viewer_proxy.py)
 VISER_HOST = "127.0.0.1"
+#: How long a replayed take's frame stays in the view without another (then: the live people again).
+REPLAY_HOLD_S = 120.0
 
 
 def user_color(user_id: int) -> tuple[int, int, int]:
@@ -153,6 +156,7 @@ class Viewer:
     people: dict[int, _Person] = field(default_factory=dict)
     cameras: dict[str, Any] = field(default_factory=dict)
     arrow: Any = None
+    replay_until: float = 0.0  # time.monotonic() until which a take's frame is shown, not the live one
 
     @classmethod
     def start(cls, settings: Settings, cameras: Sequence[Camera] | None = None) -> Viewer:
@@ -216,7 +220,24 @@ class Viewer:
                     handle.fov, handle.aspect, handle.wxyz, handle.position = fov, w / h, wxyz, pos
 
     def update(self, snapshot: Mapping[str, Any]) -> None:
-        """Show the skeletons of a status snapshot (``extra.people3d``) and the navigator's arrow."""
+        """Show the skeletons of a status snapshot (``extra.people3d``) and the navigator's arrow;
+        ignored while a take replays (:meth:`show_replay`)."""
+        if self.replay_until:
+            if time.monotonic() < self.replay_until:
+                return
+            self.replay_until = 0.0  # the replay was left: back to the live people
+        self._draw(snapshot)
+
+    def show_replay(self, snapshot: Mapping[str, Any] | None, hold_s: float = REPLAY_HOLD_S) -> None:
+        """A recorded frame (the same shape as a live snapshot) in place of the live people, for
+        ``hold_s`` seconds unless another comes; None: back to live at the next update."""
+        if snapshot is None:
+            self.replay_until = 0.0
+            return
+        self.replay_until = time.monotonic() + hold_s
+        self._draw(snapshot)
+
+    def _draw(self, snapshot: Mapping[str, Any]) -> None:
         people3d = (snapshot.get("extra") or {}).get("people3d") or []
         navigator = snapshot.get("navigator")
         action = snapshot.get("action") or {}

@@ -113,3 +113,19 @@ class LabelsPublic(BaseModel):
     take_id: int
     duration_s: float | None
     spans: list[dict[str, Any]]
+
+
+class ReplayRequest(StrictRequest):
+    t_s: float = Field(ge=0, le=86400, description="Seconds into the take.")
+
+
+class ReplayPublic(BaseModel):
+    """The take's frame the 3D view now shows: the last captured at or before ``t_s``."""
+
+    take_id: int
+    t_s: float
+    frame_t_s: float
+    frame: int | None
+    index: int
+    users: list[int]
+    navigator: int | None

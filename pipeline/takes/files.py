@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.errors import InputError
+from pipeline.errors import DataError, InputError
 from pipeline.skeleton import NUM_JOINTS
 from pipeline.takes.protocol import LabelSpan
 
@@ -285,6 +285,12 @@ def relabel_take(folder: Path, spans: list[LabelSpan]) -> dict[str, Any]:
     manifest = load_manifest(folder)
     if manifest.get("status") == "recording":
         raise InputError(f"take {manifest.get('id')} is still recording")
+    rewritten = {f"{LABELS} is missing", f"{LABELS} does not match its sha256",
+                 f"{SKELETONS} is missing", f"{SKELETONS} does not match its sha256"}
+    problems = [p for p in check_files(folder, manifest) if p not in rewritten]  # those two are rebuilt
+    if problems:
+        raise DataError(f"take {manifest.get('id')} ({folder}) is damaged: {'; '.join(problems)}; "
+                        "its labels were not changed")
     frames, _cut = read_frames(folder / FRAMES)
     buf = io.BytesIO()
     np.savez_compressed(buf, **skeleton_arrays(frames, spans))  # type: ignore[arg-type]

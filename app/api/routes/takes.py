@@ -20,6 +20,8 @@ from app.schemas.takes import (
     LabelsUpdate,
     ProtocolPublic,
     RecordingPublic,
+    ReplayPublic,
+    ReplayRequest,
     TakeCreate,
     TakePublic,
 )
@@ -31,6 +33,7 @@ from pipeline.takes.protocol import LabelSpan, load_protocol, shipped_protocols
 
 if TYPE_CHECKING:
     from app.services.recorder import RecorderService
+    from app.services.replay import TakeReplay
 
 
 def get_recorder(conn: HTTPConnection) -> RecorderService:
@@ -39,6 +42,14 @@ def get_recorder(conn: HTTPConnection) -> RecorderService:
 
 
 RecorderDep = Annotated["RecorderService", Depends(get_recorder)]
+
+
+def get_replay(conn: HTTPConnection) -> TakeReplay:
+    replay: TakeReplay = conn.app.state.replay
+    return replay
+
+
+ReplayDep = Annotated["TakeReplay", Depends(get_replay)]
 
 router = APIRouter(tags=["takes"])
 
@@ -72,6 +83,12 @@ def start_take(body: TakeCreate, recorder: RecorderDep) -> TakePublic:
 def current_take(recorder: RecorderDep) -> RecordingPublic:
     cur = recorder.current()
     return RecordingPublic(recording=False) if cur is None else RecordingPublic(recording=True, **cur)
+
+
+@router.delete("/takes/replay", status_code=status.HTTP_204_NO_CONTENT)
+def stop_replay(replay: ReplayDep) -> None:
+    """The 3D view shows the live people again."""
+    replay.stop()
 
 
 @router.get("/takes/{take_id}", response_model=TakePublic)
@@ -144,6 +161,20 @@ def export_take(
     media = {"zip": "application/zip", "trc": "text/plain", "labels": "text/csv"}[fmt]
     return FileResponse(tmp / name, filename=name, media_type=media,
                         background=BackgroundTask(shutil.rmtree, tmp, ignore_errors=True))
+
+
+@router.put(
+    "/takes/{take_id}/replay",
+    response_model=ReplayPublic,
+    responses={409: {"description": "The take is still recording, or the 3D view is off"}},
+)
+def replay_take(take_id: IdPath, body: ReplayRequest, db: SessionDep, replay: ReplayDep) -> ReplayPublic:
+    """Show the take's frame at ``t_s`` in the 3D view (in place of the live people, until
+    DELETE /takes/replay or two minutes without another)."""
+    row = get_take(db, take_id)
+    if row.status == "recording":
+        raise StateConflict(f"take {take_id} is still recording; replay it once it has ended")
+    return ReplayPublic(**replay.show(row.id, Path(row.folder), row.files or {}, body.t_s))
 
 
 def _spans_out(spans: list[LabelSpan]) -> list[dict[str, object]]:

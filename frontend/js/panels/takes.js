@@ -1,7 +1,7 @@
 // Takes: record a take from the running pipeline (participant, protocol, duration, reaction margin),
 // follow it (elapsed, frames, the participant's current prompt), stop it, and list the takes.
 
-import { get, post, put, toast, el, withToken } from "../api.js";
+import { api, get, post, put, toast, el, withToken } from "../api.js";
 
 function num(x, digits = 1) {
   return x === null || x === undefined ? "–" : Number(x).toFixed(digits);
@@ -149,7 +149,14 @@ function mountLabelEditor(root) {
   const save = el("button", { id: "label-save", disabled: "" }, "Save labels");
   const info = el("span", { id: "label-info" });
   const title = el("h3", {}, "Labels");
+  // the take replayed in the 3D view: a scrubber, play/pause, back to the live view
+  const scrub = el("input", { id: "label-scrub", type: "range", min: "0", max: "1", step: "0.05", value: "0",
+    "aria-label": "replay time", class: "label-scrub" });
+  const play = el("button", { id: "label-play", title: "replay the take in the 3D view" }, "Play");
+  const live = el("button", { id: "label-live", title: "the 3D view shows the live people again" }, "Live view");
+  const replayInfo = el("span", { id: "label-replay", class: "label-replay" });
   const box = el("div", { id: "label-editor", hidden: "" }, title, track, axis,
+    el("div", { class: "row" }, scrub, play, live, replayInfo),
     el("div", { class: "row" }, choice, apply, save, info));
   root.append(box);
   let take = null;
@@ -158,6 +165,63 @@ function mountLabelEditor(root) {
   let selected = -1;
 
   const pct = (t) => `${(100 * t) / duration}%`;
+  let playhead = null;
+  let playing = null;
+  let inFlight = false;
+  let wanted = null;
+
+  // Show the take at t s in the 3D view (the newest wish wins; one request at a time).
+  async function seek(t) {
+    wanted = t;
+    scrub.value = String(t);
+    if (playhead) playhead.style.left = pct(t);
+    if (inFlight || !take) return;
+    inFlight = true;
+    try {
+      while (wanted !== null) {
+        const at = wanted;
+        wanted = null;
+        const got = await put(`/takes/${take.id}/replay`, { t_s: at });
+        replayInfo.textContent = `3D view: ${num(got.frame_t_s, 2)} s, frame ${got.frame}, `
+          + `users ${got.users.join(", ") || "none"}`;
+        replayInfo.dataset.t = String(got.frame_t_s);
+      }
+    } catch (err) {
+      replayInfo.textContent = `3D view: ${err.message}`;
+      stopPlaying();
+    } finally {
+      inFlight = false;
+    }
+  }
+
+  function stopPlaying() {
+    if (playing) clearInterval(playing);
+    playing = null;
+    play.textContent = "Play";
+  }
+
+  scrub.addEventListener("input", () => { stopPlaying(); seek(Number(scrub.value)); });
+  play.addEventListener("click", () => {
+    if (playing) { stopPlaying(); return; }
+    play.textContent = "Pause";
+    let t = Number(scrub.value) >= duration - 0.05 ? 0 : Number(scrub.value);
+    const t0 = performance.now() - t * 1000;
+    playing = setInterval(() => {
+      t = (performance.now() - t0) / 1000;
+      if (t >= duration) { stopPlaying(); t = duration; }
+      seek(Math.round(t * 100) / 100);
+    }, 100);
+  });
+  live.addEventListener("click", async () => {
+    stopPlaying();
+    try {
+      await api("DELETE", "/takes/replay");
+      replayInfo.textContent = "3D view: live";
+      delete replayInfo.dataset.t;
+    } catch (err) {
+      toast(`live view: ${err.message}`);
+    }
+  });
 
   function render() {
     track.replaceChildren();
@@ -183,6 +247,9 @@ function mountLabelEditor(root) {
       }
     });
     axis.textContent = `0 s … ${num(duration, 1)} s`;
+    playhead = el("div", { id: "label-playhead", class: "label-playhead" });
+    playhead.style.left = pct(Number(scrub.value));
+    track.append(playhead);
   }
 
   function startDrag(ev, i, handle) {
@@ -200,6 +267,7 @@ function mountLabelEditor(root) {
       spans[i + 1].source = "operator";
       dirty();
       render();
+      seek(v);  // the 3D view shows the moment of the boundary being dragged
     };
     const up = () => {
       window.removeEventListener("pointermove", move);
@@ -244,6 +312,10 @@ function mountLabelEditor(root) {
       const got = await get(`/takes/${t.id}/labels`);
       spans = got.spans;
       duration = Math.max(got.duration_s || 0, ...spans.map((s) => s.t_end), 0.1);
+      stopPlaying();
+      scrub.max = String(duration);
+      scrub.value = "0";
+      replayInfo.textContent = "";
       selected = -1;
       title.textContent = `Labels of take ${t.id} (${t.uid})`;
       box.hidden = false;
