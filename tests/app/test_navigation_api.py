@@ -66,7 +66,11 @@ def test_each_and_group_modes_and_bad_requests(served: Served) -> None:
         return sorted(ids) if r.status_code == 200 else None
 
     two = wait_until(choose_two, "two tracked people chosen as the group")
-    st = served.wait_status(lambda s: s["navigation"]["mode"] == "group" and bool(s["navigation"]["group"]))
+    def grouped(s: dict[str, Any]) -> bool:  # both chosen people tracked in the same status
+        g = s["navigation"]["group"]
+        return s["navigation"]["mode"] == "group" and bool(g) and g["members"] == two
+
+    st = served.wait_status(grouped)
     group = st["navigation"]["group"]
     assert group["members"] == two and sum(group["votes"].values()) == 2, group
     assert group["label"] in ("still", "forward", "left", "right")
