@@ -134,6 +134,7 @@ def create_app(
         if built is None:
             pipeline.unavailable_reason = reason
         models.on_change(pipeline.calibration_changed)  # a newly active model: rebuilt at the next start
+        models.on_adaptation(pipeline.set_adaptation)  # teach: while the participant's session runs
         app.state.training = training = TrainingService(settings, factory, models)
         calibration = CalibrationService(settings, factory, events, pipeline, viewer)
         active = calibration.active_cameras()
@@ -155,11 +156,13 @@ def create_app(
         pipeline.add_result_sink(recorder)
         app.state.recorder = recorder
         app.state.replay = TakeReplay(viewer)
-        session_timer = SessionTimer(factory, events)
+        session_timer = SessionTimer(factory, events, on_stop=lambda _sid: models.session_stopped())
         app.state.session_timer = session_timer
         if running is not None:  # its run time goes on (or is over) across a restart
             with factory() as db:
-                session_timer.schedule(db.get(type(running), running.id) or running)
+                again = db.get(type(running), running.id) or running
+                session_timer.schedule(again)
+                models.session_started(again.participant.code)  # and its participant's adaptation
         events.record(
             "server", {"state": "started", "host": settings.server.host, "port": settings.server.port}
         )

@@ -51,7 +51,7 @@ def _line(m: dict[str, Any]) -> str:
 def list_models(db: DbOpt = None) -> None:
     """The registered action models (* = active) with their checksums."""
     with open_registry(get_settings(), db) as registry:
-        for m in registry.list():
+        for m in registry.all_models():
             typer.echo(_line(m))
 
 

@@ -240,12 +240,26 @@ class PipelineService:
         self._rebuild = False
         self._result_sinks: tuple[Any, ...] = ()
         self._navigation: str | None = None  # the operator's navigation mode, kept over rebuilds
+        self._adaptation: Any = None  # the running session's teach adaptation, kept over rebuilds
 
     def send_prompt(self, text: str, label: str, remaining_s: float) -> None:
         """A ``prompt`` datagram to the workstations (the recording protocol's instruction)."""
         pipeline = self._pipeline  # one reference read: never waits for a start or stop
         if pipeline is not None:
             pipeline.send_prompt(text, label, remaining_s)
+
+    def set_adaptation(self, adaptation: Any) -> None:
+        """A participant's teach adaptation of the recogniser (None: none), now and for later pipelines
+        (pipeline.takes.teach.OutputAdaptation; issue 18 item 3)."""
+        with self._lock:
+            self._adaptation = adaptation
+            set_adaptation = getattr(self._pipeline, "set_adaptation", None)
+            if callable(set_adaptation):
+                set_adaptation(adaptation)
+
+    @property
+    def adaptation(self) -> Any:
+        return self._adaptation
 
     def video_controls(self) -> dict[str, Any]:
         """The running pipeline's camera video switches (``Pipeline.video_controls``; {}: none)."""
@@ -294,6 +308,9 @@ class PipelineService:
                 set_navigation = getattr(self._pipeline, "set_navigation", None)
                 if self._navigation is not None and callable(set_navigation):
                     set_navigation(self._navigation, ())  # the chosen ids belong to the last run
+                set_adaptation = getattr(self._pipeline, "set_adaptation", None)
+                if self._adaptation is not None and callable(set_adaptation):
+                    set_adaptation(self._adaptation)
             # (re)start: the pipeline validates first, so a bad request leaves the running one as it was;
             # it reports its own state changes as events
             self._pipeline.start(source, videos)

@@ -25,11 +25,14 @@ from sqlalchemy.orm import Session
 from app.core.config import Settings
 from app.db import model_repository as repo
 from app.db.errors import StateConflict
-from app.db.models import ActionModel
+from app.db.models import ActionModel, Adaptation
+from app.db.take_repository import get_take
 from app.services.event_log import EventWriter
 from pipeline.errors import InputError
-from pipeline.recognition.recognizer import DEFAULT_MODEL_PATH, RecognizerConfig
+from pipeline.recognition.recognizer import DEFAULT_MODEL_PATH, RecognizerConfig, open_session
+from pipeline.takes.dataset import load_take
 from pipeline.takes.model_file import check_model_file, sha256_file
+from pipeline.takes.teach import METHOD, OutputAdaptation, fit_adaptation
 
 log = logging.getLogger(__name__)
 
@@ -59,6 +62,12 @@ def model_public(row: ActionModel) -> dict[str, Any]:
         "card": row.card,
         "notes": row.notes,
     }
+
+
+def adaptation_public(row: Adaptation) -> dict[str, Any]:
+    return {"id": row.id, "participant_code": row.participant_code, "model_id": row.model_id,
+            "take_id": row.take_id, "created_at": row.created_at, "enabled": row.enabled,
+            "method": row.method, "report": row.report}  # fmt: skip
 
 
 def ensure_base(db: Session) -> ActionModel:
@@ -97,11 +106,13 @@ class ModelService:
         self._events = events
         self._models_changed = models_changed
         self.running: dict[str, Any] | None = None  # the model the pipeline was last built with
+        self._apply_adaptation: Callable[[OutputAdaptation | None], None] = lambda _a: None
+        self._session_participant: str | None = None
         with self._factory() as db:
             ensure_base(db)
 
     # ----------------------------------------------------------------------------------- reads
-    def list(self) -> list[dict[str, Any]]:
+    def all_models(self) -> list[dict[str, Any]]:
         with self._factory() as db:
             return [model_public(r) for r in repo.list_models(db)]
 
@@ -234,6 +245,103 @@ class ModelService:
         with self._factory() as db:
             target = repo.previous_model(db).id
         return self.activate(target)
+
+    # ----------------------------------------------------------------------------------- teach
+    def on_adaptation(self, apply: Callable[[OutputAdaptation | None], None]) -> None:
+        """``apply(adaptation)`` puts a participant's adaptation on the running recogniser (None: off)."""
+        self._apply_adaptation = apply
+
+    def teach(self, take_id: int, holdout_fraction: float = 0.34) -> dict[str, Any]:
+        """Fit the take's participant's adaptation of the active model on the take (issue 18 item 3);
+        switched on when it does no worse on the held-back part; applied now if their session runs."""
+        with self._factory() as db:
+            take = get_take(db, take_id)
+            if take.status == "recording":
+                raise StateConflict(f"take {take_id} is still recording")
+            code, folder = take.participant_code, Path(take.folder)
+        if not code:
+            raise InputError(
+                f"take {take_id} has no participant code: teach adapts the recogniser to one person"
+            )
+        data = load_take(folder)
+        active = self.active()
+        config = replace(self.settings.recognition, model_path=Path(active["file"]))
+        result = fit_adaptation(open_session(config.model_path), data.seq, config, holdout_fraction)
+        with self._factory() as db:
+            row = repo.add_adaptation(
+                db,
+                participant_code=code,
+                model_id=active["id"],
+                take_id=take_id,
+                enabled=False,
+                method=METHOD,
+                params=result.adaptation.params(),
+                report=result.report(),
+            )
+            if result.helps:
+                row = repo.set_adaptation_enabled(db, row.id, True)
+            out = adaptation_public(row)
+        self._record_adaptation("fitted", out)
+        self._reapply(code)
+        return out
+
+    def adaptations(self, participant_code: str | None = None) -> list[dict[str, Any]]:
+        with self._factory() as db:
+            return [adaptation_public(r) for r in repo.list_adaptations(db, participant_code)]
+
+    def set_adaptation_enabled(self, adaptation_id: int, enabled: bool) -> dict[str, Any]:
+        with self._factory() as db:
+            out = adaptation_public(repo.set_adaptation_enabled(db, adaptation_id, enabled))
+        self._record_adaptation("switched on" if enabled else "switched off", out)
+        self._reapply(out["participant_code"])
+        return out
+
+    def adaptation_for(self, participant_code: str | None) -> OutputAdaptation | None:
+        """The participant's adaptation of the active model that is switched on (None: none)."""
+        if participant_code is None or self.settings_override:
+            return None
+        with self._factory() as db:
+            active = repo.active_model(db)
+            row = repo.enabled_adaptation(db, participant_code, active.id) if active is not None else None
+            if row is None:
+                return None
+            return OutputAdaptation.from_params(row.params, adaptation_id=row.id,
+                                                participant_code=participant_code)  # fmt: skip
+
+    def teach_context(self, participant_code: str | None) -> dict[str, Any]:
+        """What a session's start event records of the participant's adaptation."""
+        a = self.adaptation_for(participant_code)
+        if a is None:
+            return {"teach_adaptation_id": None}
+        with self._factory() as db:
+            report = repo.get_adaptation(db, a.adaptation_id or 0).report
+        return {"teach_adaptation_id": a.adaptation_id, "teach_method": report.get("method"),
+                "teach_before": (report.get("before") or {}).get("accuracy"),
+                "teach_after": (report.get("after") or {}).get("accuracy")}  # fmt: skip
+
+    def session_started(self, participant_code: str | None) -> None:
+        """A study session of this participant runs: their adaptation (if on) goes on the recogniser."""
+        self._session_participant = participant_code
+        self._apply_adaptation(self.adaptation_for(participant_code))
+
+    def session_stopped(self) -> None:
+        """The session ended: the recogniser goes back to the model alone."""
+        self._session_participant = None
+        self._apply_adaptation(None)
+
+    def _reapply(self, participant_code: str | None) -> None:
+        if participant_code is not None and participant_code == self._session_participant:
+            self._apply_adaptation(self.adaptation_for(participant_code))
+
+    def _record_adaptation(self, state: str, a: dict[str, Any]) -> None:
+        if self._events is not None:
+            rep = a["report"]
+            self._events.record(
+                "adaptation", {"state": state, "adaptation_id": a["id"], "participant": a["participant_code"],
+                               "model_id": a["model_id"], "enabled": a["enabled"],
+                               "before": (rep.get("before") or {}).get("accuracy"),
+                               "after": (rep.get("after") or {}).get("accuracy")},
+            )  # fmt: skip
 
     # --------------------------------------------------------------------------------- helpers
     def _check_on_disk(self, row: ActionModel) -> None:

@@ -23,9 +23,11 @@ log = logging.getLogger(__name__)
 class SessionTimer:
     """One ``threading.Timer`` per running session that has a ``planned_duration_s``."""
 
-    def __init__(self, session_factory: Callable[[], Session], events: EventWriter) -> None:
+    def __init__(self, session_factory: Callable[[], Session], events: EventWriter,
+                 on_stop: Callable[[int], None] = lambda _session_id: None) -> None:
         self._factory = session_factory
         self._events = events
+        self._on_stop = on_stop  # e.g. the participant's teach adaptation comes off
         self._timers: dict[int, threading.Timer] = {}
         self._lock = threading.Lock()
 
@@ -63,6 +65,7 @@ class SessionTimer:
             return
         if self._events.session_id == session_id:
             self._events.set_session(None)
+        self._on_stop(session_id)
         log.info("session %d stopped at the end of its run time", session_id)
 
     def close(self) -> None:

@@ -76,6 +76,13 @@ class SetNavigator:
 
 
 @dataclass(frozen=True, slots=True)
+class SetAdaptation:
+    """Control message to the fusion stage: a participant's teach adaptation (None: none)."""
+
+    adaptation: Any
+
+
+@dataclass(frozen=True, slots=True)
 class SetNavigation:
     """Control message to the fusion stage: the navigation mode and its chosen people (issue 20)."""
 

@@ -39,6 +39,7 @@ from pipeline.runtime.mailbox import Mailbox
 from pipeline.runtime.messages import (
     FusedFrame,
     SendPrompt,
+    SetAdaptation,
     SetNavigation,
     SetNavigator,
     WorkerEvent,
@@ -577,6 +578,21 @@ class Pipeline:
                 put_latest(run.control_q, SetNavigation(config.mode, config.user_ids))
             self._event("navigator", f"navigation mode {config.mode} {list(config.user_ids) or 'everyone'}",
                         {"mode": config.mode, "user_ids": list(config.user_ids)})
+
+    def set_adaptation(self, adaptation: Any) -> None:
+        """A participant's teach adaptation of the recogniser's outputs (None: none), applied at once and
+        kept for workers started later (pipeline.takes.teach.OutputAdaptation)."""
+        with self._lock:
+            if adaptation == self.fusion.adaptation:
+                return
+            self.fusion = replace(self.fusion, adaptation=adaptation)
+            run = self._run
+            if run is not None and run.control_q is not None:
+                put_latest(run.control_q, SetAdaptation(adaptation))
+            who = getattr(adaptation, "participant_code", None)
+            self._event("adaptation", f"teach adaptation {'of ' + str(who) if adaptation else 'off'}",
+                        {"state": "on" if adaptation else "off", "participant": who,
+                         "adaptation_id": getattr(adaptation, "adaptation_id", None)})
 
     def set_workstations(self, endpoints: list[tuple[str, int]]) -> None:
         """Replace the UDP destinations; InputError (nothing changes) for one that does not resolve."""

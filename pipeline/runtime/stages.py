@@ -32,13 +32,14 @@ from pipeline.pose.config import PoseConfig
 from pipeline.pose.detector import PoseDetector
 from pipeline.pose.roi import RoiScheduler
 from pipeline.pose.types import ViewDetections
-from pipeline.recognition.recognizer import ActionRecognizer, RecognizerConfig
+from pipeline.recognition.recognizer import ActionRecognizer, RecognizerConfig, open_session
 from pipeline.recognition.types import ActionEstimate
 from pipeline.results import FrameResult
 from pipeline.runtime.messages import DetectedFrame
 from pipeline.sim.scene import default_cameras
 from pipeline.sim.script import MotionScript, load_script
 from pipeline.sim.world import SimConfig, SimWorld
+from pipeline.takes.teach import AdaptableSession, OutputAdaptation
 from pipeline.tracking.ocsort import MultiViewTracker, OCSortConfig
 from pipeline.tracking.stage import DetectAndTrack
 from pipeline.tracking.types import TrackedView
@@ -158,6 +159,13 @@ class Fusion:
         out, self.changes = tuple(self.changes), []
         return out
 
+    def set_adaptation(self, adaptation: OutputAdaptation | None) -> None:
+        """A participant's teach adaptation of the model's outputs (None: the model alone), for every
+        recogniser sharing the session (pipeline.takes.teach)."""
+        session = getattr(self.recognizer, "session", None)
+        if isinstance(session, AdaptableSession):
+            session.set_adaptation(adaptation)
+
     def update(self, frame: DetectedFrame) -> FrameResult:
         views = list(frame.views)
         tracked: tuple[TrackedView, ...] = ()
@@ -213,6 +221,7 @@ class FusionFactory:
     recognition: RecognizerConfig | None = field(default_factory=RecognizerConfig)  # None: no actions
     head: HeadConfig = field(default_factory=HeadConfig)
     navigation: NavigationConfig = field(default_factory=NavigationConfig)
+    adaptation: OutputAdaptation | None = None  # a participant's teach adaptation (issue 18 item 3)
 
     def __call__(self) -> Fusion:
         tracker = MultiViewTracker(list(self.camera_names), self.tracking)
@@ -228,7 +237,9 @@ class FusionFactory:
             heads = HeadTracker(self.head) if self.head.enabled else None
             if self.recognition is not None:
                 try:
-                    recognizer = ActionRecognizer.from_config(self.recognition)
+                    session = open_session(self.recognition.model_path, self.recognition.threads)
+                    adaptable = AdaptableSession(session, self.adaptation)
+                    recognizer = ActionRecognizer(adaptable, self.recognition)
                 except ModelError as exc:  # 3D and the navigator still serve without actions
                     log.warning("no action recognition: %s", exc)
             navigation = Navigators(self.navigation, _per_person(recognizer))

@@ -36,6 +36,7 @@ from pipeline.runtime.messages import (
     DetectedFrame,
     FusedFrame,
     SendPrompt,
+    SetAdaptation,
     SetNavigation,
     SetNavigator,
     WorkerEvent,
@@ -352,6 +353,8 @@ def _control(ctx: _Ctx, fusion: Any, control_q: Any, sink: StreamSink | None) ->
                 ctx.report("info", f"navigation mode not changed: {exc}")
         elif isinstance(msg, SendPrompt) and sink is not None:
             sink.send_prompt(msg.text, msg.label, msg.remaining_s)
+        elif isinstance(msg, SetAdaptation):
+            fusion.set_adaptation(msg.adaptation)
 
 
 # ---------------------------------------------------------------------------------- simulator

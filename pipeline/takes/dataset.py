@@ -157,3 +157,55 @@ def write_take(
             f.write(json.dumps(obj, separators=(",", ":")) + "\n")
     write_spans(folder, _spans_of(seq))
     return finish_take(folder, complete=True, manifest=manifest)
+
+
+# ------------------------------------------------------------------- simulated participants
+#: Unusual ways of stepping (the simulator's extremes), as overrides of every stepping segment;
+#: ``height_m``: the body's stature (the ends of the simulator's 1.40-2.05 m range).
+EXTREME_STYLES: dict[str, dict[str, Any]] = {
+    "tiny-shuffle": {
+        "knee_lift_m": 0.03,
+        "step_width_m": 0.08,
+        "cadence_steps_per_s": 1.0,
+        "arm_swing_deg": 0.0,
+    },
+    "high-knees-fast": {"knee_lift_m": 0.32, "step_width_m": 0.5, "cadence_steps_per_s": 2.6},
+    "slow-with-pauses": {"cadence_steps_per_s": 0.6, "pause_prob": 0.5, "pause_s": (0.6, 1.0)},
+    "irregular-asymmetric": {"irregularity": 0.6, "asymmetry": 2.0, "knee_lift_m": 0.08},
+    "short-low-lift": {"height_m": 1.40, "knee_lift_m": 0.04, "step_width_m": 0.12},
+    "tall-wide": {"height_m": 2.05, "knee_lift_m": 0.25, "step_width_m": 0.55, "cadence_steps_per_s": 1.2},
+}
+
+
+def simulated_participant(protocol: Any, style: dict[str, Any], seed: int, fps: float = 30.0,
+                          captured_noise: bool = True) -> LabelledSequence:  # fmt: skip
+    """A simulated person following ``protocol`` (a :class:`~pipeline.takes.protocol.Protocol`) in
+    ``style`` (one of :data:`EXTREME_STYLES`), labelled with the simulator's truth, seen by the
+    simulated CAVE cameras (pixel noise, triangulation) when ``captured_noise``."""
+    from pipeline.recognition.corpus import from_skeleton
+    from pipeline.recognition.train import NoiseConfig, captured
+    from pipeline.sim.body import sample_body
+    from pipeline.sim.motion import simulate_user
+    from pipeline.sim.script import STILL_BEHAVIOURS, MotionScript, Segment
+
+    rng = np.random.default_rng(seed)
+    height = style.get("height_m")
+    body = sample_body(rng, (height, height)) if height else sample_body(rng)
+    over = {k: v for k, v in style.items() if k != "height_m"}
+    forward = {k: v for k, v in over.items() if k != "step_width_m"}  # a forward step has no width
+    segs = []
+    for step in protocol.steps:
+        if step.label == "still" and step.tag == "turn":
+            segs.append(Segment("turn", step.duration_s))
+        elif step.label == "still":  # a behaviour of the simulator's still library where the step names one
+            behaviour = step.tag if step.tag in STILL_BEHAVIOURS else None
+            segs.append(Segment("still", step.duration_s, gestures=(), behaviour=behaviour))
+        else:
+            segs.append(
+                Segment(step.label, step.duration_s, **(forward if step.label == "forward" else over))
+            )
+    motion = simulate_user(MotionScript(tuple(segs)), body, fps, seed=seed)
+    seq = from_skeleton(motion.to_sequence(), "sim", f"sim-{seed}")
+    if captured_noise:
+        seq = captured([seq], NoiseConfig(), seed)[0]
+    return seq

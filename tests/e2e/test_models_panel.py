@@ -9,7 +9,7 @@ import pytest
 
 from tests.app.conftest import Served, make_settings
 from tests.app.models.onnx_files import three_class_model, with_metadata
-from tests.app.models.takes_data import index_takes, simulated_takes
+from tests.app.models.takes_data import index_takes, simulated_takes, teach_take
 
 pytestmark = [pytest.mark.e2e, pytest.mark.slow]
 
@@ -100,6 +100,37 @@ def test_the_fine_tune_button_runs_a_job_with_progress_and_registers_the_model(
             panel.screenshot(path=str(artifacts_dir / "models-fine-tuned.png"))
             row.locator("button.model-card-button").click()
             expect(panel.locator("#model-card")).to_contain_text("Leave-one-participant-out")
+        finally:
+            browser.close()
+        assert not errors, f"page errors: {errors}"
+
+
+def test_the_teach_button_adapts_to_a_participant_and_can_be_switched_off(
+    tmp_path: Path, artifacts_dir: Path
+) -> None:
+    from playwright.sync_api import expect, sync_playwright
+
+    with Served(make_settings(tmp_path), autostart=None, pipeline_factory=None) as served, \
+            sync_playwright() as pw:
+        with served.app.state.session_factory() as db:
+            index_takes(db, [teach_take(tmp_path, "T7")])
+        browser = pw.chromium.launch(executable_path=CHROMIUM, args=ARGS)
+        page = browser.new_page(viewport={"width": 1400, "height": 1200})
+        errors: list[str] = []
+        page.on("pageerror", lambda exc: errors.append(str(exc)))
+        try:
+            page.goto(served.base)
+            panel = page.locator("#models-panel")
+            expect(panel.locator("#teach-take option")).to_have_count(1, timeout=20_000)
+            panel.locator("#teach-start").click()
+            result = panel.locator("#teach-result")
+            expect(result).to_contain_text("participant T7: held-back accuracy", timeout=60_000)
+            row = panel.locator("#adaptation-table tr[data-adaptation-id='1']")
+            expect(row).to_contain_text("T7")
+            was_on = row.get_attribute("data-enabled") == "true"
+            panel.screenshot(path=str(artifacts_dir / "models-teach.png"))
+            row.locator("button.adaptation-toggle").click()
+            expect(row).to_have_attribute("data-enabled", "false" if was_on else "true", timeout=10_000)
         finally:
             browser.close()
         assert not errors, f"page errors: {errors}"

@@ -12,7 +12,15 @@ from fastapi import APIRouter, Depends, Response, status
 from fastapi.requests import HTTPConnection
 
 from app.api.deps import IdPath
-from app.schemas.models import ModelPublic, ModelUpload, TrainCreate, TrainJobPublic
+from app.schemas.models import (
+    AdaptationPublic,
+    AdaptationUpdate,
+    ModelPublic,
+    ModelUpload,
+    TeachCreate,
+    TrainCreate,
+    TrainJobPublic,
+)
 from app.services.training import TrainRequest
 from pipeline.errors import InputError
 
@@ -40,7 +48,7 @@ router = APIRouter(prefix="/models", tags=["models"])
 @router.get("", response_model=list[ModelPublic])
 def list_models(models: ModelsDep) -> list[dict[str, Any]]:
     """Every registered model with its card (the committed model is the ``base`` entry)."""
-    return models.list()
+    return models.all_models()
 
 
 @router.get("/active", response_model=ModelPublic)
@@ -95,6 +103,32 @@ def training_jobs(training: TrainingDep) -> list[dict[str, Any]]:
 @router.get("/train/{job_id}", response_model=TrainJobPublic)
 def training_job(job_id: IdPath, training: TrainingDep) -> dict[str, Any]:
     return training.get(job_id)
+
+
+@router.post(
+    "/teach",
+    response_model=AdaptationPublic,
+    status_code=status.HTTP_201_CREATED,
+    responses={
+        409: {"description": "The take is still recording"},
+        422: {"description": "The take has no participant, no labels, or too few actions"},
+    },
+)
+def teach(body: TeachCreate, models: ModelsDep) -> dict[str, Any]:
+    """Adapt the active model to the participant of a teach take; reports accuracy before / after on the
+    held-back part of the take; switched on when it does no worse there; applies to their sessions."""
+    return models.teach(body.take_id, body.holdout_fraction)
+
+
+@router.get("/adaptations", response_model=list[AdaptationPublic])
+def adaptations(models: ModelsDep, participant_code: str | None = None) -> list[dict[str, Any]]:
+    return models.adaptations(participant_code)
+
+
+@router.patch("/adaptations/{adaptation_id}", response_model=AdaptationPublic)
+def switch_adaptation(adaptation_id: IdPath, body: AdaptationUpdate, models: ModelsDep) -> dict[str, Any]:
+    """Switch a participant's adaptation on (their others off) or off; at once if their session runs."""
+    return models.set_adaptation_enabled(adaptation_id, body.enabled)
 
 
 @router.get("/{model_id}", response_model=ModelPublic)

@@ -111,9 +111,14 @@ def start_session(
     session_id: IdPath, request: Request, db: SessionDep, events: EventsDep, settings: SettingsDep
 ) -> SessionPublic:
     now = time.time()
-    row = repo.start_session(db, session_id, now, start_context(request, settings))
+    code = repo.get_session(db, session_id).participant.code
+    models = getattr(request.app.state, "models", None)
+    teach = models.teach_context(code) if models is not None else {}
+    row = repo.start_session(db, session_id, now, start_context(request, settings) | teach)
     events.set_session(row.id, since_ts=now)
     request.app.state.session_timer.schedule(row)
+    if models is not None:
+        models.session_started(code)  # the participant's teach adaptation (if on) for this session only
     return session_public(row)
 
 
@@ -124,6 +129,9 @@ def stop_session(session_id: IdPath, request: Request, db: SessionDep, events: E
     if events.session_id == row.id:
         events.set_session(None)
     request.app.state.session_timer.cancel(row.id)
+    models = getattr(request.app.state, "models", None)
+    if models is not None:
+        models.session_stopped()
     return session_public(row)
 
 

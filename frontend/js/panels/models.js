@@ -33,6 +33,7 @@ export function mountModels(root) {
   const card = el("pre", { id: "model-card", class: "model-card", hidden: "" });
   const active = el("div", { id: "model-active" }, "");
   const train = mountTraining(() => refresh());
+  const teach = mountTeach();
   root.replaceChildren(
     el("h2", {}, "Action models"),
     active,
@@ -40,6 +41,7 @@ export function mountModels(root) {
     el("div", { class: "row" }, rollback, file, upload),
     card,
     train.node,
+    teach.node,
   );
 
   async function refresh() {
@@ -176,6 +178,71 @@ function mountTraining(onDone) {
 
   loadTakes().catch((err) => toast(`takes: ${err.message}`));
   return { node, refresh: loadTakes };
+}
+
+// Teach: adapt the active model to the participant of a teach take; accuracy before / after on the
+// held-back part; switch each participant's adaptation on or off (it applies to their sessions only).
+function mountTeach() {
+  const take = el("select", { id: "teach-take", "aria-label": "teach take" });
+  const start = el("button", { id: "teach-start" }, "Teach");
+  const result = el("div", { id: "teach-result" }, "");
+  const table = el("table", { id: "adaptation-table" },
+    el("thead", {}, el("tr", {}, ...["id", "participant", "model", "take", "held-back accuracy", "on", ""]
+      .map((h) => el("th", {}, h)))),
+    el("tbody"));
+  const node = el("div", { id: "teach-section" },
+    el("h3", {}, "Teach (adapt to one participant)"),
+    el("div", { class: "row" }, take, start), result, table);
+
+  async function loadTakes() {
+    const rows = (await get("/takes")).filter((t) => t.status !== "recording" && t.participant_code);
+    take.replaceChildren(...rows.slice().reverse().map((t) => el("option", { value: t.id },
+      `${t.id}: ${t.participant_code} (${t.protocol || "no protocol"})`)));
+  }
+
+  async function refresh() {
+    const rows = await get("/models/adaptations");
+    table.tBodies[0].replaceChildren(...rows.slice().reverse().map((a) => el("tr",
+      { dataset: { adaptationId: a.id, enabled: a.enabled ? "true" : "false" } },
+      el("td", {}, a.id), el("td", {}, a.participant_code), el("td", {}, a.model_id), el("td", {}, a.take_id ?? "–"),
+      el("td", {}, `${fixed(a.report.before.accuracy)} → ${fixed(a.report.after.accuracy)}`),
+      el("td", {}, a.enabled ? "on" : "off"),
+      el("td", {}, el("button", { class: "adaptation-toggle", onclick: () => toggle(a) },
+        a.enabled ? "switch off" : "switch on")))));
+  }
+
+  async function toggle(a) {
+    try {
+      await patch(`/models/adaptations/${a.id}`, { enabled: !a.enabled });
+    } catch (err) {
+      toast(`teach: ${err.message}`);
+    }
+    await refresh();
+  }
+
+  start.addEventListener("click", async () => {
+    if (!take.value) {
+      toast("record a teach take (protocol teach) with a participant code first");
+      return;
+    }
+    result.textContent = "fitting…";
+    try {
+      const a = await post("/models/teach", { take_id: Number(take.value) });
+      const r = a.report;
+      result.textContent = `participant ${a.participant_code}: held-back accuracy ${fixed(r.before.accuracy)} → `
+        + `${fixed(r.after.accuracy)} (${r.holdout_frames} frames from ${r.split_s} s); `
+        + (a.enabled ? "switched on for their sessions" : "not switched on: it did not help on the held-back part");
+      result.dataset.adaptationId = a.id;
+    } catch (err) {
+      result.textContent = `teach: ${err.message}`;
+      toast(`teach: ${err.message}`);
+    }
+    await refresh();
+  });
+
+  loadTakes().catch((err) => toast(`takes: ${err.message}`));
+  refresh().catch((err) => toast(`adaptations: ${err.message}`));
+  return { node, refresh };
 }
 
 function authHeaders() {

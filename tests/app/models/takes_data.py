@@ -22,7 +22,7 @@ def simulated_takes(
     seqs = captured(
         corpus.simulated(participants, duration_s, 30.0, seed, kinds=("mixed",)), NoiseConfig(), seed
     )
-    return [write_take(root / f"take-P{i + 1}", s, f"P{i + 1}") and root / f"take-P{i + 1}"
+    return [write_take(root / f"take-P{i + 1}-s{seed}", s, f"P{i + 1}") and root / f"take-P{i + 1}-s{seed}"
             for i, s in enumerate(seqs)]  # fmt: skip
 
 
@@ -45,3 +45,14 @@ def index_takes(db: Session, folders: list[Path]) -> list[int]:
         finish_take_row(db, row.id, m, "complete")
         ids.append(row.id)
     return ids
+
+
+def teach_take(root: Path, participant: str, style: str = "slow-with-pauses", seed: int = 100) -> Path:
+    """A simulated participant in an unusual style following the shipped 60 s teach protocol."""
+    from pipeline.takes.dataset import EXTREME_STYLES, simulated_participant
+    from pipeline.takes.protocol import load_protocol, shipped_protocols
+
+    seq = simulated_participant(load_protocol(shipped_protocols()["teach"]), EXTREME_STYLES[style], seed)
+    folder = root / f"teach-{participant}"
+    write_take(folder, seq, participant)
+    return folder

@@ -18,7 +18,8 @@ def test_training_requests_that_cannot_run_are_refused(
     with client.app.state.session_factory() as db:  # type: ignore[attr-defined]
         (bare,) = index_takes(db, [unlabelled_take(tmp_path / "takes")])
     r = client.post("/api/v1/models/train", json={"take_ids": [bare], "epochs": 1})
-    assert r.status_code == 422 and f"take {bare}: take take-P1 has no labels" in r.json()["detail"], r.text
+    assert r.status_code == 422, r.text
+    assert f"take {bare}: take take-P1-s5 has no labels" in r.json()["detail"], r.text
     r = client.post("/api/v1/models/train", json={"take_ids": [99], "epochs": 1})
     assert r.status_code == 404 and "take 99 not found" in r.json()["detail"], r.text
     r = client.post("/api/v1/models/train", json={"take_ids": [], "epochs": 1})

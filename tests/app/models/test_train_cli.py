@@ -80,7 +80,7 @@ def test_training_on_a_take_without_labels_is_refused(takes: Path, tmp_path: Pat
     code, _out, err = cavewalk(
         "train", "--takes", str(takes), str(bare), "--out", str(out), *TINY, "--db", db
     )
-    assert code == 2 and err.startswith("error: take take-P1 has no labels"), err
+    assert code == 2 and err.startswith("error: take take-P1-s5 has no labels"), err
     assert not out.exists() and not Path(db).exists(), "a refused training writes and registers nothing"
 
 
