@@ -280,7 +280,8 @@ class VideoWriter:
         _, _, ow, oh = self._size(image)
         out = av.open(str(path), "w", format="mp4",
                       options={"movflags": "frag_keyframe+empty_moov+default_base_moof+delay_moov",
-                               "use_editlist": "1"})  # the edit list keeps the first frame's time
+                               "use_editlist": "1",  # the edit list keeps the first frame's time
+                               "flush_packets": "1"})  # each fragment reaches the file as it ends
         stream = out.add_stream(self.req.codec, rate=Fraction(self.req.fps).limit_denominator(1001))
         stream.width, stream.height, stream.pix_fmt = ow, oh, "yuv420p"
         stream.codec_context.time_base = Fraction(1, 1000)

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import contextlib
 import multiprocessing as mp
+import subprocess
+import sys
 import threading
 import time
 from collections.abc import Iterator
@@ -18,6 +20,7 @@ from pipeline.takes.config import TakesConfig
 from pipeline.takes.video import VideoControl, VideoRequest, VideoSession, VideoTap, VideoWriter
 
 W, H = 320, 240
+ROOT = Path(__file__).resolve().parents[3]
 
 
 def i420(k: int) -> np.ndarray:
@@ -146,3 +149,29 @@ def test_a_video_that_cannot_be_written_is_an_error_the_capture_goes_on(
 def test_no_cameras_no_videos() -> None:
     with pytest.raises(ValueError, match="the simulator has no images"):
         VideoSession({}, Path("videos"))
+
+
+CRASH = """
+import os, sys, time, multiprocessing as mp
+import numpy as np
+from pipeline.takes.video import VideoControl, VideoRequest, VideoWriter
+control = VideoControl.create(mp.get_context("forkserver"))
+counts = [0, 0, 0]
+w = VideoWriter(VideoRequest(sys.argv[1], 10.0, fps=10.0, queue_frames=100), "cam", control, counts)
+for k in range(35):  # 3.5 s at 10 fps from 0.2 s into the take: key frames (fragments) every second
+    w.offer(np.full((240 * 3 // 2, 320), 16 + 5 * k, np.uint8), 10.2 + k / 10, owned=True)
+while counts[0] < 35:
+    time.sleep(0.01)
+os._exit(9)  # killed: the file is never closed
+"""
+
+
+def test_a_crash_keeps_the_video_up_to_its_last_key_frame(tmp_path: Path) -> None:
+    path = tmp_path / "cam.mp4"
+    proc = subprocess.run(
+        [sys.executable, "-c", CRASH, str(path)], cwd=ROOT, capture_output=True, timeout=120
+    )
+    assert proc.returncode == 9, proc.stderr.decode()[-2000:]
+    pts, _, _ = read_back(path)
+    assert 25 <= len(pts) <= 35, f"{len(pts)} of 35 frames survived (at most the last second is lost)"
+    np.testing.assert_allclose(pts, [0.2 + k / 10 for k in range(len(pts))], atol=1e-3)
