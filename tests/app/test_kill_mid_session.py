@@ -36,8 +36,11 @@ def server(command: str, db: Path, log: Path) -> Iterator[tuple[subprocess.Popen
     port = free_port()
     cmd = [sys.executable, "-m", "app.cli", command, "--port", str(port), "--viser-port", str(free_port()),
            "--db", str(db)]  # fmt: skip
+    # no 3D view: the event log is this test's subject, and viser's start and scene updates cost CPU
+    env = {**os.environ, "CAVEWALK_SERVER__VISER": "false"}
     with log.open("ab") as out:
-        proc = subprocess.Popen(cmd, cwd=ROOT, stdout=out, stderr=subprocess.STDOUT, start_new_session=True)
+        proc = subprocess.Popen(cmd, cwd=ROOT, stdout=out, stderr=subprocess.STDOUT, start_new_session=True,
+                                env=env)
     base = f"http://127.0.0.1:{port}/api/v1"
     try:
 
