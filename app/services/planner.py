@@ -23,7 +23,6 @@ from pipeline.calibration.io import cameras_from_dict
 from pipeline.camera import Camera
 from pipeline.errors import CavewalkError, InputError
 from pipeline.planner.config import PlannerConfig, SearchConfig
-from pipeline.planner.figures import figure_files, render
 from pipeline.planner.plan import make_plan
 from pipeline.planner.room import check_cameras, floor_polygon
 from pipeline.planner.search import check_search
@@ -180,6 +179,8 @@ class PlannerService:
                 progress=lambda f, m: self._update(job, progress=min(0.95, 0.9 * f), message=m),
             )
             self._update(job, progress=0.95, message="drawing the figures")
+            from pipeline.planner.figures import figure_files, render  # matplotlib: ~0.4 s of every start
+
             figures = {
                 f"{name}.{fmt}": render(fig, fmt)
                 for name, fig in figure_files(plan.coverage, plan.search).items()
