@@ -3,9 +3,6 @@
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -14,6 +11,7 @@ from typer.testing import CliRunner
 from app.cli import cli
 from app.core.config import load_settings, set_settings
 from pipeline.errors import ConfigError
+from tests.app.test_cli_errors import run_cli
 
 runner = CliRunner()
 
@@ -68,24 +66,23 @@ def test_config_show_prints_effective_settings(tmp_path: Path) -> None:
     assert json.loads(result.output)["server"]["port"] == 9002
 
 
-def test_cli_bad_config_is_one_clear_message(tmp_path: Path) -> None:
+# The real entry point app.cli.main in this process (an interpreter per case costs ~3 s of imports; an
+# exception escaping main() fails the test, as in tests/app/test_cli_errors.py).
+def test_cli_bad_config_is_one_clear_message(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                             capsys: pytest.CaptureFixture[str]) -> None:
     cfg = tmp_path / "bad.toml"
     cfg.write_text("[server]\nprot = 1\n")
-    proc = subprocess.run(
-        [sys.executable, "-m", "app.cli", "--config", str(cfg), "config", "show"],
-        capture_output=True, text=True, check=False,
-    )
-    assert proc.returncode == 2
-    assert "server.prot" in proc.stderr
-    assert "Traceback" not in proc.stderr
+    code = run_cli(["--config", str(cfg), "config", "show"], monkeypatch)
+    err = capsys.readouterr().err
+    assert code == 2
+    assert "server.prot" in err
+    assert "Traceback" not in err
 
 
-def test_cli_missing_config_file(tmp_path: Path) -> None:
-    proc = subprocess.run(
-        [sys.executable, "-m", "app.cli", "--config", str(tmp_path / "nope.toml"), "config", "show"],
-        capture_output=True, text=True, check=False,
-    )
-    assert proc.returncode == 2 and "config file not found" in proc.stderr
+def test_cli_missing_config_file(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                 capsys: pytest.CaptureFixture[str]) -> None:
+    code = run_cli(["--config", str(tmp_path / "nope.toml"), "config", "show"], monkeypatch)
+    assert code == 2 and "config file not found" in capsys.readouterr().err
 
 
 def test_the_default_database_is_in_the_users_data_directory() -> None:
@@ -104,7 +101,7 @@ def test_the_default_database_is_in_the_users_data_directory() -> None:
 
 @pytest.mark.parametrize("how", ["cwd", "env", "option"])
 def test_a_config_that_is_a_folder_is_an_error(
-    how: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    how: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """A folder named cavewalk.toml was silently ignored (issue 15): the defaults ran instead."""
     folder = tmp_path / "cavewalk.toml"
@@ -117,10 +114,10 @@ def test_a_config_that_is_a_folder_is_an_error(
     with pytest.raises(ConfigError, match="is a folder, not a TOML settings file"):
         load_settings(folder if how == "option" else None)
     args = ["--config", str(folder)] if how == "option" else []
-    proc = subprocess.run([sys.executable, "-m", "app.cli", *args, "config", "show"], capture_output=True,
-                          text=True, check=False, cwd=Path.cwd(),
-                          env={**os.environ, "PYTHONPATH": str(Path(__file__).parents[2])})
-    assert proc.returncode == 2, proc.stdout
-    lines = proc.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("error: config "), proc.stderr
+    capsys.readouterr()
+    code = run_cli([*args, "config", "show"], monkeypatch)  # the real entry point, in this process
+    out, err = capsys.readouterr()
+    assert code == 2, out
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: config "), err
     assert lines[0].endswith("cavewalk.toml is a folder, not a TOML settings file"), lines
