@@ -16,6 +16,7 @@ from numpy.typing import NDArray
 
 from pipeline.pixels import to_bgr
 from pipeline.pose.types import ViewDetections
+from pipeline.runtime.messages import FusedFrame
 from pipeline.skeleton import BONES
 from pipeline.tracking.types import TrackedView
 from pipeline.triangulation.types import Person3D
@@ -118,3 +119,35 @@ def person_labels(
             text = f"track {track_id}" + (f", user {user}" if user is not None else "")  # ASCII (Hershey)
             labels[det] = PersonLabel(text, navigator=user is not None and user == navigator)
     return labels
+
+
+class SnapshotCache:
+    """Each camera's newest JPEG, re-encoded at most every ``interval_s`` (the dashboard's view)."""
+
+    def __init__(self, interval_s: float, long_side: int) -> None:
+        self.interval_s = interval_s
+        self.long_side = long_side
+        self._cached: dict[str, tuple[float, bytes]] = {}
+
+    def clear(self) -> None:
+        self._cached.clear()
+
+    def jpeg(self, camera: str, image: NDArray[np.uint8] | None, latest: FusedFrame | None,
+             now: float) -> bytes | None:
+        """The frame ``image`` (None: a virtual camera, drawn from its detections) with the
+        people of ``latest`` drawn; the cached one while it is younger than ``interval_s``."""
+        cached = self._cached.get(camera)
+        if cached is not None and now - cached[0] < self.interval_s:
+            return cached[1]
+        views = latest.detected.views if latest is not None else ()
+        view = next((v for v in views if v.camera == camera), None)
+        if image is None and view is None:
+            return None
+        labels = None
+        if view is not None and latest is not None:  # track ids, user ids, the navigator's colour
+            result = latest.result
+            tracked = next((t for t in result.views if t.camera == camera), None)
+            labels = person_labels(view, tracked, result.people3d, result.navigator)
+        data = render_snapshot(image, view, self.long_side, labels=labels)
+        self._cached[camera] = (now, data)
+        return data
