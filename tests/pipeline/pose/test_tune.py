@@ -17,6 +17,7 @@ import pytest
 from app.core.config import load_settings, read_tuned
 from pipeline.machine import machine_fingerprint
 from pipeline.pose.quantize import MAX_MEDIAN_KEYPOINT_PX, MIN_BOX_IOU, P10_BOX_IOU
+from tests.app.test_cli_errors import run_cli
 from tests.waiting import free_port
 
 ROOT = Path(__file__).resolve().parents[3]
@@ -68,7 +69,8 @@ def _env(tuned: Path, **more: str) -> dict[str, str]:
 
 @pytest.mark.slow
 def test_tune_measures_the_variants_and_writes_the_fastest_that_keeps_the_accuracy(
-        tmp_path: Path, pose_model_path: Path) -> None:
+        tmp_path: Path, pose_model_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
     tuned = tmp_path / "config" / "tuned.toml"
     proc = subprocess.run([sys.executable, "-m", "app.cli", "tune", "--sides", "320,256"], cwd=ROOT,
                           capture_output=True, text=True, timeout=900, env=_env(tuned))
@@ -98,10 +100,16 @@ def test_tune_measures_the_variants_and_writes_the_fastest_that_keeps_the_accura
     assert data["tune"]["fingerprint"] == {k: v for k, v in machine_fingerprint().items() if v is not None}
     assert f"wrote {tuned}" in proc.stdout and "chosen:" in proc.stdout
     # the settings now hold the choice; `cavewalk config show` prints it
-    shown = subprocess.run([sys.executable, "-m", "app.cli", "config", "show", "--json"], cwd=ROOT,
-                           capture_output=True, text=True, timeout=120, env=_env(tuned))
-    assert shown.returncode == 0, shown.stderr
-    effective = json.loads(shown.stdout)["pose"]
+    # (the real entry point in this process: an interpreter costs ~3 s of imports)
+    for key, value in _env(tuned).items():
+        if key.startswith("CAVEWALK_"):
+            monkeypatch.setenv(key, value)
+    monkeypatch.delenv("CAVEWALK_TUNE__ON_FIRST_START", raising=False)
+    capsys.readouterr()
+    code = run_cli(["config", "show", "--json"], monkeypatch)
+    out, err = capsys.readouterr()
+    assert code == 0, err
+    effective = json.loads(out)["pose"]
     assert {k: effective[k] for k in pose} == pose
 
 
