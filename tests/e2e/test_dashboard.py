@@ -118,8 +118,11 @@ def test_demo_dashboard_live_navigator_and_ssq(demo_server: str, artifacts_dir: 
                 if not others:
                     return None
                 target = min(others, key=int)
-                try:  # a person the tracker loses meanwhile takes their button away: choose again
-                    page.locator(f'button.person[data-user-id="{target}"]').click(timeout=30_000)
+                # a person the tracker loses meanwhile takes their button away, and the click then waits
+                # out its whole timeout for a button that never comes back (seen: 30 s of one run):
+                # choose again after 10 s, which a click on a button that is there needs at load 25 too
+                try:
+                    page.locator(f'button.person[data-user-id="{target}"]').click(timeout=10_000)
                 except PlaywrightTimeout:
                     return None
                 return target
