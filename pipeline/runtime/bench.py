@@ -28,6 +28,7 @@ from pipeline.machine import machine_facts
 from pipeline.pose.config import PoseConfig
 from pipeline.runtime.metrics import percentiles
 from pipeline.runtime.pipeline import Pipeline
+from pipeline.runtime.status import PipelineStatus
 from pipeline.takes.config import TakesConfig
 from pipeline.takes.video import VideoSession
 
@@ -126,16 +127,7 @@ def run_scenario(scenario: Scenario, duration_s: float, warmup_timeout_s: float 
     try:
         pipeline.set_workstations([("127.0.0.1", port)])
         pipeline.start(scenario.source, scenario.videos)  # type: ignore[arg-type]
-        t0 = time.monotonic()
-        while pipeline.status().processed < 3:
-            if time.monotonic() - t0 > warmup_timeout_s:
-                raise SourceError(f"{scenario.name}: no results after {warmup_timeout_s:.0f} s "
-                                  f"({pipeline.status().last_error or 'no error reported'})")
-            time.sleep(0.2)
-        progress(f"[{scenario.name}] running after {time.monotonic() - t0:.1f} s; "
-                 f"warming up {warmup_s:.0f} s")
-        time.sleep(warmup_s)
-        pipeline.reset_metrics()
+        _warm_up(pipeline, scenario.name, warmup_timeout_s, warmup_s, progress)
         go.set()
         sampler = ProcessSampler()
         start = time.monotonic()
@@ -144,18 +136,7 @@ def run_scenario(scenario: Scenario, duration_s: float, warmup_timeout_s: float 
             video_dir = tempfile.TemporaryDirectory(prefix="cavewalk-bench-videos-")
             videos = VideoSession(pipeline.video_controls(), Path(video_dir.name), scenario.record_videos)
             videos.start(start, duration_s)
-        next_report = start + 1.0
-        while (now := time.monotonic()) - start < duration_s:
-            time.sleep(min(0.25, max(0.0, next_report - now)))
-            if time.monotonic() >= next_report:
-                sampler.sample()
-                st = pipeline.status()
-                e2e = st.latency_ms["end_to_end"]
-                progress(f"[{scenario.name}] {time.monotonic() - start:5.1f}/{duration_s:.0f} s  "
-                         f"{st.fps:5.1f} fps  processed {st.processed - s0.processed}  dropped "
-                         f"{st.dropped - s0.dropped}  e2e p95 {e2e['p95']:.1f} ms  "
-                         f"cpu {sampler.cpu_samples[-1] if sampler.cpu_samples else 0:.0f} %")
-                next_report += 1.0
+        _measure(pipeline, scenario.name, sampler, start, duration_s, s0, progress)
         elapsed = time.monotonic() - start
         s1 = pipeline.status()
         samples = pipeline.latency_samples()
@@ -175,6 +156,43 @@ def run_scenario(scenario: Scenario, duration_s: float, warmup_timeout_s: float 
         rx.join(timeout=5)
         if rx.is_alive():
             rx.kill()
+    return _figures(scenario, elapsed, s0, s1, samples, sampler, rx_summary, video_stats)
+
+
+def _warm_up(pipeline: Pipeline, name: str, timeout_s: float, warmup_s: float,
+             progress: Callable[[str], None]) -> None:
+    """Wait for the first results, run ``warmup_s`` more, then start the figures afresh."""
+    t0 = time.monotonic()
+    while pipeline.status().processed < 3:
+        if time.monotonic() - t0 > timeout_s:
+            raise SourceError(f"{name}: no results after {timeout_s:.0f} s "
+                              f"({pipeline.status().last_error or 'no error reported'})")
+        time.sleep(0.2)
+    progress(f"[{name}] running after {time.monotonic() - t0:.1f} s; warming up {warmup_s:.0f} s")
+    time.sleep(warmup_s)
+    pipeline.reset_metrics()
+
+
+def _measure(pipeline: Pipeline, name: str, sampler: ProcessSampler, start: float, duration_s: float,
+             s0: PipelineStatus, progress: Callable[[str], None]) -> None:
+    """Sample CPU and memory and report progress once a second for ``duration_s``."""
+    next_report = start + 1.0
+    while (now := time.monotonic()) - start < duration_s:
+        time.sleep(min(0.25, max(0.0, next_report - now)))
+        if time.monotonic() >= next_report:
+            sampler.sample()
+            st = pipeline.status()
+            e2e = st.latency_ms["end_to_end"]
+            progress(f"[{name}] {time.monotonic() - start:5.1f}/{duration_s:.0f} s  "
+                     f"{st.fps:5.1f} fps  processed {st.processed - s0.processed}  dropped "
+                     f"{st.dropped - s0.dropped}  e2e p95 {e2e['p95']:.1f} ms  "
+                     f"cpu {sampler.cpu_samples[-1] if sampler.cpu_samples else 0:.0f} %")
+            next_report += 1.0
+
+
+def _figures(scenario: Scenario, elapsed: float, s0: PipelineStatus, s1: PipelineStatus,
+             samples: dict[str, list[float]], sampler: ProcessSampler, rx_summary: dict[str, Any] | None,
+             video_stats: dict[str, Any] | None) -> dict[str, Any]:
     processed = s1.processed - s0.processed
     dropped = s1.dropped - s0.dropped
     return {
