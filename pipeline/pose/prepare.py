@@ -43,6 +43,7 @@ from pipeline.pose.quantize import (
     DEFAULT_RECIPE,
     Int8Recipe,
     calibration_inputs,
+    check_criteria,
     int8_agreement,
     quantize_pose_model,
 )
@@ -215,6 +216,9 @@ def prepare_int8_model(
             progress(f"{path.name} was made from another {fp32.path.name}; quantizing again")
         elif old.get("recipe") != recipe.name:
             progress(f"{path.name} was quantized another way ({old.get('recipe')}); quantizing again")
+        elif (old.get("rejected") and not path.is_file()
+              and old.get("check", {}).get("criteria") != check_criteria()):
+            progress(f"int8 {path.name} was rejected by an earlier form of its check; quantizing again")
         elif old.get("rejected") and not path.is_file():
             progress(f"int8 {path.name} was rejected by its check ({old['rejected']}); "
                      f"the float32 {fp32.path.name} is used (--force to try again)")

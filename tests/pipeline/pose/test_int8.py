@@ -14,7 +14,7 @@ from pipeline.pose.decode import iou_matrix
 from pipeline.pose.detector import PoseDetector
 from pipeline.pose.model_files import Precision, crop_model_path, int8_path
 from pipeline.pose.quantize import excluded_head_nodes
-from pipeline.pose.roi import RoiScheduler
+from pipeline.pose.roi import RoiScheduler, with_margin
 from pipeline.tracking.benchmark import run_detect_benchmark
 from pipeline.tracking.ocsort import MultiViewTracker, OCSortConfig
 from pipeline.tracking.stage import DetectAndTrack
@@ -49,8 +49,8 @@ def test_int8_finds_the_same_people_with_keypoints_a_few_px_from_fp32(
     for cams, images in frames:
         # whole frames, and the crops ROI mode makes (320 px high) around the people found
         ref = fp32.detect(images, cams, 0, 0.0)
-        jobs = [(i, (float(b[0]) - 40, float(b[1]) - 40, float(b[2]) + 40, float(b[3]) + 40))
-                for i, v in enumerate(ref.views) for b in v.boxes_xyxy]
+        jobs = [(i, with_margin(b, PoseConfig().roi_margin)) for i, v in enumerate(ref.views)
+                for b in v.boxes_xyxy]
         ref_roi = fp32.detect(images, cams, 0, 0.0, jobs, (192, 320))
         got = int8.detect(images, cams, 0, 0.0)
         got_roi = int8.detect(images, cams, 0, 0.0, jobs, (192, 320))

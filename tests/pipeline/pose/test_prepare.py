@@ -24,7 +24,7 @@ from pipeline.pose.prepare import (
     sha256_file,
     verify_onnx,
 )
-from pipeline.pose.quantize import Int8Recipe
+from pipeline.pose.quantize import Int8Recipe, check_criteria
 
 CPUINFO = """processor\t: 0
 vendor_id\t: GenuineIntel
@@ -126,3 +126,12 @@ def test_an_int8_model_that_misses_the_check_is_not_kept_and_fp32_runs_instead(
     said.clear()
     assert prepare_int8_model(fp32, cache, progress=said.append, recipe=degraded) is None
     assert "rejected by its check" in said[-1] and len(said) == 1, "the decision is kept, not redone"
+
+    # ... unless the check itself has changed since (a fixed check must not leave a sound model
+    # refused for ever): a rejection recorded under other criteria is quantized and checked again
+    meta["check"]["criteria"] = {**meta["check"]["criteria"], "crop_margin": 40.0}
+    target.with_suffix(".json").write_text(json.dumps(meta))
+    said.clear()
+    assert prepare_int8_model(fp32, cache, progress=said.append, recipe=degraded) is None
+    assert "earlier form of its check" in said[0] and "NOT kept" in said[-1], said
+    assert json.loads(target.with_suffix(".json").read_text())["check"]["criteria"] == check_criteria()
