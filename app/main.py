@@ -151,7 +151,8 @@ def create_app(
         app.state.watch = watch
         recorder = RecorderService(settings, factory, events, source=lambda: _recording_source(pipeline),
                                    sim_calibration=lambda: _sim_calibration(settings),
-                                   send_prompt=pipeline.send_prompt, video_controls=pipeline.video_controls)
+                                   send_prompt=pipeline.send_prompt, video_controls=pipeline.video_controls,
+                                   model=lambda: models.running or models.active())
         recorder.recover()  # a take the last server left recording is kept as incomplete
         pipeline.add_result_sink(recorder)
         app.state.recorder = recorder

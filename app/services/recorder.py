@@ -96,8 +96,12 @@ class RecorderService:
         send_prompt: Callable[[str, str, float], None] | None = None,
         prompt_period_s: float = 0.5,
         video_controls: Callable[[], dict[str, tuple[VideoControl, float]]] = dict,
+        model: Callable[[], dict[str, Any] | None] = lambda: None,
     ) -> None:
+        """``model()``: the action model the pipeline runs, as the model registry knows it (its
+        ``id``, ``uid``, ``file``...); None = the settings' ``recognition.model_path``."""
         self.settings = settings
+        self._model = model
         self.config = settings.takes
         self.folder = takes_folder(settings)
         self._factory = session_factory
@@ -112,6 +116,14 @@ class RecorderService:
         self._video_controls = video_controls
 
     # ----------------------------------------------------------------------------- recovery
+    def _model_entry(self) -> dict[str, Any]:
+        """take.json's ``model``: the file's path and sha256, and the registry's id when it has one."""
+        known = self._model()
+        if known is None:
+            return model_identity(self.settings.recognition.model_path)
+        extra = {k: known[k] for k in ("id", "uid", "source") if k in known}
+        return model_identity(Path(known["file"])) | {"registry_" + k: v for k, v in extra.items()}
+
     def recover(self) -> list[int]:
         """Takes the last server left ``recording``: recovered from their folders as ``incomplete``."""
         out = []
@@ -218,7 +230,7 @@ class RecorderService:
                 "lead_s": lead,
                 "notes": req.notes,
                 "calibration_id": row.calibration_run_id,
-                "model": model_identity(self.settings.recognition.model_path),
+                "model": self._model_entry(),
                 "settings": settings_snapshot(self.settings),
             }
             recorder = TakeRecorder(

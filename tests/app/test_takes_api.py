@@ -72,6 +72,9 @@ def test_a_protocol_take_from_the_simulator_is_written_indexed_and_labelled(serv
     manifest = json.loads((folder / "take.json").read_text())
     assert manifest["complete"] is True and manifest["participant_code"] == "P07"
     assert "token" not in manifest["settings"]["server"] and manifest["model"]["sha256"]
+    active = httpx.get(f"{base}/models/active").json()  # the registry's model the pipeline runs
+    assert manifest["model"]["registry_id"] == active["id"]
+    assert manifest["model"]["sha256"] == active["sha256"]
     lines = [json.loads(x) for x in (folder / "frames.jsonl").read_text().splitlines()]
     assert {"frame", "t", "ts", "views", "people3d", "navigator", "action"} <= set(lines[0])
     assert lines[0]["views"] and lines[0]["views"][0]["camera"] == "cam01"
