@@ -10,6 +10,11 @@ NAVIGATION_MODES: tuple[str, ...] = ("single", "each", "group")
 MAX_NAVIGATORS = 8  # the most recogniser states the config allows at once
 
 
+#: A person fused this recently (seconds) still counts as tracked when the operator chooses them
+#: (navigator, navigation mode): the tracker may miss someone for a frame or two.
+TRACKED_WITHIN_S = 1.0
+
+
 @dataclass(frozen=True, slots=True)
 class NavigationConfig:
     """How many navigators drive the CAVE, and how.

@@ -204,8 +204,7 @@ class Pipeline:
             if user_id is not None:
                 if isinstance(user_id, bool) or not isinstance(user_id, int):
                     raise InputError(f"user_id must be an integer or null, got {user_id!r}")
-                people = run.latest.result.people3d if run.latest is not None else ()
-                tracked = sorted(p.user_id for p in people)
+                tracked = run.tracked(time.monotonic())
                 if user_id not in tracked:
                     raise InputError(f"user {user_id} is not tracked (tracked users: "
                                      f"{', '.join(map(str, tracked)) or 'none'})")
@@ -226,8 +225,7 @@ class Pipeline:
             if ids:
                 if run is None:
                     raise InputError("the pipeline is not running: nobody is tracked to choose")
-                people = run.latest.result.people3d if run.latest is not None else ()
-                tracked = sorted(p.user_id for p in people)
+                tracked = run.tracked(time.monotonic())
                 unknown = sorted(set(ids) - set(tracked))
                 if unknown:
                     raise InputError(f"users {unknown} are not tracked (tracked users: "

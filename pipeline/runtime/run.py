@@ -5,10 +5,12 @@ and the status board)."""
 from __future__ import annotations
 
 import threading
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 from pipeline.camera import Camera
+from pipeline.navigation.config import TRACKED_WITHIN_S
 from pipeline.runtime.mailbox import Mailbox
 from pipeline.runtime.messages import FusedFrame
 from pipeline.runtime.metrics import RuntimeMetrics
@@ -66,6 +68,21 @@ class Run:
     last_source_index: int = -1
     latest: FusedFrame | None = None
     last_result_s: float = 0.0  # time.monotonic() of the newest fused frame
+    seen_s: dict[int, float] = field(default_factory=dict)  # user id -> time.monotonic() last fused
+
+    def note_people(self, user_ids: Iterable[int], now_s: float) -> None:
+        """The people of a fused frame; those not seen for an hour are forgotten."""
+        for uid in user_ids:
+            self.seen_s[uid] = now_s
+        if len(self.seen_s) > 64:
+            for uid in [u for u, t in self.seen_s.items() if now_s - t > 3600.0]:
+                del self.seen_s[uid]
+
+    def tracked(self, now_s: float, within_s: float = TRACKED_WITHIN_S) -> list[int]:
+        """The user ids fused within the last ``within_s`` seconds. A person the tracker misses
+        for a frame or two (one view occluded, a frame that did not triangulate) is still
+        tracked: an operator's choice of them must not fail on that frame."""
+        return sorted(u for u, t in self.seen_s.items() if now_s - t <= within_s)
 
     def count_source_index(self, index: int) -> None:
         """Account a result's source frame index (a source that restarts from 0 is added up)."""

@@ -60,6 +60,14 @@ function chosenIds(list) {
     .map((li) => Number(li.dataset.userId));
 }
 
+// The operator's ticks, by user id: a person the tracker loses for a moment gets a new row when
+// they are back, and that row must keep its tick (else group mode quietly drops them).
+const ticked = new Set();
+// A row stays (greyed) this long after its person drops out of the status: the tracker misses
+// someone for a frame or two, and the row, its strip and its tick must not flicker away. The
+// server counts them as tracked as long (pipeline.navigation.config.TRACKED_WITHIN_S).
+const LOST_GRACE_MS = 1000;
+
 function showPerson(row, p) {
   const button = row.firstElementChild;
   button.classList.toggle("navigator", Boolean(p.is_navigator));
@@ -82,6 +90,7 @@ export function mountPeople() {
   const modes = document.getElementById("navigation-modes");
   const groupText = document.getElementById("navigation-group");
   const rows = new Map(); // user id -> its <li>, kept while the person is tracked
+  const seen = new Map(); // user id -> Date.now() of the last status that had them
   onStatus((s) => {
     document.getElementById("navigator").textContent = s.navigator ?? "none";
     document.getElementById("navigator-mode").textContent = s.navigator_mode;
@@ -93,25 +102,37 @@ export function mountPeople() {
       ? `room: ${g.label} ${(100 * g.confidence).toFixed(0)} % (votes ${Object.entries(g.votes)
         .filter(([, n]) => n).map(([k, n]) => `${k} ${n}`).join(", ")})`
       : "room: nobody tracked";
-    const people = [...(s.people || [])].sort((a, b) => a.user_id - b.user_id);
+    const people = s.people || [];
     const now = new Set(people.map((p) => p.user_id));
+    const t = Date.now();
+    for (const id of now) seen.set(id, t);
     for (const [id, row] of rows) {
-      if (!now.has(id)) {
+      const lost = !now.has(id);
+      row.classList.toggle("lost", lost);
+      if (lost && t - (seen.get(id) ?? 0) > LOST_GRACE_MS) {
         row.remove();
         rows.delete(id);
+        seen.delete(id);
       }
     }
+    // by user id, the rows of people lost a moment ago included (they keep their place)
+    const byId = new Map(people.map((p) => [p.user_id, p]));
+    const ids = [...new Set([...rows.keys(), ...byId.keys()])].sort((x, y) => x - y);
     let before = list.firstElementChild;
-    for (const p of people) {
-      let row = rows.get(p.user_id);
+    for (const id of ids) {
+      const p = byId.get(id);
+      let row = rows.get(id);
       if (!row) {
-        row = personRow(p.user_id);
-        row.querySelector(".chosen").checked = (nav.chosen || []).includes(p.user_id);
-        rows.set(p.user_id, row);
+        row = personRow(id);
+        const box = row.querySelector(".chosen");
+        box.checked = ticked.has(id) || (nav.chosen || []).includes(id);
+        if (box.checked) ticked.add(id);
+        box.addEventListener("change", () => (box.checked ? ticked.add(id) : ticked.delete(id)));
+        rows.set(id, row);
       }
       if (row !== before) list.insertBefore(row, before); // new, or out of place: nothing else moves
       else before = before.nextElementSibling;
-      showPerson(row, p);
+      if (p) showPerson(row, p);
     }
   });
   for (const b of modes.querySelectorAll(".mode")) {
