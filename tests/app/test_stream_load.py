@@ -15,18 +15,16 @@ longest gap) is measured by ``scripts/load_test.py`` (docs/issue15.md).
 from __future__ import annotations
 
 import asyncio
-import json
-import socket
 import threading
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
 
 import httpx
 import pytest
 import websockets
 
 from tests.app.conftest import Served, make_settings
+from tests.datagrams import DatagramRecorder
 from tests.waiting import HTTP_TIMEOUT_S, wait_until
 
 pytestmark = pytest.mark.slow
@@ -36,37 +34,6 @@ HTTP_RATE_HZ = 5.0  # per client: bounded, as a dashboard is
 WS_CLIENTS = 20
 WINDOW = 600  # locomotion datagrams measured under load (about 10 s at 60 a second)
 MIN_RATE = 30.0  # half of rate_hz 60 (the figure itself: scripts/load_test.py)
-
-
-class Receiver:
-    """Every datagram, in arrival order, with its sender (a bound socket with a large buffer)."""
-
-    def __init__(self) -> None:
-        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4 * 1024 * 1024)
-        self.sock.bind(("127.0.0.1", 0))
-        self.sock.settimeout(0.1)
-        self.port: int = self.sock.getsockname()[1]
-        self.got: list[tuple[tuple[str, int], dict[str, Any]]] = []
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, daemon=True)
-        self._thread.start()
-
-    def _run(self) -> None:
-        while not self._stop.is_set():
-            try:
-                data, addr = self.sock.recvfrom(65535)
-            except TimeoutError:
-                continue
-            self.got.append((addr, json.loads(data)))
-
-    def locomotion_since(self, start: int) -> int:
-        return sum(1 for _, m in self.got[start:] if m["type"] == "locomotion")
-
-    def close(self) -> None:
-        self._stop.set()
-        self._thread.join(timeout=2)
-        self.sock.close()
 
 
 class Load:
@@ -123,13 +90,15 @@ class Load:
 
 
 @pytest.fixture()
-def receiver() -> Iterator[Receiver]:
-    rx = Receiver()
+def receiver() -> Iterator[DatagramRecorder]:
+    rx = DatagramRecorder()
     yield rx
     rx.close()
 
 
-def test_the_stream_holds_its_rate_and_order_under_dashboard_load(tmp_path: Path, receiver: Receiver) -> None:
+def test_the_stream_holds_its_rate_and_order_under_dashboard_load(
+    tmp_path: Path, receiver: DatagramRecorder
+) -> None:
     base = make_settings(tmp_path)
     settings = base.model_copy(update={"workstations": [f"127.0.0.1:{receiver.port}"]})
     assert settings.emitter.rate_hz == 60.0

@@ -8,10 +8,8 @@ shared book hands ``seq`` and the endpoints between the two emitters of one stre
 from __future__ import annotations
 
 import itertools
-import json
 import os
 import signal
-import socket
 import threading
 import time
 from typing import Any
@@ -24,6 +22,7 @@ from pipeline.recognition.recognizer import DEFAULT_MODEL_PATH
 from pipeline.results import FrameResult
 from pipeline.runtime.pipeline import Pipeline
 from pipeline.runtime.stream import MAX_ENDPOINTS, StreamBook
+from tests.datagrams import DatagramRecorder
 from tests.waiting import wait_until
 
 from .live import wait_for
@@ -31,43 +30,9 @@ from .live import wait_for
 needs_model = pytest.mark.skipif(not DEFAULT_MODEL_PATH.is_file(), reason="the trained action model")
 
 
-class Recorder:
-    """Every datagram with its sender address, in a thread (a real bound socket)."""
-
-    def __init__(self) -> None:
-        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        self.sock.bind(("127.0.0.1", 0))
-        self.sock.settimeout(0.1)
-        self.port: int = self.sock.getsockname()[1]
-        self.got: list[tuple[tuple[str, int], dict[str, Any]]] = []
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, daemon=True)
-        self._thread.start()
-
-    def _run(self) -> None:
-        while not self._stop.is_set():
-            try:
-                data, addr = self.sock.recvfrom(65535)
-            except TimeoutError:
-                continue
-            self.got.append((addr, json.loads(data)))
-
-    def of_type(self, kind: str) -> list[dict[str, Any]]:
-        return [m for _, m in list(self.got) if m["type"] == kind]
-
-    def fresh_locomotion(self) -> int:
-        """Locomotion datagrams that carry a new result (a new ``ts``; repeats carry the old one)."""
-        return len({m["ts"] for m in self.of_type("locomotion")})
-
-    def close(self) -> None:
-        self._stop.set()
-        self._thread.join(timeout=2)
-        self.sock.close()
-
-
 @pytest.fixture()
 def recorder() -> Any:
-    rx = Recorder()
+    rx = DatagramRecorder()
     yield rx
     rx.close()
 
@@ -87,7 +52,7 @@ class StuckSink:
 @pytest.mark.slow
 @needs_model
 def test_fresh_locomotion_arrives_while_the_main_process_collector_is_stuck(
-    sim_pipeline: Pipeline, recorder: Recorder
+    sim_pipeline: Pipeline, recorder: DatagramRecorder
 ) -> None:
     sim_pipeline.set_workstations([("127.0.0.1", recorder.port)])
     sim_pipeline.start("simulator")
@@ -111,7 +76,7 @@ def test_fresh_locomotion_arrives_while_the_main_process_collector_is_stuck(
 @pytest.mark.slow
 @needs_model
 def test_seq_goes_on_from_one_sender_across_a_killed_fusion_worker(
-    sim_pipeline: Pipeline, recorder: Recorder
+    sim_pipeline: Pipeline, recorder: DatagramRecorder
 ) -> None:
     sim_pipeline.set_workstations([("127.0.0.1", recorder.port)])
     sim_pipeline.start("simulator")
@@ -138,7 +103,7 @@ def test_seq_goes_on_from_one_sender_across_a_killed_fusion_worker(
 
 def test_the_book_hands_seq_and_endpoints_between_the_two_emitters() -> None:
     book = StreamBook.create()
-    rx = Recorder()
+    rx = DatagramRecorder()
     sock = stream_socket(EmitterConfig())
     config = EmitterConfig(heartbeat_s=10.0)
     standby = UdpEmitter(config, [("127.0.0.1", rx.port)], shared=book, role="standby", sock=sock)
