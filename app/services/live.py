@@ -24,7 +24,6 @@ import numpy as np
 
 from app.services.event_log import EventWriter
 from pipeline.errors import InputError
-from pipeline.navigation.config import TRACKED_WITHIN_S
 
 log = logging.getLogger(__name__)
 
@@ -241,7 +240,6 @@ class PipelineService:
         self._rebuild = False
         self._result_sinks: tuple[Any, ...] = ()
         self._navigation: str | None = None  # the operator's navigation mode, kept over rebuilds
-        self._seen_s: dict[int, float] = {}  # user id -> when a status last had them (time.monotonic())
         self._adaptation: Any = None  # the running session's teach adaptation, kept over rebuilds
 
     def send_prompt(self, text: str, label: str, remaining_s: float) -> None:
@@ -326,32 +324,17 @@ class PipelineService:
             self._pipeline.stop()
         self.poll_once()
 
-    def tracked_ids(self, within_s: float = TRACKED_WITHIN_S) -> list[int]:
-        """The user ids of the statuses of the last ``within_s`` seconds: a person the tracker
-        missed for a frame or two is still someone the operator can choose."""
-        now_s = time.monotonic()
-        with self._snap_lock:
-            current = [p["user_id"] for p in self._snapshot.get("people") or ()]
-            recent = [u for u, t in self._seen_s.items() if now_s - t <= within_s]
-        return sorted(set(current) | set(recent))
-
     def set_navigator(self, user_id: int | None) -> tuple[int | None, Literal["auto", "manual"]]:
         """Pick the navigator (None = automatic); an id nobody has now raises UnknownUser."""
         with self._lock:
             now = self.snapshot()
-            if user_id is not None:
-                ids = self.tracked_ids()
-                if user_id not in ids:
-                    raise UnknownUser(
-                        f"no person with user_id {user_id} is tracked now (tracked: {ids or 'nobody'})"
-                    )
             if self._pipeline is None or now["state"] not in ("running", "starting"):
                 if user_id is None:
                     return None, "auto"  # nothing runs: automatic is what it will start with
                 raise UnknownUser("the pipeline is not running")
             try:
                 self._pipeline.set_navigator(user_id)
-            except InputError as exc:  # the pipeline's own, newer view of who is tracked
+            except InputError as exc:  # the pipeline knows who is tracked (TRACKED_WITHIN_S)
                 raise UnknownUser(str(exc)) from exc
         self.poll_once()
         snap = self.snapshot()
@@ -363,17 +346,14 @@ class PipelineService:
         UnknownUser for an id nobody has now; InputError for a bad mode; nothing changes then."""
         with self._lock:
             now = self.snapshot()
-            if user_ids:
-                ids = self.tracked_ids()
-                unknown = sorted(set(user_ids) - set(ids))
-                if unknown or self._pipeline is None or now["state"] not in ("running", "starting"):
-                    raise UnknownUser(f"no person with user_id {unknown or user_ids} is tracked now "
-                                      f"(tracked: {ids or 'nobody'})")
+            if user_ids and (self._pipeline is None or now["state"] not in ("running", "starting")):
+                raise UnknownUser(f"no person with user_id {sorted(user_ids)} is tracked now: "
+                                  "the pipeline is not running")
             set_navigation = getattr(self._pipeline, "set_navigation", None)
             if self._pipeline is not None and callable(set_navigation):
                 try:
                     set_navigation(mode, list(user_ids))
-                except InputError as exc:  # the pipeline's own, newer view of who is tracked
+                except InputError as exc:  # the pipeline knows who is tracked (TRACKED_WITHIN_S)
                     if user_ids and "not tracked" in str(exc):
                         raise UnknownUser(str(exc)) from exc
                     raise
@@ -410,11 +390,8 @@ class PipelineService:
             log.exception("pipeline status failed")
             snap = idle_snapshot("error")
             snap["extra"]["error"] = str(exc)
-        now_s = time.monotonic()
         with self._snap_lock:
             self._snapshot = snap
-            for person in snap.get("people") or ():
-                self._seen_s[person["user_id"]] = now_s
         for sink in self._sinks:
             try:
                 sink.update(snap)
