@@ -3,8 +3,9 @@
 It writes SPEC skeleton NPZ files of people stepping in place in a CAVE (marching, side steps) and
 doing other things while standing (gestures, looking around, turning in pivot steps, weight shifts,
 a bow, a squat, a stretch), with per-frame labels, behaviour tags and ground-truth foot contacts.
-Never train on it. See ``script`` (what people do, the label rules), ``kinematics`` (how the body
-moves) and ``generate`` (sets, noise, files); ``python -m pipeline.sim.blind OUT_DIR`` writes a set.
+Never train on it. See ``activities`` (what people do), ``script`` (the ground truth and the label
+rules), ``kinematics`` (how the body moves) and ``generate`` (sets, noise, files);
+``python -m pipeline.sim.blind OUT_DIR`` writes a set.
 """
 
 from pipeline.sim.blind.body import Body, Style, sample_body, sample_style

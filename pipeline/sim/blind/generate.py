@@ -15,9 +15,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.errors import InputError
+from pipeline.sim.blind.activities import ACTIVITIES, build_script
 from pipeline.sim.blind.body import HEIGHT_RANGE_M, STYLE_BOUNDS, Body, Style, sample_body, sample_style
 from pipeline.sim.blind.kinematics import Kinematics, compose
-from pipeline.sim.blind.script import ACTIVITIES, Script, build_script, frame_labels
+from pipeline.sim.blind.script import Script, frame_labels
 from pipeline.skeleton import SkeletonSequence, save_npz
 
 SOURCE = "blind"  # the NPZ's source field starts with this
