@@ -26,9 +26,8 @@ sys.path.insert(0, str(ROOT))
 
 from pipeline.recognition.features import (  # noqa: E402
     EVIDENCE_CHANNELS,
-    FEATURES_V2,
-    to_model_input,
-    to_model_input_v2,
+    WITH_EVIDENCE,
+    model_input,
     window_features,
 )
 from pipeline.recognition.recognizer import ActionRecognizer, RecognizerConfig  # noqa: E402
@@ -70,11 +69,8 @@ def main() -> int:
 
     window = joints[: rec.info.window]
     feats = window_features(window, fps)
-    if rec.info.features == FEATURES_V2:
-        ev = np.zeros((rec.info.window, EVIDENCE_CHANNELS), np.float32)
-        x = to_model_input_v2(feats, ev)[None]
-    else:
-        x = to_model_input(feats)[None]
+    ev = np.zeros((rec.info.window, EVIDENCE_CHANNELS), np.float32)
+    x = model_input(feats, ev if rec.info.features in WITH_EVIDENCE else None, rec.info.features)[None]
     session, name = rec.session, rec.info.input_name
     model_t = np.empty(1000)
     feat_t = np.empty(1000)

@@ -30,7 +30,7 @@ sys.path.insert(0, str(ROOT / "scripts"))
 from train_action import add_arguments, train_config  # noqa: E402
 
 from pipeline.recognition.evaluation import network_trace, replay, step_frames, tune_gate  # noqa: E402
-from pipeline.recognition.features import FEATURES_V1, FEATURES_V2  # noqa: E402
+from pipeline.recognition.features import FEATURE_CHANNELS, FEATURES_V1, FEATURES_V2  # noqa: E402
 from pipeline.recognition.metrics import Evaluation, ScoredSequence, evaluate  # noqa: E402
 from pipeline.recognition.prepare import SourceSpec, prepare_corpus, split_items, to_dataset  # noqa: E402
 from pipeline.recognition.recognizer import RecognizerConfig, open_session  # noqa: E402
@@ -117,7 +117,7 @@ def main() -> int:
     ap.add_argument(
         "--features",
         action="append",
-        choices=[FEATURES_V1, FEATURES_V2],
+        choices=list(FEATURE_CHANNELS),
         help="train only these feature versions per fold (default both: the four-way ablation)",
     )
     args = ap.parse_args()

@@ -29,7 +29,7 @@ sys.path.insert(0, str(ROOT))
 
 import numpy as np  # noqa: E402
 
-from pipeline.recognition.features import FEATURES_V1, FEATURES_V2  # noqa: E402
+from pipeline.recognition.features import FEATURE_CHANNELS, FEATURES_V2  # noqa: E402
 from pipeline.recognition.prepare import SourceSpec, prepare_corpus, split_items, to_dataset  # noqa: E402
 from pipeline.recognition.train import DataConfig, TrainConfig, export_onnx, train_model  # noqa: E402
 
@@ -76,7 +76,7 @@ def train_config(args: argparse.Namespace, features: str) -> TrainConfig:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--out", type=Path, default=ROOT / "pipeline" / "recognition" / "action.onnx")
-    ap.add_argument("--features", choices=[FEATURES_V1, FEATURES_V2], default=FEATURES_V2)
+    ap.add_argument("--features", choices=list(FEATURE_CHANNELS), default=FEATURES_V2)
     ap.add_argument("--report", type=Path, default=None, help="write the training metrics as JSON here")
     ap.add_argument(
         "--tune-gate",

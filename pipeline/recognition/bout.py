@@ -34,7 +34,8 @@ What a user expects (MODEL_CARD.md, "Behaviour"):
   classes, weighted by the evidence of the newest step (``evidence_weight``): a foot opening
   sideways away from the other foot is a side step to that foot's side; a vertical (march) or
   forward step is forward; a closing step (the trailing foot following, or the foot coming back)
-  keeps the bout's direction.
+  keeps the bout's direction, and so does a single opening step to the other side (the way back
+  of a step-touch); ``side_switch_steps`` of them in a row turn the bout to that side.
 
 :class:`BoutGate` is streaming; it holds only what it needs (times of the bout's steps).
 """
@@ -80,6 +81,7 @@ class GateConfig:
     hold_still_prob: float = 0.35  # the deadline waits while the network's p(still) stays below this
     late_still_prob: float = 0.35  # past the median rhythm's due time, this p(still) ends the bout
     jump_air_s: float = 0.6  # a "jump" foot still up this long after the other landed: a step
+    side_switch_steps: int = 2  # opening steps to the other side in a row that turn a side-step bout
 
     def __post_init__(self) -> None:
         if self.rhythm not in RHYTHMS:
@@ -107,6 +109,8 @@ class GateConfig:
             )
         if not self.jump_air_s >= 0:
             raise ValueError(f"jump_air_s must be >= 0 (inf: never), got {self.jump_air_s}")
+        if self.side_switch_steps < 1:
+            raise ValueError(f"side_switch_steps must be >= 1, got {self.side_switch_steps}")
         if self.pause_gain < 1 or self.evidence_weight < 1:
             raise ValueError(
                 f"pause_gain and evidence_weight must be >= 1, got {self.pause_gain}, {self.evidence_weight}"
@@ -184,6 +188,10 @@ class BoutGate:
         self._bout_land_t = math.nan  # newest touch-down of the bout
         self._bout_steps = 0
         self._land_seen = [-math.inf, -math.inf]  # when each foot's newest touch-down was reported
+        self._side = _STILL  # the side (left / right) the bout's side steps lead to; still = none yet
+        self._side_lift = math.nan  # lift-off of the newest opening step counted for it
+        self._opposite = 0  # opening steps to the other side since, in a row
+        self._side_t = -math.inf  # when the bout's newest step was seen (the side is kept that long)
 
     def _stance_ok(self, frame: StepFrame, k: int) -> bool:
         """The other foot carries the body (planted and not taking off too: no jump), or it has been
@@ -218,10 +226,43 @@ class BoutGate:
         due = self._last_lift_t + c.pause_gain * interval - self._bout_land_t
         return float(min(max(due + c.pause_margin_s, c.min_allowance_s), c.max_allowance_s))
 
+    def _side_evidence(self, frame: StepFrame, ev: int | None) -> int | None:
+        """The direction the newest step speaks for, read against the bout's side: the first opening
+        step of a bout sets its side; an opening step to the other side is the way back (a
+        step-touch returning to where it began) and speaks for the bout's side, until two of them
+        come in a row (the person now steps to the other side)."""
+        if ev not in (_LEFT, _RIGHT) or frame.stepping < 0:
+            return ev
+        lift = self._swing_lift[frame.stepping]
+        if lift != self._side_lift:  # a new opening step
+            self._side_lift = lift
+            if self._side == _STILL or ev == self._side:
+                self._side, self._opposite = ev, 0
+            else:
+                self._opposite += 1
+                if self._opposite >= self.config.side_switch_steps:
+                    self._side, self._opposite = ev, 0
+        return self._side
+
+    def _start_direction(self, frame: StepFrame, ev: int | None, p: NDArray[np.float64]) -> int:
+        """A new bout's direction: a step back from the side steps just before (the way back of an
+        opening step to the other side, or a closing step) keeps their side; else the network
+        weighted by the evidence."""
+        side = self._side_evidence(frame, ev)
+        if ev is None and self._side != _STILL:
+            return self._side
+        if ev in (_LEFT, _RIGHT) and side is not None and side != ev:
+            return side
+        return choose_direction(p, side, self.config)
+
     def _end(self, reason: str, evidence: str | None) -> GateVerdict:
         self._active = False
         self._label = _STILL
-        if reason != "rhythm-broke":  # a broken rhythm is remembered: the person's own pauses
+        # A bout that ended in a pause keeps the side of its steps (the next step may be the way
+        # back); a broken rhythm keeps the person's own pauses too.
+        if reason not in ("rhythm-broke", "network-still"):
+            self._side, self._side_lift, self._opposite = _STILL, math.nan, 0
+        if reason != "rhythm-broke":
             self._intervals.clear()
             self._last_lift_t = self._bout_land_t = math.nan
         self._bout_steps = 0
@@ -246,7 +287,11 @@ class BoutGate:
                         self._intervals.append(gap)
                 elif not self._active:
                     self._intervals.clear()
+                if not self._active and not f.event_t - self._side_t <= c.max_interval_s:
+                    self._side, self._opposite = _STILL, 0  # a side remembered from a bout long over
                 self._last_lift_t = f.event_t
+                if self._active:
+                    self._side_t = f.event_t
                 self._swing_lift[k], self._swing_maxp[k] = f.event_t, p_move
             elif not f.planted and math.isfinite(self._swing_lift[k]):
                 self._swing_maxp[k] = max(self._swing_maxp[k], p_move)
@@ -280,7 +325,7 @@ class BoutGate:
         if not self._active:
             if stepping and max(self._swing_maxp[k] for k in stepping) >= c.start_prob:
                 self._active = True
-                self._label = choose_direction(p, ev, c)
+                self._label = self._start_direction(frame, ev, p)
                 self._bout_steps = 1
                 return GateVerdict(True, self._label, "stepping", ev_name, self._allowance(), math.nan)
             if not all(f.known for f in frame.feet):
@@ -293,9 +338,17 @@ class BoutGate:
         # a bout is on
         if landed_steps and max(landed_steps) < c.stop_prob:
             return self._end("network-still", ev_name)
+        sideways = self._label in (_LEFT, _RIGHT) and self._side != _STILL  # seen stepping sideways
+        if sideways and any(f.landed and f.kind in ("vertical", "forward") for f in frame.feet):
+            # a side-step bout turns forward on a landed march step, not on the first frames of a
+            # swing (every side step rises before it moves sideways)
+            self._label = choose_direction(p, _FORWARD, c, self._label)
         if swings:
-            if stepping and ev is not None:
-                self._label = choose_direction(p, ev, c, self._label)
+            if stepping and ev is not None and not (sideways and ev == _FORWARD):
+                side = self._side_evidence(frame, ev)
+                if side == ev or self._label not in (_LEFT, _RIGHT):
+                    self._label = choose_direction(p, side, c, self._label)
+                # else: the way back of a side step: the bout keeps its side, whatever the network says
             return GateVerdict(True, self._label, "stepping", ev_name, self._allowance(), math.nan)
         if math.isnan(self._bout_land_t):
             self._bout_land_t = t

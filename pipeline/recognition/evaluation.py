@@ -12,7 +12,7 @@ from numpy.typing import NDArray
 
 from pipeline.recognition.bout import BoutGate, GateConfig
 from pipeline.recognition.dataset import LabelledSequence
-from pipeline.recognition.features import EVIDENCE_CHANNELS, FEATURES_V2, evidence_vector
+from pipeline.recognition.features import EVIDENCE_CHANNELS, WITH_EVIDENCE, evidence_vector
 from pipeline.recognition.metrics import Evaluation, ScoredSequence, evaluate
 from pipeline.recognition.recognizer import (
     ActionRecognizer,
@@ -104,7 +104,8 @@ def network_trace(
     out = []
     for a in range(0, n, batch):
         sel = idx[a : a + batch]
-        out.append(classify_windows(session, j[sel], fps, ev[sel] if info.features == FEATURES_V2 else None))
+        evidence = ev[sel] if info.features in WITH_EVIDENCE else None
+        out.append(classify_windows(session, j[sel], fps, evidence))
     raw = np.concatenate(out) if out else np.zeros((0, 4), np.float32)
     return NetworkTrace(raw.astype(np.float32), frames)
 

@@ -200,8 +200,19 @@ def to_model_input(features: NDArray[np.float32]) -> NDArray[np.float32]:
 # seconds (clipped at 1), turns in half turns.
 
 EVIDENCE_CHANNELS = 16
-FEATURES_V1 = "v1"
-FEATURES_V2 = "v2"
+FEATURES_V1 = "v1"  # the 17 joints only
+FEATURES_V2 = "v2"  # the 17 joints and the step evidence
+FEATURES_V3 = "v3"  # v2's layout, the arms and the face masked out: legs, hips, shoulders + evidence
+WITH_EVIDENCE = (FEATURES_V2, FEATURES_V3)
+FEATURE_CHANNELS = {
+    FEATURES_V1: NUM_CHANNELS,
+    FEATURES_V2: NUM_CHANNELS + EVIDENCE_CHANNELS,
+    FEATURES_V3: NUM_CHANNELS + EVIDENCE_CHANNELS,
+}
+# What a v3 model sees of the body: stepping is in the legs; the shoulders give the trunk's lean and
+# turn. Arms and head move for a thousand reasons (a wave, a punch, looking around) that are not steps.
+V3_JOINTS = tuple(J[n] for n in ("l_shoulder", "r_shoulder", "l_hip", "r_hip", "l_knee", "r_knee",
+                                 "l_ankle", "r_ankle"))  # fmt: skip
 
 
 def _clip(v: float, lo: float, hi: float) -> float:
@@ -238,3 +249,27 @@ def to_model_input_v2(features: NDArray[np.float32], evidence: NDArray[np.float3
             f"evidence must have shape (..., T, {EVIDENCE_CHANNELS}) like the features, got {e.shape}"
         )
     return np.ascontiguousarray(np.concatenate([x, np.moveaxis(e, -1, -2)], axis=-2))
+
+
+def mask_joints(features: NDArray[np.float32], keep: tuple[int, ...]) -> NDArray[np.float32]:
+    """Joint features (..., T, 17, 7) with every joint not in ``keep`` zeroed (position, velocity and
+    the known flag: the network sees it as never measured)."""
+    out = np.zeros_like(features)
+    out[..., list(keep), :] = features[..., list(keep), :]
+    return out
+
+
+def model_input(
+    features: NDArray[np.float32], evidence: NDArray[np.float32] | None, version: str
+) -> NDArray[np.float32]:
+    """The network input of features version ``version``: (..., T, 17, 7) joint features and, for
+    the versions with step evidence, (..., T, 16) evidence -> (..., channels, T)."""
+    if version not in FEATURE_CHANNELS:
+        raise ValueError(f"unknown features version {version!r}; known: {', '.join(FEATURE_CHANNELS)}")
+    if version == FEATURES_V1:
+        return to_model_input(features)
+    if evidence is None:
+        raise ValueError(f"features {version} need the step evidence of each window")
+    if version == FEATURES_V3:
+        features = mask_joints(features, V3_JOINTS)
+    return to_model_input_v2(features, np.asarray(evidence, dtype=np.float32))

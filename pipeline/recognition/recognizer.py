@@ -35,13 +35,11 @@ from numpy.typing import NDArray
 from pipeline.errors import InputError, ModelError
 from pipeline.recognition.bout import BoutGate, GateConfig, GateVerdict
 from pipeline.recognition.features import (
-    EVIDENCE_CHANNELS,
+    FEATURE_CHANNELS,
     FEATURES_V1,
-    FEATURES_V2,
-    NUM_CHANNELS,
+    WITH_EVIDENCE,
     evidence_vector,
-    to_model_input,
-    to_model_input_v2,
+    model_input,
     window_features,
 )
 from pipeline.recognition.orientation import YawSmoother, raw_yaw_deg
@@ -104,16 +102,13 @@ class RecognizerConfig:
             raise ValueError(f"threads must be >= 0, got {self.threads}")
 
 
-# What each features version gives the network, and how many input channels that is.
-FEATURE_CHANNELS = {FEATURES_V1: NUM_CHANNELS, FEATURES_V2: NUM_CHANNELS + EVIDENCE_CHANNELS}
-
-
 @dataclass(frozen=True, slots=True)
 class ModelInfo:
     """What the ONNX file says about itself (its metadata).
 
     features: the input it expects: ``v1`` joints only (17 x 7 channels), ``v2`` joints and the
-    step evidence (17 x 7 + 14 channels, :func:`features.evidence_vector`).
+    step evidence (17 x 7 + 16 channels, :func:`features.evidence_vector`), ``v3`` the same with
+    the arms and the face masked out (:data:`features.V3_JOINTS`).
     """
 
     window: int
@@ -170,16 +165,15 @@ def model_info(session: Any) -> ModelInfo:
 def classify_windows(
     session: Any, windows: NDArray[np.floating], fps: float, evidence: NDArray[np.floating] | None = None
 ) -> NDArray[np.float32]:
-    """Class probabilities (N, 4) of windows (N, T, 17, 3) in one batched model call; a ``v2`` model
-    also needs the windows' step evidence (N, T, 14)."""
+    """Class probabilities (N, 4) of windows (N, T, 17, 3) in one batched model call; a ``v2`` or
+    ``v3`` model also needs the windows' step evidence (N, T, 16)."""
     info = model_info(session)
     feats = window_features(windows, fps)
-    if info.features == FEATURES_V2:
-        if evidence is None:
-            raise ModelError("this action model (features v2) needs the step evidence of each window")
-        x = to_model_input_v2(feats, np.asarray(evidence, dtype=np.float32))
-    else:
-        x = to_model_input(feats)
+    if info.features in WITH_EVIDENCE and evidence is None:
+        raise ModelError(
+            f"this action model (features {info.features}) needs the step evidence of each window"
+        )
+    x = model_input(feats, None if evidence is None else np.asarray(evidence, np.float32), info.features)
     out = session.run(None, {info.input_name: x})[0]
     return np.asarray(out, dtype=np.float32)
 
@@ -420,9 +414,8 @@ class ActionRecognizer:
 
     def _model_input(self) -> NDArray[np.float32]:
         feats = window_features(self._window(), self.info.fps)
-        if self.info.features == FEATURES_V2:
-            return to_model_input_v2(feats, self._evidence_window())[None]
-        return to_model_input(feats)[None]
+        evidence = self._evidence_window() if self.info.features in WITH_EVIDENCE else None
+        return model_input(feats, evidence, self.info.features)[None]
 
     def _step(self, ticks: int, t: float) -> None:
         x = self._model_input()

@@ -71,7 +71,9 @@ class StepConfig:
         moves the anchor instead).
     land_window_s, land_box: a swinging foot whose last land_window_s stayed within land_box
         (legs, per axis) is still; it has touched down if it is within land_height of its standing
-        level, or if it stays still for hold_s anywhere.
+        level, or if it stays still for hold_s anywhere; a short stance (running) also counts when
+        the raw foot point of the last three frames stayed within raw_land_k of its jitter, near the
+        standing level.
     jump_sync_s: two lift-offs this close together are a jump, not a step.
     min_swing_s: shortest swing (a touch-down sooner is noise); max_swing_s: a longer one ends
         where the foot is (a leg held up).
@@ -91,6 +93,7 @@ class StepConfig:
     land_box: float = 0.015
     land_height: float = 0.012
     hold_s: float = 0.3
+    raw_land_k: float = 3.0
     max_swing_s: float = 2.5
     jump_sync_s: float = 0.15
     min_swing_s: float = 0.1
@@ -110,7 +113,8 @@ class StepConfig:
                 raise ValueError(f"{name} must be in (0, 1], got {v}")
         for name in (
             "anchor_tau_s", "lift_up", "lift_side", "noise_k", "max_rise_s", "land_window_s", "land_box",
-            "land_height", "hold_s", "max_swing_s", "jump_sync_s", "outlier_legs", "lost_s", "floor_tau_s",
+            "land_height", "hold_s", "raw_land_k", "max_swing_s", "jump_sync_s", "outlier_legs", "lost_s",
+            "floor_tau_s",
             "standing_tau_s", "rate_hz", "max_tilt_deg",
         ):  # fmt: skip
             v = getattr(self, name)
@@ -386,7 +390,12 @@ class StepTracker:
             f.raw.append((x, y, z))
             f.outliers = 0
         else:
-            jump = math.dist(f.pos, (x, y, z))
+            # the distance from where the foot was heading (its last raw step continued): a fast
+            # foot (running) moves far between frames, a triangulation outlier jumps off its path
+            guess: tuple[float, ...] = tuple(f.raw[-1] if f.raw else f.pos)
+            if len(f.raw) >= 2 and f.outliers == 0:
+                guess = tuple(2 * a - b for a, b in zip(f.raw[-1], f.raw[-2], strict=True))
+            jump = min(math.dist(guess, (x, y, z)), math.dist(f.pos, (x, y, z)))
             allowed = c.outlier_legs * self._leg * max(1.0, dt * c.rate_hz)
             if jump > allowed and f.outliers < 2:
                 f.outliers += 1
@@ -494,6 +503,26 @@ class StepTracker:
                 return None
         return win
 
+    def _land_fast(self, f: _Foot, t: float) -> None:
+        """A short stance (running, a quick tap): the raw foot point of the last three frames stayed
+        within ``raw_land_k`` of its jitter on every axis, near the standing level. The smoothed
+        ankle is still moving then, so it is set to where the foot stands."""
+        c = self.config
+        if len(f.raw) < 3 or f.floor is None:
+            return
+        box_z = max(c.land_box * self._leg, c.raw_land_k * f.sigma_z)
+        box_h = max(c.land_box * self._leg, c.raw_land_k * f.sigma_h)
+        for i, box in ((0, box_h), (1, box_h), (2, box_z)):
+            vals = [r[i] for r in f.raw]
+            if max(vals) - min(vals) > box:
+                return
+        mid = [sorted(r[i] for r in f.raw)[1] for i in range(3)]
+        if mid[2] - f.floor >= max(c.land_height * self._leg, 0.5 * self._thresholds(f)[0]):
+            return
+        f.pos = mid
+        f.hist.append((t, mid[0], mid[1], mid[2]))
+        self._land(f, max(t - 2.0 / c.rate_hz, f.lift_t + c.min_swing_s))
+
     def _update_foot(self, k: int, t: float, dt: float) -> None:
         c = self.config
         f = self._feet[k]
@@ -532,6 +561,7 @@ class StepTracker:
         win = self._still_window(f, t)
         if win is None:
             f.still_since = math.nan
+            self._land_fast(f, t)
             return
         if math.isnan(f.still_since):
             f.still_since = win[0][0]

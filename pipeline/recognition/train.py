@@ -37,12 +37,12 @@ from pipeline.camera import look_at
 from pipeline.recognition.dataset import LabelledSequence
 from pipeline.recognition.features import (
     EVIDENCE_CHANNELS,
+    FEATURE_CHANNELS,
     FEATURES_V1,
     FEATURES_V2,
-    NUM_CHANNELS,
+    WITH_EVIDENCE,
     evidence_vector,
-    to_model_input,
-    to_model_input_v2,
+    model_input,
     window_features,
 )
 from pipeline.recognition.model import SkeletonSlowFast, SlowFastConfig
@@ -383,16 +383,16 @@ def batch_inputs(
     else:
         idx = _window_index(data, ends, window)
         feats = window_features(data.joints[idx], data.fps)
-    if features == FEATURES_V2:
-        if data.evidence is None:
-            raise ValueError("features v2 need the dataset's step evidence (dataset_from_sequences)")
-        ev = data.evidence[idx]
-        if speed is not None and step is not None:  # the evidence read at the same speed and step height
-            ev = ev.copy()
-            ev[..., _SWING] = np.minimum(ev[..., _SWING] / speed[..., None], 1.0)
-            ev[..., _HEIGHTS] = np.clip(ev[..., _HEIGHTS] * step[..., None], -0.5, 1.0)
-        return to_model_input_v2(feats, ev)
-    return to_model_input(feats)
+    if features not in WITH_EVIDENCE:
+        return model_input(feats, None, features)
+    if data.evidence is None:
+        raise ValueError(f"features {features} need the dataset's step evidence (dataset_from_sequences)")
+    ev = data.evidence[idx]
+    if speed is not None and step is not None:  # the evidence read at the same speed and step height
+        ev = ev.copy()
+        ev[..., _SWING] = np.minimum(ev[..., _SWING] / speed[..., None], 1.0)
+        ev[..., _HEIGHTS] = np.clip(ev[..., _HEIGHTS] * step[..., None], -0.5, 1.0)
+    return model_input(feats, ev, features)
 
 
 def dataset_from_sequences(
@@ -465,7 +465,7 @@ def train_model(
     torch.set_num_threads(config.threads)
     torch.use_deterministic_algorithms(True)
     rng = np.random.default_rng(config.seed)
-    in_channels = NUM_CHANNELS + (EVIDENCE_CHANNELS if config.features == FEATURES_V2 else 0)
+    in_channels = FEATURE_CHANNELS[config.features]
     model = SkeletonSlowFast(
         SlowFastConfig(
             in_channels=in_channels,
@@ -551,7 +551,7 @@ def export_onnx(
     if not isinstance(model, nn.Module):
         raise TypeError(f"export_onnx takes the trained torch module, got {type(model).__name__}")
     wrapped = WithSoftmax(model).eval()
-    channels = NUM_CHANNELS + (EVIDENCE_CHANNELS if features == FEATURES_V2 else 0)
+    channels = FEATURE_CHANNELS[features]
     dummy = torch.zeros(1, channels, window)
     path.parent.mkdir(parents=True, exist_ok=True)
     with warnings.catch_warnings():

@@ -33,7 +33,7 @@ from pipeline.errors import CavewalkError, ModelError
 from pipeline.recognition import corpus
 from pipeline.recognition.dataset import LabelledSequence
 from pipeline.recognition.evaluation import network_trace, replay, scored
-from pipeline.recognition.features import FEATURES_V2
+from pipeline.recognition.features import WITH_EVIDENCE
 from pipeline.recognition.metrics import Evaluation, evaluate
 from pipeline.recognition.recognizer import DEFAULT_MODEL_PATH, RecognizerConfig, model_info, open_session
 from pipeline.skeleton import ACTIONS
@@ -247,8 +247,8 @@ def finetune(
     model, facts = torch_from_onnx(base)
     data = to_dataset(items)
     features = facts["features"]
-    if features == FEATURES_V2 and data.evidence is None:
-        raise ModelError("features v2 need step evidence")
+    if features in WITH_EVIDENCE and data.evidence is None:
+        raise ModelError(f"features {features} need step evidence")
     window = int(facts["window"])
     ends_all = window_ends(data)
     p_ends = sampling_weights(data, 0.5)

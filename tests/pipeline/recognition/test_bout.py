@@ -161,6 +161,8 @@ def test_choose_direction_and_config_checks() -> None:
         GateConfig(start_prob=1.5)
     with pytest.raises(ValueError, match="min_allowance_s"):
         GateConfig(min_allowance_s=2.0, max_allowance_s=1.0)
+    with pytest.raises(ValueError, match="side_switch_steps"):
+        GateConfig(side_switch_steps=0)
 
 
 def test_a_foot_still_up_long_after_the_other_landed_is_a_step_not_a_jump() -> None:
@@ -174,3 +176,55 @@ def test_a_foot_still_up_long_after_the_other_landed_is_a_step_not_a_jump() -> N
         assert bool((labels[early] == F).any()) is moves_early, (
             f"{air=}: {[v.reason for v, e in zip(verdicts, early, strict=True) if e]}"
         )
+
+
+def _step_touch(foot: int, side: float, t0: float, cycles: int) -> list[Swing]:
+    """A step-touch that returns: the leading foot opens, the trailing foot joins it, then the
+    trailing foot steps back out to the other side (the way back) and the leading foot closes up."""
+    out = []
+    for c in range(cycles):
+        t = t0 + 2.4 * c
+        out += [
+            Swing(foot, t, t + 0.4, lateral=0.3 * side, peak=0.05),
+            Swing(1 - foot, t + 0.6, t + 1.0, lateral=0.3 * side, peak=0.04),
+            Swing(1 - foot, t + 1.2, t + 1.6, lateral=-0.3 * side, peak=0.04),
+            Swing(foot, t + 1.8, t + 2.2, lateral=-0.3 * side, peak=0.05),
+        ]
+    return out
+
+
+@pytest.mark.parametrize(("foot", "side", "want", "other"), [(1, 1.0, R, L), (0, -1.0, L, R)])
+def test_the_way_back_of_a_side_step_keeps_its_side(foot: int, side: float, want: int, other: int) -> None:
+    """Half the steps of a returning step-touch open to the other side; the bout is one command to
+    the side it leads with, even while the network reads the way back as the other side."""
+    swings = _step_touch(foot, side, 1.0, 3)
+    n = round(9.0 * FPS)
+    lead = np.full(4, 0.04)
+    lead[want] = 0.88
+    back = np.full(4, 0.04)
+    back[other] = 0.88  # the network sure the way back is the other side
+    t = np.arange(n) / FPS
+    in_back = np.zeros(n, dtype=bool)
+    for s in swings[2::4]:
+        in_back |= (t >= s.t0) & (t < s.t0 + 1.0)
+    probs = [back if in_back[i] else lead for i in range(n)]
+    labels, _, _ = _gate(Scene(9.0, tuple(swings), yaw_deg=-40.0), probs)
+    bout = labels[(t > swings[0].t0 + 0.3) & (t < swings[-1].t1)]
+    assert (bout == want).mean() > 0.9, f"{ACTIONS[want]} bout: {np.bincount(bout, minlength=4)}"
+    assert not (bout == other).any(), "the way back never turns the command to the other side"
+
+
+def test_side_steps_that_change_side_turn_the_bout_after_two_steps() -> None:
+    """Out-and-back steps of the right foot, then of the left foot, one bout: the command turns left
+    at the second step that opens to the left (the first could have been the way back)."""
+    out_back = [1.0 if i % 2 == 0 else -1.0 for i in range(6)]
+    right = [Swing(1, 1.0 + 0.9 * i, 1.4 + 0.9 * i, lateral=0.3 * out_back[i]) for i in range(4)]
+    left = [Swing(0, 4.6 + 0.9 * i, 5.0 + 0.9 * i, lateral=-0.3 * out_back[i]) for i in range(6)]
+    n = round(11.0 * FPS)
+    t = np.arange(n) / FPS
+    unsure = np.array([0.1, 0.3, 0.3, 0.3])
+    labels, _, _ = _gate(Scene(11.0, tuple(right + left)), unsure)
+    assert (labels[(t > 1.3) & (t < 4.6)] == R).mean() > 0.9
+    second_left_open = left[2].t0
+    assert (labels[(t > second_left_open + 0.3) & (t < left[-1].t1)] == L).mean() > 0.9
+    assert (labels[(t > left[0].t0 + 0.3) & (t < second_left_open)] == R).mean() > 0.9, "one step late"

@@ -313,11 +313,33 @@ def test_the_recogniser_reads_and_checks_the_models_features(tmp_path: Path) -> 
         RecognizerConfig(model_path=_tiny_model(tmp_path / "v1.onnx", 119, None))
     )
     assert old.info.features == "v1", "a model without the key is v1 (joints only)"
-    with pytest.raises(ModelError, match="features 'v3'"):
+    with pytest.raises(ModelError, match="features 'v9'"):
         ActionRecognizer.from_config(
-            RecognizerConfig(model_path=_tiny_model(tmp_path / "v3.onnx", 135, "v3"))
+            RecognizerConfig(model_path=_tiny_model(tmp_path / "v9.onnx", 135, "v9"))
         )
     with pytest.raises(ModelError, match=r"\(B, 135, 32\) for features v2"):
         ActionRecognizer.from_config(
             RecognizerConfig(model_path=_tiny_model(tmp_path / "bad.onnx", 119, "v2"))
         )
+
+
+def test_a_v3_model_does_not_see_the_arms_or_the_face(tmp_path: Path) -> None:
+    """features v3: the same input layout as v2 with every joint but shoulders, hips, knees and
+    ankles masked, so waving an arm or turning the head cannot change what the network says."""
+    from pipeline.recognition.features import V3_JOINTS
+
+    rng = np.random.default_rng(3)
+    base = np.tile(np.linspace(0, 1, 51).reshape(17, 3), (40, 1, 1)) + rng.normal(0, 0.01, (40, 17, 3))
+    waving = base.copy()
+    others = [j for j in range(17) if j not in V3_JOINTS]
+    waving[:, others] += rng.normal(0, 0.2, (40, len(others), 3))
+    outputs = {}
+    for version in ("v2", "v3"):
+        rec = ActionRecognizer.from_config(
+            RecognizerConfig(model_path=_tiny_model(tmp_path / f"{version}.onnx", 135, version), gate=False)
+        )
+        assert rec.info.features == version
+        last = [recognize_sequence(rec, x, FPS)[-1] for x in (base, waving)]
+        outputs[version] = [[e.probs[a] for a in ACTIONS] for e in last]
+    assert not np.allclose(*outputs["v2"]), "a v2 model sees the arms (the check can fail)"
+    assert np.allclose(*outputs["v3"], atol=1e-6), "a v3 model must not see the arms or the face"

@@ -156,3 +156,47 @@ def test_streaming_equals_the_whole_sequence_and_checks_input() -> None:
         tr.update(np.zeros((16, 3)), 10.0)
     with pytest.raises(ValueError, match="lift_up"):
         StepConfig(lift_up=0.0)
+
+
+def _jog(t0: float, steps: int, period: float, swing: float, peak: float) -> tuple[Swing, ...]:
+    """Running in place: the feet alternate every ``period`` / 2 and each stays up ``swing`` seconds,
+    so both are in the air for swing - period / 2 (flight) and each stands only period - swing."""
+    starts = [t0 + i * period / 2 for i in range(steps)]
+    return tuple(Swing(i % 2, s, s + swing, peak=peak) for i, s in enumerate(starts))
+
+
+@pytest.mark.parametrize(("period", "swing"), [(0.7, 0.5), (0.6, 0.43)])
+def test_running_feet_land_in_their_short_stances(period: float, swing: float) -> None:
+    """A jog's stance lasts 0.17 s: too short for the smoothed ankle to come to rest, so the touch-down
+    is read from the raw foot point of the last three frames (and no running step is a jump)."""
+    swings = _jog(1.0, 14, period, swing, 0.15)
+    ev, _ = _run(Scene(6.0, swings), sigma=0.005, drop=0.0)
+    landed = [
+        s for s in swings
+        if len(ev.lands[(ev.lands[:, 1] == s.foot) & (np.abs(ev.lands[:, 0] - s.t1) < 0.12)]) == 1
+    ]  # fmt: skip
+    lifted = [
+        s for s in swings
+        if len(ev.lifts[(ev.lifts[:, 1] == s.foot) & (np.abs(ev.lifts[:, 0] - s.t0) < 0.12)]) == 1
+    ]  # fmt: skip
+    assert len(landed) >= len(swings) - 1, f"{len(landed)} of {len(swings)} touch-downs seen"
+    assert len(lifted) >= len(swings) - 1, f"{len(lifted)} of {len(swings)} lift-offs seen"
+    assert not ev.jump.any(), "the feet of a jog leave the floor in turn: no jump"
+
+
+def test_a_fast_foot_is_followed_not_taken_for_an_outlier() -> None:
+    """A sprinting foot moves 30 cm between frames: it is where the foot was heading, not an outlier;
+    the same 30 cm off the foot's path in one frame still is one (the outliers test above)."""
+    swings = (Swing(1, 1.0, 1.4, sagittal=1.6, peak=0.35), Swing(1, 2.5, 2.9, sagittal=-1.6, peak=0.35))
+    ev, _ = _run(Scene(4.0, swings), sigma=0.003, drop=0.0)
+    for s in swings:
+        land = ev.lands[ev.lands[:, 1] == 1][:, 0]
+        assert np.min(np.abs(land - s.t1)) < 0.1, f"touch-downs at {land}, the foot landed at {s.t1}"
+        inside = slice(round((s.t0 + 0.1) * FPS), round((s.t1 - 0.05) * FPS))
+        moved = np.abs(np.diff(ev.sagittal_m[inside, 1]))
+        assert (moved > 0.01).all(), f"the foot is followed every frame, not in jumps: {np.round(moved, 2)}"
+        i = round((s.t1 + 0.3) * FPS)  # after the touch-down: the step's whole displacement
+        assert abs(ev.sagittal_m[i, 1] - s.sagittal) < 0.1, (
+            f"the right foot's step measured {ev.sagittal_m[i, 1]:.2f} m, it went {s.sagittal:.2f} m"
+        )
+    assert len(ev.lifts) == 2 and len(ev.lands) == 2, f"lifts {ev.lifts}, lands {ev.lands}"
