@@ -30,7 +30,7 @@ sys.path.insert(0, str(ROOT / "scripts"))
 from train_action import add_arguments, train_config  # noqa: E402
 
 from pipeline.recognition.evaluation import network_trace, replay, step_frames, tune_gate  # noqa: E402
-from pipeline.recognition.features import FEATURE_CHANNELS, FEATURES_V1, FEATURES_V2  # noqa: E402
+from pipeline.recognition.features import FEATURE_CHANNELS, FEATURES_V1, FEATURES_V2, FEATURES_V3  # noqa: E402
 from pipeline.recognition.metrics import Evaluation, ScoredSequence, evaluate  # noqa: E402
 from pipeline.recognition.prepare import SourceSpec, prepare_corpus, split_items, to_dataset  # noqa: E402
 from pipeline.recognition.recognizer import RecognizerConfig, open_session  # noqa: E402
@@ -41,6 +41,8 @@ VARIANTS = (
     ("+ gate", FEATURES_V1, True),
     ("+ features", FEATURES_V2, False),
     ("both", FEATURES_V2, True),
+    ("legs + features", FEATURES_V3, False),  # v3: arms and face masked
+    ("legs, both", FEATURES_V3, True),
 )
 
 

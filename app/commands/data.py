@@ -11,7 +11,7 @@ from app.core.config import get_settings
 from pipeline.demo_data import fetch_demo
 from pipeline.errors import InputError
 from pipeline.mocap import fetch_mocap
-from pipeline.mocap.sources import GAIT_SETS, SIM_SETS, write_sources
+from pipeline.mocap.sources import BLIND_SETS, GAIT_SETS, SIM_SETS, write_sources
 
 app = typer.Typer(name="data", help="Demo data.", no_args_is_help=True)
 
@@ -37,7 +37,8 @@ def sources(
     gait_count: int = typer.Option(
         None,
         "--gait-count",
-        help="routines per generated set (default: gait 24, gait-heldout 12, still 36, still-heldout 12)",
+        help="routines per generated set (default: gait 24, gait-heldout 12, still 36, still-heldout 12, "
+        "blind-heldout 12)",
     ),
     gait_duration: float = typer.Option(
         None, "--gait-duration", help="seconds per generated routine (default: 60 gait, 40 still)"
@@ -45,7 +46,7 @@ def sources(
 ) -> None:
     """Every named source as a folder of labelled NPZs, for --source NAME=DIR of the training and
     evaluation scripts: the real mocap clips per package, the gait model's and our simulator's still
-    library's train and held-out sets."""
+    library's train and held-out sets, and the third motion model's held-out set."""
     if gait_count is not None and gait_count < 1:
         raise InputError(f"--gait-count must be at least 1, got {gait_count}")
     if gait_duration is not None and not (0 < gait_duration <= 3600):
@@ -58,8 +59,12 @@ def sources(
         name: replace(spec, count=gait_count or spec.count, duration_s=gait_duration or spec.duration_s)
         for name, spec in SIM_SETS.items()
     }
+    blinds = {
+        name: replace(spec, count=gait_count or spec.count, duration_s=gait_duration or spec.duration_s)
+        for name, spec in BLIND_SETS.items()
+    }
     manifest = write_sources(
-        get_settings().paths.cache_dir, progress=typer.echo, gait_sets=sets, sim_sets=sims
+        get_settings().paths.cache_dir, progress=typer.echo, gait_sets=sets, sim_sets=sims, blind_sets=blinds
     )
     typer.echo("sources (train: may be trained on; eval: held-out evaluation only):")
     for name, m in manifest.items():

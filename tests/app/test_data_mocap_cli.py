@@ -59,6 +59,7 @@ def test_data_sources_writes_one_folder_per_named_source(
         "gait-heldout",
         "still",
         "still-heldout",
+        "blind-heldout",
     }
     for name, m in manifest.items():
         assert f"{name}={m['dir']}  [{m['use']}]" in res.output
@@ -91,6 +92,10 @@ def test_data_sources_writes_one_folder_per_named_source(
     assert manifest["gait-heldout"]["settings"]["noise_m"] == 0.012
     assert manifest["gait-heldout"]["settings"]["preset"] == "in-place"
     assert manifest["still-heldout"]["use"] == "eval" and manifest["still"]["use"] == "train"
+    blind = from_folder(manifest["blind-heldout"]["dir"], source="blind-heldout")
+    assert manifest["blind-heldout"]["use"] == "eval" and len(blind) == 2
+    assert all(len(s) == 360 and s.contacts is not None for s in blind)  # 12 s at 30 fps, with contacts
+    assert manifest["blind-heldout"]["settings"]["noise_m"] == 0.012
     still = from_folder(manifest["still"]["dir"], source="still")
     assert len(still) == 2 and all((s.labels == ACTIONS.index("still")).all() for s in still)
     assert manifest["still"]["frames_per_label"]["still"] == sum(len(s.labels) for s in still)
