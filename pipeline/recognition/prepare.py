@@ -184,7 +184,7 @@ def prepare_source(
         "seed": seed,
         "noise": asdict(noise),
         "steps": {k: v for k, v in asdict(StepConfig()).items() if k not in _NOT_IN_EVIDENCE},
-        "v": 6,
+        "v": 7,
     }
     digest = hashlib.sha1(json.dumps(key, sort_keys=True, default=str).encode()).hexdigest()[:12]
     path = Path(cache_dir) / f"action-source-{src.name}-{digest}.pkl"

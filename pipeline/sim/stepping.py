@@ -15,8 +15,10 @@ Behaviours (the frames' tags) and what the feet do:
   person travels sideways.
 - ``shuffle``: step-together as low slides without a visible lift (a low out-and-back is a
   ``side-step-out-back`` with a small ``knee_lift_m``).
-- ``turn`` (still): turning on the spot; each foot re-places itself in a few brief lifts or
-  swivels at irregular moments (no rhythm of steps) while the body turns smoothly.
+- ``turn`` (still): turning on the spot while the body turns smoothly: either each foot
+  re-places itself in a few brief lifts or swivels at irregular moments (no rhythm of steps), or
+  (half of the turns) in rhythmic pivot steps, left and right in turn at 1-2.4 steps/s, each
+  lifted 2-8 cm and turned 15-45 degrees: a rhythm like marching's, with the body turning.
 
 A bout's first lift-off is its segment's start and its last touch-down the segment's end
 (:func:`pipeline.sim.feet.bout_times`), so labels follow TEAM.md's LABELS exactly.
@@ -367,6 +369,8 @@ def pivot_turn(ctx: Ctx, t0: float, t1: float) -> None:
     total = yaw1 - yaw0
     if abs(total) < math.radians(3.0) or t1 - t0 < 0.2:
         return
+    if rng.random() < 0.5 and _rhythmic_pivots(ctx, t0, t1, total):
+        return
     per_foot = max(1, math.ceil(abs(total) / math.radians(float(rng.uniform(40.0, 75.0)))))
     first = LEFT if total > 0 else RIGHT  # turning left: the left foot opens first
     order = [(first + i) % 2 for i in range(2 * per_foot)]
@@ -397,3 +401,29 @@ def pivot_turn(ctx: Ctx, t0: float, t1: float) -> None:
             planted=swivel,
         )
         t = b + gaps[i + 1]
+
+
+def _rhythmic_pivots(ctx: Ctx, t0: float, t1: float, total: float) -> bool:
+    """Turn in rhythmic pivot steps (left and right in turn, each lifted and turned 15-45 degrees);
+    False (nothing planned) when the turn is too short for two such steps."""
+    rng, ch = ctx.rng, ctx.ch
+    per_step = math.radians(float(rng.uniform(15.0, 45.0)))
+    n = max(2, math.ceil(abs(total) / per_step))
+    period = (t1 - t0) / n
+    cadence = 1.0 / period
+    if cadence > 2.4:  # too fast for this turn: fewer, larger steps
+        n = max(2, math.floor((t1 - t0) * 2.4))
+        period = (t1 - t0) / n
+    if period < 0.3 or n < 2:
+        return False
+    swing = period * float(rng.uniform(0.5, 0.75))
+    lift = float(rng.uniform(0.02, 0.08))
+    first = LEFT if total > 0 else RIGHT  # turning left: the left foot opens first
+    for i in range(n):
+        f = (first + i) % 2
+        a = t0 + i * period + float(rng.uniform(0.0, 0.1)) * (period - swing)
+        b = a + swing
+        yaw = ch.yaw_at(t1) if i >= n - 2 else ch.yaw_at(b)
+        target = ctx.home(f, yaw) + ctx.jitter(0.01, yaw)
+        ctx.feet.move(f, a, b, target, ctx.feet_yaw(yaw, f), lift_m=lift * float(rng.uniform(0.8, 1.2)))
+    return True

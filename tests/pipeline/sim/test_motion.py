@@ -284,3 +284,42 @@ def test_stepping_starts_at_the_labelled_onset() -> None:
     assert ankles[onset : onset + 10].max() > rest.max() + 0.01, (
         "a foot must leave the floor soon after the onset"
     )
+
+
+def _turn_swings(m: UserMotion) -> list[tuple[int, int, int]]:
+    """(foot, lift frame, land frame) of each foot's swings from the ground-truth contacts."""
+    out = []
+    for k in (0, 1):
+        c = m.contacts[:, k]
+        for i in range(1, len(c)):
+            if c[i - 1] and not c[i]:
+                j = i
+                while j < len(c) and not c[j]:
+                    j += 1
+                out.append((k, i, j))
+    return sorted(out, key=lambda s: s[1])
+
+
+def test_turns_on_the_spot_come_in_both_styles_irregular_and_rhythmic_pivot_steps() -> None:
+    """A turn on the spot is still; some people re-place their feet now and then, others step left
+    and right in turn like a march while the body turns: both must be in the still library."""
+    rhythmic = irregular = 0
+    for seed in range(12):
+        turn = Segment("turn", 3.0, turn_deg=150.0)
+        script = MotionScript((Segment("still", 1.0), turn, Segment("still", 1.0)))
+        m = simulate_user(script, sample_body(np.random.default_rng(seed)), fps=FPS, seed=seed)
+        assert set(m.labels) == {"still"}
+        swings = [s for s in _turn_swings(m) if FPS <= s[1] < 4 * FPS]
+        feet = [s[0] for s in swings]
+        alternating = len(feet) >= 4 and all(a != b for a, b in itertools.pairwise(feet))
+        starts = np.array([s[1] for s in swings]) / FPS
+        regular = len(starts) >= 4 and np.std(np.diff(starts)) < 0.15 * np.mean(np.diff(starts))
+        if alternating and regular:
+            rhythmic += 1
+            lifts = [np.ptp(m.joints_m[a:b, J["l_ankle"] + k, 2]) for k, a, b in swings]
+            assert 0.01 < np.median(lifts) < 0.1, f"pivot steps lift 2-8 cm, got {np.median(lifts):.3f} m"
+        else:
+            irregular += 1
+        yaw_turned = (m.yaw_deg[int(4 * FPS)] - m.yaw_deg[int(FPS)] + 180) % 360 - 180
+        assert abs(yaw_turned - 150.0) < 5.0, f"the body turned {yaw_turned:.0f} degrees, not 150"
+    assert rhythmic >= 3 and irregular >= 3, f"{rhythmic} rhythmic and {irregular} irregular turns of 12"
