@@ -8,9 +8,10 @@
 Each source is prepared like the training data (:mod:`pipeline.recognition.prepare`: 30 fps,
 captured through the simulated CAVE cameras and our triangulation) but with its own seed
 (``--seed``, default 7919; training uses 0), so the routines, people and capture noise are new;
-only the original clips are scored (not mirrored, own speed). Every model's outputs are
-computed once (:func:`evaluation.network_trace`) and the streaming recogniser's filter and gate
-replayed (:func:`evaluation.replay`, checked against ``ActionRecognizer`` in
+only the original clips are scored (not mirrored, own speed). With ``--direct`` the sequences are
+scored as they are, at 30 fps, without the capture (what ``cavewalk evaluate --skeletons`` does).
+Every model's outputs are computed once (:func:`evaluation.network_trace`) and the streaming
+recogniser's filter and gate replayed (:func:`evaluation.replay`, checked against ``ActionRecognizer`` in
 tests/pipeline/recognition/test_evaluation.py), with the recogniser's default settings, with
 ``--both`` also without the gate, and with each ``--gate-variant NAME:KEY=VALUE,...`` (gate settings
 changed from the defaults, e.g. ``before:hold_still_prob=0,late_still_prob=1,jump_air_s=inf``).
@@ -23,7 +24,7 @@ import argparse
 import dataclasses
 import json
 import sys
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -33,12 +34,18 @@ sys.path.insert(0, str(ROOT / "scripts"))
 from loso_action import summary  # noqa: E402
 
 from pipeline.recognition.bout import GateConfig  # noqa: E402
+from pipeline.recognition.dataset import LabelledSequence  # noqa: E402
 from pipeline.recognition.evaluation import network_trace, replay, step_frames  # noqa: E402
 from pipeline.recognition.metrics import ScoredSequence, evaluate, text_report  # noqa: E402
-from pipeline.recognition.prepare import SourceSpec, prepare_corpus  # noqa: E402
+from pipeline.recognition.prepare import SourceSpec, clean_sequences, prepare_corpus  # noqa: E402
 from pipeline.recognition.recognizer import RecognizerConfig, open_session  # noqa: E402
 
 DEFAULT_SOURCES = ("sim=sim:stepping+mixed+still-heavy@48", "still=sim:still@32", "gait@24")
+
+
+@dataclass(frozen=True, slots=True)
+class _Item:
+    seq: LabelledSequence
 
 
 def gate_variant(text: str) -> tuple[str, GateConfig]:
@@ -67,6 +74,11 @@ def main() -> int:
     ap.add_argument("--cache", type=Path, default=Path("/tmp/cavewalk-action-cache"))
     ap.add_argument("--both", action="store_true", help="also without the gate")
     ap.add_argument(
+        "--direct",
+        action="store_true",
+        help="score the sequences as they are (30 fps), not captured through the simulated cameras",
+    )
+    ap.add_argument(
         "--gate-variant",
         action="append",
         default=[],
@@ -81,11 +93,15 @@ def main() -> int:
 
     variants = [gate_variant(v) for v in args.gate_variant]
     specs = [SourceSpec.parse(s) for s in (args.source or DEFAULT_SOURCES)]
-    items = [
-        it
-        for it in prepare_corpus(specs, args.cache, 32, args.duration, args.seed, progress=say)
-        if it.original
-    ]
+    if args.direct:  # the files' own joints, as `cavewalk evaluate --skeletons` reads them
+        seqs = [s for _, s, original in clean_sequences(specs, 32, args.duration, args.seed, say) if original]
+    else:
+        seqs = [
+            it.seq
+            for it in prepare_corpus(specs, args.cache, 32, args.duration, args.seed, progress=say)
+            if it.original
+        ]
+    items = [_Item(s) for s in seqs]
     frames = [step_frames(it.seq.joints_m, it.seq.fps) for it in items]
     out: dict[str, dict[str, dict[str, object]]] = {}
     base = RecognizerConfig()

@@ -35,7 +35,10 @@ What a user expects (MODEL_CARD.md, "Behaviour"):
   sideways away from the other foot is a side step to that foot's side; a vertical (march) or
   forward step is forward; a closing step (the trailing foot following, or the foot coming back)
   keeps the bout's direction, and so does a single opening step to the other side (the way back
-  of a step-touch); ``side_switch_steps`` of them in a row turn the bout to that side.
+  of a step-touch); ``side_switch_steps`` of them in a row turn the bout to that side, and so does
+  one after ``travel_steps`` opening steps the same way in a row (travelling sideways); a march step
+  (a foot up ``march_confirm_s`` without moving sideways, or landed so) turns a side-step bout
+  forward if the network agrees and no foot steps sideways.
 
 :class:`BoutGate` is streaming; it holds only what it needs (times of the bout's steps).
 """
@@ -82,6 +85,9 @@ class GateConfig:
     late_still_prob: float = 0.35  # past the median rhythm's due time, this p(still) ends the bout
     jump_air_s: float = 0.6  # a "jump" foot still up this long after the other landed: a step
     side_switch_steps: int = 2  # opening steps to the other side in a row that turn a side-step bout
+    travel_steps: int = 2  # ... or one, after this many opening steps the same way in a row (travel)
+    march_confirm_s: float = 0.2  # a side-step bout turns forward once a foot has risen this long without
+    # moving sideways (or on the landing of such a step)
 
     def __post_init__(self) -> None:
         if self.rhythm not in RHYTHMS:
@@ -98,6 +104,7 @@ class GateConfig:
             "max_allowance_s",
             "max_interval_s",
             "min_swing_s",
+            "march_confirm_s",
         ):
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
@@ -109,8 +116,11 @@ class GateConfig:
             )
         if not self.jump_air_s >= 0:
             raise ValueError(f"jump_air_s must be >= 0 (inf: never), got {self.jump_air_s}")
-        if self.side_switch_steps < 1:
-            raise ValueError(f"side_switch_steps must be >= 1, got {self.side_switch_steps}")
+        if self.side_switch_steps < 1 or self.travel_steps < 1:
+            raise ValueError(
+                f"side_switch_steps and travel_steps must be >= 1, got {self.side_switch_steps}, "
+                f"{self.travel_steps}"
+            )
         if self.pause_gain < 1 or self.evidence_weight < 1:
             raise ValueError(
                 f"pause_gain and evidence_weight must be >= 1, got {self.pause_gain}, {self.evidence_weight}"
@@ -191,6 +201,7 @@ class BoutGate:
         self._side = _STILL  # the side (left / right) the bout's side steps lead to; still = none yet
         self._side_lift = math.nan  # lift-off of the newest opening step counted for it
         self._opposite = 0  # opening steps to the other side since, in a row
+        self._same = 0  # opening steps to the bout's side in a row
         self._side_t = -math.inf  # when the bout's newest step was seen (the side is kept that long)
 
     def _stance_ok(self, frame: StepFrame, k: int) -> bool:
@@ -237,11 +248,16 @@ class BoutGate:
         if lift != self._side_lift:  # a new opening step
             self._side_lift = lift
             if self._side == _STILL or ev == self._side:
+                self._same = self._same + 1 if ev == self._side else 1
                 self._side, self._opposite = ev, 0
             else:
                 self._opposite += 1
-                if self._opposite >= self.config.side_switch_steps:
-                    self._side, self._opposite = ev, 0
+                # after several steps the same way (travelling sideways) a step the other way is a
+                # new direction; after one it may be the way back
+                if self._opposite >= self.config.side_switch_steps or self._same >= self.config.travel_steps:
+                    self._side, self._opposite, self._same = ev, 0, 1
+                else:  # the way back: the next step out starts a new run
+                    self._same = 0
         return self._side
 
     def _start_direction(self, frame: StepFrame, ev: int | None, p: NDArray[np.float64]) -> int:
@@ -261,7 +277,7 @@ class BoutGate:
         # A bout that ended in a pause keeps the side of its steps (the next step may be the way
         # back); a broken rhythm keeps the person's own pauses too.
         if reason not in ("rhythm-broke", "network-still"):
-            self._side, self._side_lift, self._opposite = _STILL, math.nan, 0
+            self._side, self._side_lift, self._opposite, self._same = _STILL, math.nan, 0, 0
         if reason != "rhythm-broke":
             self._intervals.clear()
             self._last_lift_t = self._bout_land_t = math.nan
@@ -288,7 +304,7 @@ class BoutGate:
                 elif not self._active:
                     self._intervals.clear()
                 if not self._active and not f.event_t - self._side_t <= c.max_interval_s:
-                    self._side, self._opposite = _STILL, 0  # a side remembered from a bout long over
+                    self._side, self._opposite, self._same = _STILL, 0, 0  # a side from a bout long over
                 self._last_lift_t = f.event_t
                 if self._active:
                     self._side_t = f.event_t
@@ -339,12 +355,20 @@ class BoutGate:
         if landed_steps and max(landed_steps) < c.stop_prob:
             return self._end("network-still", ev_name)
         sideways = self._label in (_LEFT, _RIGHT) and self._side != _STILL  # seen stepping sideways
-        if sideways and any(f.landed and f.kind in ("vertical", "forward") for f in frame.feet):
-            # a side-step bout turns forward on a landed march step, not on the first frames of a
-            # swing (every side step rises before it moves sideways)
-            self._label = choose_direction(p, _FORWARD, c, self._label)
+        # a side-step bout turns forward on a landed march step (if the network agrees), not on the
+        # rising start of a side step, nor while the other foot steps sideways
+        landed = [f.kind for f in frame.feet if f.landed]
+        sideways_swing = any(not f.planted and f.kind in ("open", "close") for f in frame.feet)
+        march_landed = bool(landed) and all(k in ("vertical", "forward") for k in landed)
+        if sideways and march_landed and not sideways_swing and choose_direction(p, _FORWARD, c) == _FORWARD:
+            self._label = _FORWARD
         if swings:
-            if stepping and ev is not None and not (sideways and ev == _FORWARD):
+            k = frame.stepping
+            if sideways and ev == _FORWARD and k >= 0 and frame.feet[k].swing_s >= c.march_confirm_s:
+                # a foot up this long without moving sideways is a march step, not a side step's rise
+                if choose_direction(p, _FORWARD, c) == _FORWARD:
+                    self._label = _FORWARD
+            elif stepping and ev is not None and not (sideways and ev == _FORWARD):
                 side = self._side_evidence(frame, ev)
                 if side == ev or self._label not in (_LEFT, _RIGHT):
                     self._label = choose_direction(p, side, c, self._label)

@@ -163,6 +163,8 @@ def test_choose_direction_and_config_checks() -> None:
         GateConfig(min_allowance_s=2.0, max_allowance_s=1.0)
     with pytest.raises(ValueError, match="side_switch_steps"):
         GateConfig(side_switch_steps=0)
+    with pytest.raises(ValueError, match="travel_steps"):
+        GateConfig(travel_steps=0)
 
 
 def test_a_foot_still_up_long_after_the_other_landed_is_a_step_not_a_jump() -> None:
@@ -214,17 +216,23 @@ def test_the_way_back_of_a_side_step_keeps_its_side(foot: int, side: float, want
     assert not (bout == other).any(), "the way back never turns the command to the other side"
 
 
-def test_side_steps_that_change_side_turn_the_bout_after_two_steps() -> None:
-    """Out-and-back steps of the right foot, then of the left foot, one bout: the command turns left
-    at the second step that opens to the left (the first could have been the way back)."""
+def test_side_steps_that_change_side_turn_the_bout() -> None:
+    """Out-and-back steps of the right foot, then of the left foot, in one bout: after two steps out
+    to the right, the first step out to the left turns the command left at once; after a single
+    step out to the right, the first step left may be the way back and the second one turns it."""
     out_back = [1.0 if i % 2 == 0 else -1.0 for i in range(6)]
-    right = [Swing(1, 1.0 + 0.9 * i, 1.4 + 0.9 * i, lateral=0.3 * out_back[i]) for i in range(4)]
-    left = [Swing(0, 4.6 + 0.9 * i, 5.0 + 0.9 * i, lateral=-0.3 * out_back[i]) for i in range(6)]
-    n = round(11.0 * FPS)
-    t = np.arange(n) / FPS
     unsure = np.array([0.1, 0.3, 0.3, 0.3])
-    labels, _, _ = _gate(Scene(11.0, tuple(right + left)), unsure)
-    assert (labels[(t > 1.3) & (t < 4.6)] == R).mean() > 0.9
-    second_left_open = left[2].t0
-    assert (labels[(t > second_left_open + 0.3) & (t < left[-1].t1)] == L).mean() > 0.9
-    assert (labels[(t > left[0].t0 + 0.3) & (t < second_left_open)] == R).mean() > 0.9, "one step late"
+    for n_right, late in ((4, False), (2, True)):
+        firsts = out_back[:n_right]
+        right = [Swing(1, 1.0 + 0.9 * i, 1.4 + 0.9 * i, lateral=0.3 * b) for i, b in enumerate(firsts)]
+        t0 = right[-1].t1 + 0.5
+        left = [Swing(0, t0 + 0.9 * i, t0 + 0.4 + 0.9 * i, lateral=-0.3 * b) for i, b in enumerate(out_back)]
+        t_left = t0
+        duration = left[-1].t1 + 1.5
+        t = np.arange(round(duration * FPS)) / FPS
+        labels, _, _ = _gate(Scene(duration, tuple(right + left)), unsure)
+        assert (labels[(t > 1.3) & (t < t_left)] == R).mean() > 0.9
+        turn = left[2].t0 if late else left[0].t0
+        assert (labels[(t > turn + 0.3) & (t < left[-1].t1)] == L).mean() > 0.9, f"{n_right} steps right"
+        if late:
+            assert (labels[(t > left[0].t0 + 0.3) & (t < turn)] == R).mean() > 0.9, "one step late"
