@@ -9,18 +9,14 @@ from typing import Annotated
 
 import typer
 
-from app.core.config import Settings, get_settings
+from app.core.config import get_settings
+from app.services.pipeline_factory import chain_config
 from pipeline.calibration.io import load_calibration
 from pipeline.camera import Camera
 from pipeline.errors import InputError
-from pipeline.recognition.recognizer import ActionRecognizer
 from pipeline.results import ResultsWriter
-from pipeline.runtime.offline import FusionStage, OfflinePipeline, RunSummary, SyncedVideos, parse_named_paths
-from pipeline.runtime.stages import Fusion
-from pipeline.tracking.stage import DetectAndTrack
-from pipeline.triangulation.config import ReconstructionConfig
-from pipeline.triangulation.navigator import NavigatorSelector
-from pipeline.triangulation.reconstructor import Reconstructor
+from pipeline.runtime.chain import PoseModel, build_chain
+from pipeline.runtime.offline import OfflinePipeline, RunSummary, SyncedVideos, parse_named_paths
 
 log = logging.getLogger(__name__)
 
@@ -37,19 +33,6 @@ def _calibrated_cameras(path: Path, cameras: list[str]) -> list[Camera]:
             f"(video names must match the calibration's camera names)"
         )
     return [by_name[c] for c in cameras]
-
-
-def _fusion_stage(settings: Settings, cameras: list[Camera]) -> FusionStage:
-    """Triangulation, navigator choice and action recognition over the tracked views."""
-    return FusionStage(Fusion(
-        tracker=None,
-        reconstructor=Reconstructor(
-            cameras, ReconstructionConfig(settings.triangulation, settings.association, settings.tracks3d,
-                                          settings.identity)
-        ),
-        selector=NavigatorSelector(settings.navigator),
-        recognizer=ActionRecognizer.from_config(settings.recognition),
-    ))
 
 
 def _check_out(out: Path) -> None:
@@ -108,8 +91,9 @@ def process(
     _check_out(out)
     pose = settings.pose if roi is None else replace(settings.pose, roi=roi)
     with SyncedVideos(named) as videos:
-        stage = DetectAndTrack.load(pose, settings.tracking, settings.pose_model_path, list(videos.cameras))
-        pipeline = OfflinePipeline(stage, stages=[_fusion_stage(settings, cameras)])
+        chain = chain_config(settings).with_views(PoseModel(pose, settings.pose_model_path), videos.cameras,
+                                                  tuple(cameras))
+        pipeline = OfflinePipeline(build_chain(chain, need_actions=True))
         total = videos.frame_count if frames is None else min(frames, videos.frame_count or frames)
         typer.echo(f"processing {len(named)} videos, {total or '?'} frames (as the files report) at "
                    f"{videos.fps:g} fps (ROI mode {'on' if pose.roi else 'off'}) -> {out}", err=True)

@@ -14,7 +14,7 @@ from typing import Annotated, Any
 
 import typer
 
-from app.core.config import get_settings
+from app.core.config import Settings, get_settings
 from app.services.pipeline_factory import build_pipeline, simulator_factory
 from pipeline.calibration.io import load_calibration
 from pipeline.demo_data import fetch_demo
@@ -22,6 +22,8 @@ from pipeline.emitter.receiver import open_receiver_socket, receive
 from pipeline.errors import InputError
 from pipeline.navigation.config import NavigationConfig
 from pipeline.runtime.bench import Scenario, machine_info, run_scenario
+from pipeline.runtime.chain import SimWorldFactory
+from pipeline.runtime.config import RuntimeConfig
 from pipeline.runtime.pipeline import Pipeline
 
 app = typer.Typer()
@@ -227,7 +229,7 @@ def _scenarios(source: str, flat_out: bool, people: list[int] | None = None,
     return out
 
 
-def _sim_pipeline(settings: Any, sim: Any, config: Any) -> Callable[[], Pipeline]:
+def _sim_pipeline(settings: Settings, sim: SimWorldFactory, config: RuntimeConfig) -> Callable[[], Pipeline]:
     return lambda: build_pipeline(settings, None, sim, runtime=config)
 
 

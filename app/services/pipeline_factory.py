@@ -17,9 +17,9 @@ from app.services.calibration import cameras_from_result
 from app.services.live import PipelineFacade
 from pipeline.camera import Camera
 from pipeline.recognition.recognizer import RecognizerConfig
+from pipeline.runtime.chain import ChainConfig, PoseModel, SimWorldFactory
 from pipeline.runtime.config import RuntimeConfig
 from pipeline.runtime.pipeline import Pipeline
-from pipeline.runtime.stages import FusionFactory, PoseStageFactory, SimWorldFactory
 from pipeline.sim.world import SimConfig
 from pipeline.triangulation.config import ReconstructionConfig
 
@@ -31,16 +31,20 @@ def simulator_factory(settings: Settings, sim: SimConfig | None = None) -> SimWo
     return SimWorldFactory.build(sim or settings.sim, settings.cave.geometry())
 
 
-def fusion_factory(settings: Settings, cameras: list[Camera] | None,
-                   recognition: RecognizerConfig | None = None) -> FusionFactory:
-    """Tracking, triangulation, navigator, recognition and head pose from their sections
-    (``recognition`` in place of the settings' own: the registry's active model)."""
+def pose_model(settings: Settings) -> PoseModel:
+    """The detector of camera images: the pose section and its model file."""
+    return PoseModel(settings.pose, settings.pose_model_path)
+
+
+def chain_config(settings: Settings, recognition: RecognizerConfig | None = None) -> ChainConfig:
+    """The recognition chain's stages from their sections: tracking, triangulation, navigator,
+    recognition (``recognition`` in place of the settings' own: the registry's active model),
+    head pose, navigation. Its detector and views are the run's (:meth:`ChainConfig.with_views`)."""
     reconstruction = ReconstructionConfig(settings.triangulation, settings.association, settings.tracks3d,
                                           settings.identity)
-    return FusionFactory(cameras=tuple(cameras) if cameras else None, camera_names=(),
-                         tracking=settings.tracking, reconstruction=reconstruction,
-                         navigator=settings.navigator, recognition=recognition or settings.recognition,
-                         head=settings.head, navigation=settings.navigation)
+    return ChainConfig(tracking=settings.tracking, reconstruction=reconstruction,
+                       navigator=settings.navigator, recognition=recognition or settings.recognition,
+                       head=settings.head, navigation=settings.navigation)
 
 
 def build_pipeline(settings: Settings, cameras: list[Camera] | None = None,
@@ -50,8 +54,7 @@ def build_pipeline(settings: Settings, cameras: list[Camera] | None = None,
     return Pipeline(
         runtime or settings.runtime, cameras,
         camera_sources={c.name: c.source for c in settings.cameras},
-        pose_factory=PoseStageFactory(settings.pose, settings.pose_model_path, settings.tracking),
-        fusion=fusion_factory(settings, cameras, recognition), sim_factory=sim,
+        chain=chain_config(settings, recognition), pose=pose_model(settings), simulator=sim,
         workstations=settings.endpoints, emitter=settings.emitter,
     )
 

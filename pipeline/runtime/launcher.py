@@ -11,25 +11,26 @@ from __future__ import annotations
 
 import logging
 import multiprocessing as mp
+import multiprocessing.queues as mpq
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
+from multiprocessing.context import BaseContext
 from pathlib import Path
-from typing import Any
 
 from pipeline.camera import Camera
 from pipeline.errors import SourceError
 from pipeline.runtime.board import StatusBoard
+from pipeline.runtime.chain import ChainConfig, PoseModel, SimWorldFactory
 from pipeline.runtime.config import RuntimeConfig
 from pipeline.runtime.mailbox import Mailbox
-from pipeline.runtime.messages import WorkerEvent
+from pipeline.runtime.messages import T, WorkerEvent
 from pipeline.runtime.metrics import RuntimeMetrics
 from pipeline.runtime.plan import slot_bytes
-from pipeline.runtime.run import Run, RunCamera, SimFactory
+from pipeline.runtime.run import Run, RunCamera
 from pipeline.runtime.shm import FrameRing, RingSpec
 from pipeline.runtime.sinks import StreamSpec
-from pipeline.runtime.stages import FusionFactory
 from pipeline.runtime.supervisor import Supervisor, WorkerDef, drain
 from pipeline.runtime.workers import CaptureSpec, DetectSpec, capture_loop, detect_loop, fuse_loop, sim_loop
 from pipeline.sources import source_kind
@@ -39,19 +40,20 @@ from pipeline.takes.video import VideoControl
 log = logging.getLogger(__name__)
 
 # imported once by the fork server, so a worker (re)started from it runs at once
-FORKSERVER_PRELOAD = ["numpy", "cv2", "pipeline.runtime.workers", "pipeline.runtime.stages",
+FORKSERVER_PRELOAD = ["numpy", "cv2", "pipeline.runtime.workers", "pipeline.runtime.chain",
                       "pipeline.triangulation.reconstructor", "pipeline.triangulation.navigator"]
 
 
 @dataclass(frozen=True)
 class ChainParts:
-    """What a run's chain is built from (the pipeline's parts at the time of the start)."""
+    """What a run's chain is built from (the pipeline's parts at the time of the start): the chain's
+    stages, and the detectors it may run on (the pose model for images, the simulator)."""
 
-    fusion: FusionFactory
+    chain: ChainConfig
     stream: StreamSpec
     cameras_calibrated: tuple[Camera, ...] | None
-    pose_factory: Callable[[], Any] | None
-    sim_factory: SimFactory | None
+    pose: PoseModel | None
+    simulator: SimWorldFactory | None
 
 
 class Launcher:
@@ -78,24 +80,25 @@ class Launcher:
             raise
         return run
 
-    def _launch_sim(self, ctx: Any, run: Run, parts: ChainParts) -> None:
-        sim = parts.sim_factory
+    def _launch_sim(self, ctx: BaseContext, run: Run, parts: ChainParts) -> None:
+        sim = parts.simulator
         if sim is None:
             raise SourceError("the simulator is not available in this pipeline")
         run.cameras = {c.name: RunCamera(c.name, ok=True) for c in sim.cameras}
-        names = tuple(c.name for c in sim.cameras)
-        fusion = replace(parts.fusion, cameras=tuple(sim.cameras), camera_names=names)
+        chain = parts.chain.on_simulator(sim)
         run.det_box, run.out_box = Mailbox.create("det"), Mailbox.create("fused")
         det, out, stream = run.det_box.spec, run.out_box.spec, parts.stream
 
         def build_sim() -> list[WorkerDef]:
             run.control_q = ctx.Queue(maxsize=16)
-            return [("simulator", sim_loop, (sim, sim.fps, det)),
-                    ("fuse", fuse_loop, (fusion, det, out, run.control_q, stream))]
+            return [("simulator", sim_loop, (chain, det)),
+                    ("fuse", fuse_loop, (chain, det, out, run.control_q, stream))]
 
         run.supervisor.add_group("chain", build_sim)
 
-    def _launch_images(self, ctx: Any, run: Run, plan: dict[str, str], parts: ChainParts) -> None:
+    def _launch_images(self, ctx: BaseContext, run: Run, plan: dict[str, str], parts: ChainParts) -> None:
+        if parts.pose is None:
+            raise SourceError("no pose detector configured for image sources")
         names = tuple(plan)
         start_s = time.monotonic() + 0.5  # one trigger for every file source: they stay in step
         for name, uri in plan.items():
@@ -105,24 +108,20 @@ class Launcher:
             calibrated = tuple(c for c in parts.cameras_calibrated if c.name in plan)
             if len(calibrated) < 2:
                 calibrated = None
-        fusion = replace(parts.fusion, cameras=calibrated, camera_names=names)
+        chain = parts.chain.with_views(parts.pose, names, calibrated)
         dspec = DetectSpec(names, self.config.target_fps, self.config.grouper)
         rings = tuple(run.cameras[n].ring.spec for n in names)  # type: ignore[union-attr]
-        pose = parts.pose_factory
-        with_cameras = getattr(pose, "with_cameras", None)
-        if with_cameras is not None:  # the pose stage tracks each camera's people as well
-            pose = with_cameras(names)
         run.det_box, run.out_box = Mailbox.create("det"), Mailbox.create("fused")
         det, out, stream = run.det_box.spec, run.out_box.spec, parts.stream
 
-        def build_chain() -> list[WorkerDef]:
+        def build_workers() -> list[WorkerDef]:
             run.control_q = ctx.Queue(maxsize=16)
-            return [("detect", detect_loop, (dspec, rings, pose, det)),
-                    ("fuse", fuse_loop, (fusion, det, out, run.control_q, stream))]
+            return [("detect", detect_loop, (dspec, rings, chain, det)),
+                    ("fuse", fuse_loop, (chain, det, out, run.control_q, stream))]
 
-        run.supervisor.add_group("chain", build_chain)
+        run.supervisor.add_group("chain", build_workers)
 
-    def _launch_capture(self, ctx: Any, run: Run, name: str, uri: str, start_s: float) -> None:
+    def _launch_capture(self, ctx: BaseContext, run: Run, name: str, uri: str, start_s: float) -> None:
         kind = source_kind(uri)
         pace = self.config.video_pace_fps
         capacity, native_fps = self.config.max_frame_bytes, 30.0
@@ -145,11 +144,8 @@ class Launcher:
         for t in run.threads:
             if t is not threading.current_thread():
                 t.join(timeout=2.0)
-        for q in (run.control_q, run.events_q):
-            if q is not None:
-                drain(q)
-                q.close()
-                q.cancel_join_thread()
+        _release(run.control_q)
+        _release(run.events_q)
         for box in (run.det_box, run.out_box):
             if box is not None:
                 box.unlink()
@@ -233,6 +229,14 @@ class Supervision:
             elif not fresh and cam.ok:
                 cam.ok = False
                 cam.last_error = cam.last_error or f"no frame for {gone:.1f} s"
+
+
+def _release(q: mpq.Queue[T] | None) -> None:
+    """Empty and close a run's queue (its feeder thread must not hold up the exit)."""
+    if q is not None:
+        drain(q)
+        q.close()
+        q.cancel_join_thread()
 
 
 def _capture_group(spec: CaptureSpec, ring: RingSpec, video: VideoControl | None = None

@@ -10,11 +10,15 @@ from __future__ import annotations
 import queue
 import time
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Literal, Protocol, TypeVar
 
 from pipeline.pose.types import ViewDetections
 from pipeline.results import FrameResult
 from pipeline.tracking.types import TrackedView
+
+if TYPE_CHECKING:
+    from pipeline.takes.teach import OutputAdaptation
+    from pipeline.triangulation.navigator import NavigatorChange
 
 WorkerEventKind = Literal["started", "stopped", "error", "camera_lost", "camera_ok", "ended", "info"]
 WORKER_EVENT_KINDS = ("started", "stopped", "error", "camera_lost", "camera_ok", "ended", "info")
@@ -37,8 +41,10 @@ class WorkerEvent:
 
 @dataclass(frozen=True, slots=True)
 class DetectedFrame:
-    """The pose stage's output for one multi-view frame.
+    """What a detector found in one multi-view frame: the pose model in camera images, or the
+    simulator's virtual cameras (:class:`pipeline.runtime.stages.SimDetector`).
 
+    views: each view's detections, not tracked yet (the pose stage tracks them).
     timestamp_s: capture time of the group (monotonic); the stamps below are monotonic too.
     missing: cameras without an image in this frame. dropped: camera frames skipped since
     the previous multi-view frame (summed over cameras, divided by the number of cameras).
@@ -52,7 +58,32 @@ class DetectedFrame:
     missing: tuple[str, ...] = ()
     dropped: float = 0.0
     source_index: int = -1  # the sources' own frame index (counts the frames they skipped too)
-    tracked: tuple[TrackedView, ...] | None = None  # when the pose stage tracked the views too
+
+
+@dataclass(frozen=True, slots=True)
+class TrackedFrame:
+    """The pose stage's output, fusion's input: a detected frame with each view's people tracked.
+
+    views: one per view of ``detected``, in the same order; ``views[i].detections`` is
+    ``detected.views[i]``.
+    """
+
+    detected: DetectedFrame
+    views: tuple[TrackedView, ...]
+
+    def __post_init__(self) -> None:
+        got = tuple(v.camera for v in self.views)
+        want = tuple(v.camera for v in self.detected.views)
+        if got != want:
+            raise ValueError(f"tracked views {list(got)} do not match the detected views {list(want)}")
+
+    @property
+    def frame_index(self) -> int:
+        return self.detected.frame_index
+
+    @property
+    def timestamp_s(self) -> float:
+        return self.detected.timestamp_s
 
 
 @dataclass(frozen=True, slots=True)
@@ -64,7 +95,7 @@ class FusedFrame:
     fuse_end_s: float
     navigator_mode: str = "auto"
     dropped_here: int = 0
-    navigator_changes: tuple[Any, ...] = ()  # pipeline.triangulation.navigator.NavigatorChange
+    navigator_changes: tuple[NavigatorChange, ...] = ()
     sent_s: float | None = None  # when the fusion worker's sinks (the UDP stream) had it (monotonic)
 
 
@@ -79,7 +110,7 @@ class SetNavigator:
 class SetAdaptation:
     """Control message to the fusion stage: a participant's teach adaptation (None: none)."""
 
-    adaptation: Any
+    adaptation: OutputAdaptation | None
 
 
 @dataclass(frozen=True, slots=True)
@@ -99,7 +130,24 @@ class SendPrompt:
     remaining_s: float
 
 
-def put_latest(q: Any, item: object, retries: int = 3) -> int:
+ControlMessage = SetNavigator | SetAdaptation | SetNavigation | SendPrompt
+"""What the main process tells a running fusion worker (its control queue)."""
+
+
+T = TypeVar("T")
+
+
+class BoundedQueue(Protocol[T]):
+    """A bounded queue of ``T`` (``multiprocessing`` or ``queue``), as :func:`put_latest` uses it."""
+
+    def put_nowait(self, item: T, /) -> None: ...
+
+    def get(self, block: bool = True, timeout: float | None = None) -> T: ...
+
+    def get_nowait(self) -> T: ...
+
+
+def put_latest(q: BoundedQueue[T], item: T, retries: int = 3) -> int:
     """Put without blocking; when the queue is full drop the oldest first. Returns how many were dropped."""
     dropped = 0
     for _ in range(retries):
@@ -115,7 +163,7 @@ def put_latest(q: Any, item: object, retries: int = 3) -> int:
     return dropped + 1  # the item itself could not be queued
 
 
-def drain_latest(q: Any, first: object) -> tuple[object, int]:
+def drain_latest(q: BoundedQueue[T], first: T) -> tuple[T, int]:
     """The newest item waiting in ``q`` (``first`` if none), and how many older ones were skipped."""
     item, skipped = first, 0
     while True:

@@ -1,9 +1,8 @@
 """The offline pipeline over synchronised video files (``cavewalk process``).
 
-:class:`SyncedVideos` reads one frame of every video per step. :class:`OfflinePipeline`
-turns each multi-view frame into a :class:`FrameResult` in :meth:`OfflinePipeline.step`:
-detection + tracking now; the later stages (triangulation, recognition) plug in as
-``FrameStage`` callables that take the result so far and return it completed.
+:class:`SyncedVideos` reads one frame of every video per step. :class:`OfflinePipeline` runs
+each multi-view frame through the recognition chain (:func:`pipeline.runtime.chain.build_chain`,
+the same stages the live runtime runs) and writes its :class:`FrameResult`.
 """
 
 from __future__ import annotations
@@ -13,7 +12,6 @@ import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Protocol
 
 import cv2
 import numpy as np
@@ -21,9 +19,8 @@ from numpy.typing import NDArray
 
 from pipeline.errors import InputError, SourceError
 from pipeline.results import FrameResult, ResultsWriter
-from pipeline.runtime.messages import DetectedFrame
-from pipeline.runtime.stages import Fusion
-from pipeline.tracking.stage import DetectAndTrack, StepTimings
+from pipeline.runtime.chain import Chain
+from pipeline.tracking.stage import StepTimings
 
 log = logging.getLogger(__name__)
 
@@ -38,31 +35,6 @@ def codec_name(cap: cv2.VideoCapture) -> str:
     """The stream's FourCC as text ('h264', 'mjpg', ...), '' when unknown."""
     code = int(cap.get(cv2.CAP_PROP_FOURCC)) & 0xFFFFFFFF
     return code.to_bytes(4, "little").decode("ascii", errors="replace").strip("\x00 ").lower()
-
-
-class FrameStage(Protocol):
-    """A later stage: completes a frame's result (people3d, navigator, action)."""
-
-    def __call__(self, result: FrameResult) -> FrameResult: ...
-
-
-class FusionStage:
-    """The later stages as one :class:`FrameStage`: the live runtime's :class:`Fusion`
-    (triangulation, navigator, recognition) fed with views that are already tracked."""
-
-    def __init__(self, fusion: Fusion) -> None:
-        if fusion.tracker is not None:
-            raise ValueError("FusionStage takes tracked views: build its Fusion without a tracker")
-        self.fusion = fusion
-
-    def __call__(self, result: FrameResult) -> FrameResult:
-        frame = DetectedFrame(
-            result.frame_index, result.timestamp_s,
-            views=tuple(v.detections for v in result.views),
-            detect_start_s=result.timestamp_s, detect_end_s=result.timestamp_s,
-            tracked=tuple(result.views),
-        )
-        return self.fusion.update(frame)
 
 
 def parse_named_paths(items: Sequence[str], what: str = "video") -> dict[str, Path]:
@@ -202,20 +174,15 @@ class RunSummary:
 
 
 class OfflinePipeline:
-    """Detection + tracking (+ later stages) over multi-view frames, results to JSON Lines."""
+    """The recognition chain over multi-view frames of images, results to JSON Lines."""
 
-    def __init__(self, detect_track: DetectAndTrack, stages: Sequence[FrameStage] = ()) -> None:
-        self.detect_track = detect_track
-        self.stages = tuple(stages)
+    def __init__(self, chain: Chain) -> None:
+        self.chain = chain
 
     def step(self, frame_index: int, timestamp_s: float,
-             images: Sequence[U8]) -> tuple[FrameResult, StepTimings]:
+             images: list[U8]) -> tuple[FrameResult, StepTimings]:
         """One multi-view frame (images in camera order) -> its result."""
-        views, timings = self.detect_track.step(images, frame_index, timestamp_s)
-        result = FrameResult(frame_index, timestamp_s, views=views)
-        for stage in self.stages:
-            result = stage(result)
-        return result, timings
+        return self.chain.images(frame_index, timestamp_s, images)
 
     def run(
         self,
@@ -225,9 +192,9 @@ class OfflinePipeline:
         progress: Callable[[int, int, RunSummary], None] | None = None,
     ) -> RunSummary:
         """Process the videos (all frames, or the first ``max_frames``), writing one line per frame."""
-        if tuple(videos.cameras) != tuple(self.detect_track.cameras):
+        if tuple(videos.cameras) != self.chain.pose.cameras:
             raise InputError(f"videos {list(videos.cameras)} and tracker cameras "
-                             f"{list(self.detect_track.cameras)} differ")
+                             f"{list(self.chain.pose.cameras)} differ")
         total = videos.frame_count
         if max_frames is not None:
             total = min(max_frames, total or max_frames)

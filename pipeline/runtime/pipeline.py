@@ -3,11 +3,13 @@
 Topology (one process per box; frames in shared memory, small results in mailboxes)::
 
     capture cam01 ─┐ shm ring
-    capture cam02 ─┼──────────> detect (grouping + batched pose) ──> fuse ──> main: collector (sinks)
-    ...           ─┘                                                  └─> UDP/OSC stream (StreamSink)
-    simulator ──────────────────────────────────────────────────────> fuse ──> (same)
+    capture cam02 ─┼──────────> detect (grouping, pose stage) ──> fuse ──> main: collector (sinks)
+    ...           ─┘                                               └─> UDP/OSC stream (StreamSink)
+    simulator (its detector + the pose stage's tracking) ────────> fuse ──> (same)
 
-The façade only coordinates; each responsibility has its module (issue 16, item 5):
+The chain's stages (pose stage, fusion) are built in the workers from one
+:class:`~pipeline.runtime.chain.ChainConfig` (:mod:`pipeline.runtime.chain`). The façade only
+coordinates; each responsibility has its module (issue 16, item 5):
 
 - :mod:`pipeline.runtime.plan` — the run plan, checked before anything is stopped;
 - :mod:`pipeline.runtime.launcher` — the launcher (worker processes, queues, rings) and the
@@ -25,51 +27,56 @@ from __future__ import annotations
 import gc
 import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
 
 from pipeline.camera import Camera
 from pipeline.emitter.udp import EmitterConfig, UdpEmitter, stream_socket
 from pipeline.errors import InputError
 from pipeline.navigation.config import NavigationConfig
 from pipeline.runtime.board import StatusBoard
+from pipeline.runtime.chain import ChainConfig, PoseModel, SimWorldFactory
 from pipeline.runtime.config import RuntimeConfig
 from pipeline.runtime.launcher import ChainParts, Launcher, Supervision
 from pipeline.runtime.messages import SendPrompt, SetAdaptation, SetNavigation, SetNavigator, put_latest
 from pipeline.runtime.metrics import RuntimeMetrics
 from pipeline.runtime.plan import SOURCES, PlanInputs, SourceName, plan_run
 from pipeline.runtime.router import ResultRouter
-from pipeline.runtime.run import Run, SimFactory
+from pipeline.runtime.run import Run
 from pipeline.runtime.sinks import ResultSink, StreamSpec
 from pipeline.runtime.snapshot import SnapshotCache
-from pipeline.runtime.stages import FusionFactory
 from pipeline.runtime.status import PipelineEvent, PipelineStatus
 from pipeline.runtime.stream import StreamBook
 from pipeline.runtime.tracker import guard_resource_tracker
+from pipeline.takes.teach import OutputAdaptation
 from pipeline.takes.video import VideoControl
 
-__all__ = ["SOURCES", "Pipeline", "SimFactory", "SourceName"]
+__all__ = ["SOURCES", "Pipeline", "SourceName"]
 
 
 class Pipeline:
-    """The live recognition pipeline (see the module docstring)."""
+    """The live recognition pipeline (see the module docstring).
+
+    chain: the recognition chain's stages (:mod:`pipeline.runtime.chain`; each run puts it on its
+    detector and views). pose: the detector of the image sources (cameras, videos); simulator: the
+    detector of the ``simulator`` source. cameras_calibrated: the calibration of the image sources.
+    """
 
     def __init__(self, config: RuntimeConfig, cameras_calibrated: list[Camera] | None, *,
                  camera_sources: dict[str, str] | None = None,
-                 pose_factory: Callable[[], Any] | None = None,
-                 fusion: FusionFactory | None = None,
-                 sim_factory: SimFactory | None = None,
+                 chain: ChainConfig | None = None,
+                 pose: PoseModel | None = None,
+                 simulator: SimWorldFactory | None = None,
                  workstations: Sequence[tuple[str, int]] = (),
                  emitter: EmitterConfig | None = None) -> None:
         guard_resource_tracker()
         self.config = config
         self.cameras_calibrated = list(cameras_calibrated) if cameras_calibrated else None
         self.camera_sources = dict(camera_sources or {})
-        self.pose_factory = pose_factory
-        self.fusion = fusion or FusionFactory(cameras=None, camera_names=())
-        self.sim_factory = sim_factory
+        self.chain = chain or ChainConfig()
+        self.pose = pose
+        self.simulator = simulator
         self._lock = threading.RLock()  # start, stop and the control of the current run
         self._run: Run | None = None
         emitter = emitter or EmitterConfig()
@@ -77,7 +84,7 @@ class Pipeline:
         self._book = StreamBook.create()  # seq, endpoints: shared with the fusion worker's stream
         self._sock = stream_socket(emitter)
         self.emitter = UdpEmitter(emitter, list(workstations), emitter.osc_endpoints or None,
-                                  head=self.fusion.head, shared=self._book, role="standby", sock=self._sock)
+                                  head=self.chain.head, shared=self._book, role="standby", sock=self._sock)
         self._board = StatusBoard(self.emitter)
         self._router = ResultRouter(self._board)
         self._launcher = Launcher(config)
@@ -90,7 +97,7 @@ class Pipeline:
         """Start (or restart) on ``source``. Bad input raises a CavewalkError and changes nothing."""
         inputs = PlanInputs(self.config, self.camera_sources,
                             tuple(self.cameras_calibrated) if self.cameras_calibrated is not None else None,
-                            self.pose_factory is not None, self.sim_factory is not None)
+                            self.pose is not None, self.simulator is not None)
         with self._lock:
             plan = plan_run(source, videos, inputs)  # validates before anything is stopped
             if self._run is not None:
@@ -99,8 +106,8 @@ class Pipeline:
             self._board.starting(source)
             self._router.begin()
             self._snapshots.clear()
-            parts = ChainParts(self.fusion, self._stream_spec(), inputs.cameras_calibrated,
-                               self.pose_factory, self.sim_factory)
+            parts = ChainParts(self.chain, self._stream_spec(), inputs.cameras_calibrated, self.pose,
+                               self.simulator)
             try:
                 run = self._launcher.launch(source, plan, parts)
             except BaseException:
@@ -116,7 +123,7 @@ class Pipeline:
                 t.start()
 
     def _stream_spec(self) -> StreamSpec:
-        return StreamSpec(self._emitter_config, self.fusion.head, self._book.spec, self._sock,
+        return StreamSpec(self._emitter_config, self.chain.head, self._book.spec, self._sock,
                           self.config.stall_after_s)
 
     def stop(self) -> None:
@@ -144,7 +151,7 @@ class Pipeline:
 
     # --------------------------------------------------------------------------------- queries
     def status(self) -> PipelineStatus:
-        return self._board.status(self.fusion.navigation)
+        return self._board.status(self.chain.navigation)
 
     def latency_samples(self) -> dict[str, list[float]]:
         """The raw latency window of every stage (ms), for benchmarks."""
@@ -217,7 +224,7 @@ class Pipeline:
         nobody has now; the mode also holds for the next runs."""
         ids = list(user_ids)
         try:
-            config = NavigationConfig(mode, tuple(ids), self.fusion.navigation.max_navigators)  # type: ignore[arg-type]
+            config = NavigationConfig(mode, tuple(ids), self.chain.navigation.max_navigators)  # type: ignore[arg-type]
         except ValueError as exc:
             raise InputError(str(exc)) from None
         with self._lock:
@@ -230,29 +237,29 @@ class Pipeline:
                 if unknown:
                     raise InputError(f"users {unknown} are not tracked (tracked users: "
                                      f"{', '.join(map(str, tracked)) or 'none'})")
-            if config == self.fusion.navigation:
+            if config == self.chain.navigation:
                 return
-            self.fusion = replace(self.fusion, navigation=config)
+            self.chain = replace(self.chain, navigation=config)
             if run is not None and run.control_q is not None:
                 put_latest(run.control_q, SetNavigation(config.mode, config.user_ids))
             chosen = list(config.user_ids) or "everyone"
             self._board.event("navigator", f"navigation mode {config.mode} {chosen}",
                               {"mode": config.mode, "user_ids": list(config.user_ids)})
 
-    def set_adaptation(self, adaptation: Any) -> None:
+    def set_adaptation(self, adaptation: OutputAdaptation | None) -> None:
         """A participant's teach adaptation of the recogniser's outputs (None: none), applied at once and
-        kept for workers started later (pipeline.takes.teach.OutputAdaptation)."""
+        kept for workers started later (pipeline.takes.teach)."""
         with self._lock:
-            if adaptation == self.fusion.adaptation:
+            if adaptation == self.chain.adaptation:
                 return
-            self.fusion = replace(self.fusion, adaptation=adaptation)
+            self.chain = replace(self.chain, adaptation=adaptation)
             run = self._run
             if run is not None and run.control_q is not None:
                 put_latest(run.control_q, SetAdaptation(adaptation))
-            who = getattr(adaptation, "participant_code", None)
+            who = adaptation.participant_code if adaptation is not None else None
             self._board.event("adaptation", f"teach adaptation {'of ' + str(who) if adaptation else 'off'}",
                               {"state": "on" if adaptation else "off", "participant": who,
-                               "adaptation_id": getattr(adaptation, "adaptation_id", None)})
+                               "adaptation_id": adaptation.adaptation_id if adaptation is not None else None})
 
     def set_workstations(self, endpoints: list[tuple[str, int]]) -> None:
         """Replace the UDP destinations; InputError (nothing changes) for one that does not resolve."""

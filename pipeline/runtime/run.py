@@ -4,31 +4,18 @@ and the status board)."""
 
 from __future__ import annotations
 
+import multiprocessing.queues as mpq
 import threading
 from collections.abc import Iterable
 from dataclasses import dataclass, field
-from typing import Any, Protocol
 
-from pipeline.camera import Camera
 from pipeline.navigation.config import TRACKED_WITHIN_S
 from pipeline.runtime.mailbox import Mailbox
-from pipeline.runtime.messages import FusedFrame
+from pipeline.runtime.messages import ControlMessage, FusedFrame, WorkerEvent
 from pipeline.runtime.metrics import RuntimeMetrics
 from pipeline.runtime.shm import FrameRing
 from pipeline.runtime.supervisor import Supervisor
 from pipeline.takes.video import VideoControl
-
-
-class SimFactory(Protocol):
-    """Builds the simulator inside its worker; tells the main process its virtual cameras."""
-
-    @property
-    def cameras(self) -> tuple[Camera, ...]: ...
-
-    @property
-    def fps(self) -> float: ...
-
-    def __call__(self) -> Any: ...
 
 
 @dataclass
@@ -55,11 +42,11 @@ class Run:
 
     source: str
     cameras: dict[str, RunCamera]
-    events_q: Any
+    events_q: mpq.Queue[WorkerEvent] | None
     supervisor: Supervisor
     out_box: Mailbox | None = None  # fusion -> the collector
     det_box: Mailbox | None = None  # detect/simulator -> fusion
-    control_q: Any = None
+    control_q: mpq.Queue[ControlMessage] | None = None  # the fusion worker's (rebuilt with its group)
     stop: threading.Event = field(default_factory=threading.Event)
     threads: list[threading.Thread] = field(default_factory=list)
     metrics: RuntimeMetrics = field(default_factory=RuntimeMetrics)

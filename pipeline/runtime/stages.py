@@ -1,100 +1,106 @@
-"""The stage objects the worker processes run, and the picklable factories that build them.
+"""The stage objects of the recognition chain (built by :mod:`pipeline.runtime.chain`).
 
-A worker process receives a *factory* (a small frozen dataclass of configs) and builds
-its stage inside the process, so nothing heavy (an ONNX session) is pickled and tests
-can hand a worker any other factory.
-
-- :class:`PoseStage` — the pose detector over all views of a multi-view frame, in ROI
-  mode on crops around each view's predicted tracks, then OC-SORT per view.
-- :class:`Fusion` — association/triangulation, navigator choice, recognition, head pose (and the
-  tracking itself for the simulator, whose detections skip the pose stage).
+- :class:`PoseStage` — the people of every view of a multi-view frame, tracked per view
+  (OC-SORT): the one place tracking happens. Its detector is the pose model on camera images
+  (:meth:`PoseStage.detect`, in ROI mode on crops around each view's predicted tracks) or any
+  detector whose detections are handed in (:meth:`PoseStage.track`): the simulator's.
+- :class:`SimDetector` — the simulator as a detector: its virtual cameras report what a pose
+  model would see, frame by frame.
+- :class:`Fusion` — association/triangulation, navigator choice, recognition, navigation and
+  head pose, over tracked views.
 """
 
 from __future__ import annotations
 
 import logging
 from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
-from pathlib import Path
-from typing import Any, Protocol
+from dataclasses import replace
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.camera import Camera
-from pipeline.cave import CaveGeometry
-from pipeline.errors import ModelError
-from pipeline.head.config import HeadConfig
+from pipeline.errors import InputError, ModelError
 from pipeline.head.tracker import HeadEstimate, HeadTracker
-from pipeline.navigation.config import NavigationConfig
 from pipeline.navigation.navigators import Navigators
-from pipeline.pose.config import PoseConfig
-from pipeline.pose.detector import PoseDetector
-from pipeline.pose.roi import RoiScheduler
 from pipeline.pose.types import ViewDetections
-from pipeline.recognition.recognizer import ActionRecognizer, RecognizerConfig, open_session
 from pipeline.recognition.types import ActionEstimate
 from pipeline.results import FrameResult
-from pipeline.runtime.messages import DetectedFrame
-from pipeline.sim.scene import default_cameras
-from pipeline.sim.script import MotionScript, load_script
-from pipeline.sim.world import SimConfig, SimWorld
+from pipeline.runtime.messages import TrackedFrame
+from pipeline.sim.world import SimWorld
 from pipeline.takes.teach import AdaptableSession, OutputAdaptation
-from pipeline.tracking.ocsort import MultiViewTracker, OCSortConfig
-from pipeline.tracking.stage import DetectAndTrack
+from pipeline.tracking.ocsort import MultiViewTracker
+from pipeline.tracking.stage import DetectAndTrack, StepTimings
 from pipeline.tracking.types import TrackedView
-from pipeline.triangulation.config import NavigatorConfig, ReconstructionConfig
+from pipeline.triangulation.navigator import NavigatorChange
 from pipeline.triangulation.types import Person3D
 
 log = logging.getLogger(__name__)
 
+
 # --------------------------------------------------------------------------------- pose stage
 class PoseStage:
-    """Pose detection over the views of a multi-view frame, then OC-SORT per view.
+    """The people of every view, tracked per view by one :class:`MultiViewTracker`.
 
-    :class:`pipeline.tracking.stage.DetectAndTrack` for a frame that may lack some cameras
-    (late or gone): ROI crops around each present view's predicted tracks, the trackers of
-    the present views updated. Runs in the detect process so the crops follow the tracks.
+    With the pose model (``model``, a :class:`DetectAndTrack` sharing ``tracker``) it takes camera
+    images: the crops follow the tracks, so detection and tracking run in one step. Any other
+    detector (the simulator) hands its detections to :meth:`track`. Either way fusion gets tracked
+    views, and the tracks are kept here, in the process of the detector.
     """
 
-    def __init__(self, detector: Any, tracker: Any, roi: Any) -> None:
-        self.detect_track = DetectAndTrack(detector, tracker, roi)
+    def __init__(self, tracker: MultiViewTracker, model: DetectAndTrack | None = None) -> None:
+        if model is not None and model.tracker is not tracker:
+            raise ValueError("the pose model's DetectAndTrack must track with this stage's tracker")
+        self.tracker = tracker
+        self.model = model
+
+    @property
+    def cameras(self) -> tuple[str, ...]:
+        return self.tracker.cameras
 
     def detect(self, images: Sequence[NDArray[np.uint8]], cameras: Sequence[str], frame_index: int,
-               timestamp_s: float) -> tuple[TrackedView, ...]:
-        return self.detect_track.step(images, frame_index, timestamp_s, cameras)[0]
+               timestamp_s: float) -> tuple[tuple[TrackedView, ...], StepTimings]:
+        """The pose model on one multi-view frame's images (in the order of ``cameras``, which may
+        lack some views: late or gone), then OC-SORT on the views present."""
+        if self.model is None:
+            raise ModelError("this pose stage has no pose model: its detections are handed in (track)")
+        return self.model.step(images, frame_index, timestamp_s, cameras)
+
+    def track(self, views: Sequence[ViewDetections]) -> tuple[TrackedView, ...]:
+        """Another detector's detections of one multi-view frame (the simulator's), tracked."""
+        return self.tracker.update(views)
 
 
-@dataclass(frozen=True, slots=True)
-class PoseStageFactory:
-    """Builds the pose + tracking stage inside the detect worker (loads the ONNX model there)."""
+class SimDetector:
+    """The simulator as the pose stage's detector: each step advances its world by one frame and
+    returns what the virtual cameras' pose model would report (no images)."""
 
-    pose: PoseConfig
-    model_path: Path
-    tracking: OCSortConfig = field(default_factory=OCSortConfig)
-    cameras: tuple[str, ...] = ()
+    def __init__(self, world: SimWorld, fps: float) -> None:
+        if fps <= 0:
+            raise ValueError(f"fps must be > 0, got {fps}")
+        self.world = world
+        self.fps = fps  # the rate its worker steps it at
 
-    def __call__(self) -> PoseStage:
-        if not self.cameras:
-            raise ValueError("PoseStageFactory needs the camera names (use with_cameras)")
-        detector = PoseDetector.load(self.pose, self.model_path, self.pose.crop_model_file(self.model_path))
-        tracker = MultiViewTracker(list(self.cameras), self.tracking)
-        return PoseStage(detector, tracker, RoiScheduler(self.pose))
+    @property
+    def cameras(self) -> tuple[str, ...]:
+        return tuple(c.name for c in self.world.cameras)
 
-    def with_cameras(self, cameras: Sequence[str]) -> PoseStageFactory:
-        return replace(self, cameras=tuple(cameras))
+    def detect(self, frame_index: int, timestamp_s: float) -> tuple[ViewDetections, ...]:
+        views = self.world.step(timestamp_s=timestamp_s).views
+        return tuple(v if v.frame_index == frame_index else replace(v, frame_index=frame_index)
+                     for v in views)
 
 
 # ------------------------------------------------------------------------------------- fusion
-class Tracker(Protocol):
-    def update(self, views: Sequence[ViewDetections]) -> Sequence[TrackedView]: ...
-
-
 class Reconstructor(Protocol):
+    """pipeline.triangulation.reconstructor.Reconstructor."""
+
     def update(self, views: Sequence[TrackedView], timestamp_s: float) -> Sequence[Person3D]: ...
 
 
 class Recognizer(Protocol):
+    """pipeline.recognition.recognizer.ActionRecognizer."""
+
     def update(self, joints_m: NDArray[np.floating], timestamp_s: float) -> ActionEstimate: ...
 
     def reset(self) -> None: ...
@@ -109,31 +115,31 @@ class Selector(Protocol):
     @property
     def mode(self) -> str: ...
 
-    def update(self, people: Sequence[Person3D], timestamp_s: float) -> Any: ...
+    def update(self, people: Sequence[Person3D], timestamp_s: float) -> NavigatorChange | None: ...
 
-    def set_manual(self, user_id: int) -> Any: ...
+    def set_manual(self, user_id: int) -> NavigatorChange | None: ...
 
-    def set_auto(self) -> Any: ...
+    def set_auto(self) -> NavigatorChange | None: ...
 
 
 class Fusion:
-    """Tracking -> association/triangulation -> navigator -> recognition, for one multi-view frame.
+    """Association/triangulation -> navigator -> recognition -> navigation, head pose, for one
+    tracked multi-view frame.
 
     Parts that are None are skipped: without a reconstructor (no calibration) there are
     2D tracks but no 3D people, navigator or action.
     """
 
-    def __init__(self, tracker: Tracker | None, reconstructor: Reconstructor | None,
-                 selector: Selector | None, recognizer: Recognizer | None,
-                 heads: HeadTracker | None = None, navigation: Navigators | None = None) -> None:
-        self.tracker = tracker
+    def __init__(self, reconstructor: Reconstructor | None = None, selector: Selector | None = None,
+                 recognizer: Recognizer | None = None, heads: HeadTracker | None = None,
+                 navigation: Navigators | None = None) -> None:
         self.navigation = navigation  # issue 20: several navigators (None: single mode only)
         self.heads = heads
         self.reconstructor = reconstructor
         self.selector = selector
         self.recognizer = recognizer
         self._navigator: int | None = None
-        self.changes: list[Any] = []  # navigator changes since the last take_changes()
+        self.changes: list[NavigatorChange] = []  # navigator changes since the last take_changes()
 
     @property
     def mode(self) -> str:
@@ -150,12 +156,10 @@ class Fusion:
     def set_navigation(self, mode: str, user_ids: Sequence[int] = ()) -> None:
         """The navigation mode (pipeline.navigation); InputError (nothing changes) for a bad one."""
         if self.navigation is None:
-            from pipeline.errors import InputError
-
             raise InputError("navigation modes need the 3D stage (a calibration)")
         self.navigation.set_mode(mode, user_ids)
 
-    def take_changes(self) -> tuple[Any, ...]:
+    def take_changes(self) -> tuple[NavigatorChange, ...]:
         out, self.changes = tuple(self.changes), []
         return out
 
@@ -166,19 +170,14 @@ class Fusion:
         if isinstance(session, AdaptableSession):
             session.set_adaptation(adaptation)
 
-    def update(self, frame: DetectedFrame) -> FrameResult:
-        views = list(frame.views)
-        tracked: tuple[TrackedView, ...] = ()
-        if frame.tracked is not None:  # tracked in the detect process already
-            tracked = frame.tracked
-        elif self.tracker is not None:
-            tracked = tuple(self.tracker.update(views))
+    def update(self, frame: TrackedFrame) -> FrameResult:
+        tracked, t = frame.views, frame.timestamp_s
         people: tuple[Person3D, ...] = ()
         if self.reconstructor is not None:
-            people = tuple(self.reconstructor.update(tracked, frame.timestamp_s))
+            people = tuple(self.reconstructor.update(tracked, t))
         navigator = None
         if self.selector is not None:
-            change = self.selector.update(people, frame.timestamp_s)
+            change = self.selector.update(people, t)
             if change is not None:
                 self.changes.append(change)
             navigator = self.selector.current
@@ -190,99 +189,26 @@ class Fusion:
         if single and navigator is not None and self.recognizer is not None:
             person = next((p for p in people if p.user_id == navigator), None)
             if person is not None:
-                action = self.recognizer.update(person.joints_m, frame.timestamp_s)
+                action = self.recognizer.update(person.joints_m, t)
         nav = None
         users: tuple[int, ...] = () if navigator is None else (navigator,)
         if self.navigation is not None:
-            nav = self.navigation.update(people, frame.timestamp_s, navigator, action)
+            nav = self.navigation.update(people, t, navigator, action)
             if not single:  # each person's own state decides; the navigator's is theirs
                 own = nav.command_of(navigator) if navigator is not None else None
                 action = own.action if own is not None else None
                 users = nav.user_ids
         heads: tuple[HeadEstimate, ...] = ()
         if self.heads is not None and users:
-            heads = self.heads.update(people, frame.timestamp_s, users=users)
-        return FrameResult(frame.frame_index, frame.timestamp_s, tracked, people, navigator, action, heads,
-                           navigation=nav)
+            heads = self.heads.update(people, t, users=users)
+        return FrameResult(frame.frame_index, t, tracked, people, navigator, action, heads, navigation=nav)
 
 
-@dataclass(frozen=True, slots=True)
-class FusionFactory:
-    """Builds :class:`Fusion` inside the worker from the stages' own configs.
+def __getattr__(name: str) -> object:
+    """``FusionFactory``, the chain's earlier name, where scripts import it from (it lives in
+    :mod:`pipeline.runtime.chain`, which imports this module)."""
+    if name == "FusionFactory":
+        from pipeline.runtime.chain import FusionFactory
 
-    cameras: the calibrated cameras (None: no 3D). Any config left None leaves its part out.
-    """
-
-    cameras: tuple[Camera, ...] | None
-    camera_names: tuple[str, ...]
-    tracking: OCSortConfig = field(default_factory=OCSortConfig)
-    reconstruction: ReconstructionConfig = field(default_factory=ReconstructionConfig)
-    navigator: NavigatorConfig = field(default_factory=NavigatorConfig)
-    recognition: RecognizerConfig | None = field(default_factory=RecognizerConfig)  # None: no actions
-    head: HeadConfig = field(default_factory=HeadConfig)
-    navigation: NavigationConfig = field(default_factory=NavigationConfig)
-    adaptation: OutputAdaptation | None = None  # a participant's teach adaptation (issue 18 item 3)
-
-    def __call__(self) -> Fusion:
-        tracker = MultiViewTracker(list(self.camera_names), self.tracking)
-        reconstructor = selector = recognizer = heads = navigation = None
-        if self.cameras is not None:
-            try:
-                from pipeline.triangulation.navigator import NavigatorSelector
-                from pipeline.triangulation.reconstructor import Reconstructor
-            except ImportError as exc:
-                raise ModelError(f"the triangulation stage is not available: {exc}") from exc
-            reconstructor = Reconstructor(list(self.cameras), self.reconstruction)
-            selector = NavigatorSelector(self.navigator)
-            heads = HeadTracker(self.head) if self.head.enabled else None
-            if self.recognition is not None:
-                try:
-                    session = open_session(self.recognition.model_path, self.recognition.threads)
-                    adaptable = AdaptableSession(session, self.adaptation)
-                    recognizer = ActionRecognizer(adaptable, self.recognition)
-                except ModelError as exc:  # 3D and the navigator still serve without actions
-                    log.warning("no action recognition: %s", exc)
-            navigation = Navigators(self.navigation, _per_person(recognizer))
-        return Fusion(tracker, reconstructor, selector, recognizer, heads,  # type: ignore[arg-type]
-                      navigation)
-
-
-def _per_person(recognizer: ActionRecognizer | None) -> Any:
-    """A factory of further recogniser states sharing ``recognizer``'s ONNX session (None: none)."""
-    if recognizer is None:
-        return None
-    session, config = recognizer.session, recognizer.config
-    return lambda: ActionRecognizer(session, config)
-
-
-# ---------------------------------------------------------------------------------- simulator
-@dataclass(frozen=True, slots=True)
-class SimWorldFactory:
-    """Builds the simulator (``pipeline.sim.world.SimWorld``) inside its worker.
-
-    cameras: the virtual cameras (the fusion stage uses them as its calibration).
-    config: pipeline.sim.world.SimConfig.
-    """
-
-    cave: CaveGeometry
-    cameras: tuple[Camera, ...]
-    config: SimConfig
-    fps: float
-    script: MotionScript | None = None  # the navigator's routine; None = random routines
-
-    def __post_init__(self) -> None:
-        if not self.cameras:
-            raise ValueError("the simulator needs at least one camera, got none")
-        if self.fps <= 0:
-            raise ValueError(f"fps must be > 0, got {self.fps}")
-
-    def __call__(self) -> SimWorld:
-        return SimWorld(self.cave, list(self.cameras), self.config, self.script)
-
-    @classmethod
-    def build(cls, config: SimConfig, cave: CaveGeometry) -> SimWorldFactory:
-        """The simulator of ``config`` (its routine file loaded here, so a bad one fails before any
-        process starts) in the CAVE ``cave``."""
-        script = load_script(config.script) if config.script is not None else None
-        cameras = tuple(default_cameras(cave, config.camera_preset, config.camera_count))
-        return cls(cave, cameras, config, config.fps, script)
+        return FusionFactory
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

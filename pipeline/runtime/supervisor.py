@@ -41,7 +41,7 @@ from typing import Any
 
 import psutil
 
-from pipeline.runtime.messages import WorkerEvent
+from pipeline.runtime.messages import BoundedQueue, T, WorkerEvent
 from pipeline.runtime.workers import SIGTERM_EXIT, worker_main
 
 log = logging.getLogger(__name__)
@@ -142,7 +142,8 @@ class WorkerGroup:
 class Supervisor:
     """Starts, watches and restarts worker groups; thread-safe."""
 
-    def __init__(self, mp_context: Any, events: Any, config: SupervisorConfig | None = None) -> None:
+    def __init__(self, mp_context: Any, events: BoundedQueue[WorkerEvent],
+                 config: SupervisorConfig | None = None) -> None:
         self._mp = mp_context
         self.events = events
         self.config = config or SupervisorConfig()
@@ -371,9 +372,11 @@ def without_main_module() -> Iterator[None]:
         spawn.get_preparation_data = original  # type: ignore[assignment]
 
 
-def drain(q: Any) -> list[Any]:
-    """Everything waiting in a queue, without blocking."""
-    items = []
+def drain(q: BoundedQueue[T] | None) -> list[T]:
+    """Everything waiting in a queue (none: nothing), without blocking."""
+    items: list[T] = []
+    if q is None:
+        return items
     while True:
         try:
             items.append(q.get_nowait())

@@ -24,21 +24,25 @@ import signal
 import time
 import traceback
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
-from typing import Any
+from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.errors import CavewalkError, SourceError
+from pipeline.runtime.chain import ChainConfig, build_detector, build_fusion, build_pose_stage
 from pipeline.runtime.mailbox import Mailbox, MailboxSpec
 from pipeline.runtime.messages import (
+    BoundedQueue,
+    ControlMessage,
     DetectedFrame,
     FusedFrame,
     SendPrompt,
     SetAdaptation,
     SetNavigation,
     SetNavigator,
+    TrackedFrame,
     WorkerEvent,
     WorkerEventKind,
     put_latest,
@@ -46,11 +50,11 @@ from pipeline.runtime.messages import (
 from pipeline.runtime.metrics import AdaptiveRate, ema
 from pipeline.runtime.shm import FrameRing, RingSpec, unlink_attached
 from pipeline.runtime.sinks import StreamSink, StreamSpec
+from pipeline.runtime.stages import Fusion
 from pipeline.sources import open_source
 from pipeline.sources.grouper import FrameRef, GrouperConfig, MultiViewGrouper
 from pipeline.sources.opencv import Pacer
 from pipeline.takes.video import VideoControl, VideoTap
-from pipeline.tracking.types import TrackedView
 
 log = logging.getLogger(__name__)
 
@@ -80,10 +84,18 @@ class DetectSpec:
     grouper: GrouperConfig = field(default_factory=GrouperConfig)
 
 
+class StopFlag(Protocol):
+    """The run's stop flag (a ``multiprocessing`` event)."""
+
+    def is_set(self) -> bool: ...
+
+    def wait(self, timeout: float | None = None) -> bool: ...
+
+
 class _Ctx:
     """What every worker loop needs: its name, the event queue, the stop flag, the parent's pid."""
 
-    def __init__(self, name: str, events: Any, stop: Any, parent_pid: int) -> None:
+    def __init__(self, name: str, events: BoundedQueue[WorkerEvent], stop: StopFlag, parent_pid: int) -> None:
         self.name = name
         self.events = events
         self.stop = stop
@@ -121,8 +133,8 @@ def _pid_alive(pid: int) -> bool:
     return True
 
 
-def worker_main(name: str, body: Callable[..., None], events: Any, stop: Any, parent_pid: int,
-                *args: Any) -> None:
+def worker_main(name: str, body: Callable[..., None], events: BoundedQueue[WorkerEvent], stop: StopFlag,
+                parent_pid: int, *args: object) -> None:
     """Process entry point: run ``body(ctx, *args)`` with the error/end-marker discipline."""
     ctx = _Ctx(name, events, stop, parent_pid)
     set_process_name(f"cw-{name}")
@@ -237,13 +249,14 @@ def capture_loop(ctx: _Ctx, spec: CaptureSpec, ring_spec: RingSpec,
 
 
 # ------------------------------------------------------------------------------------- detect
-def detect_loop(ctx: _Ctx, spec: DetectSpec, ring_specs: tuple[RingSpec, ...],
-                stage_factory: Callable[[], Any], out_box: MailboxSpec) -> None:
-    """Group the newest frames of the cameras, detect people in them in one batch, hand on."""
+def detect_loop(ctx: _Ctx, spec: DetectSpec, ring_specs: tuple[RingSpec, ...], chain: ChainConfig,
+                out_box: MailboxSpec) -> None:
+    """Group the newest frames of the cameras, detect and track the people in them (the chain's
+    pose stage, the pose model in one batch), hand on."""
     rings = {cam: FrameRing.attach(rs) for cam, rs in zip(spec.cameras, ring_specs, strict=True)}
     out = Mailbox.attach(out_box)
     try:
-        stage = stage_factory()
+        stage = build_pose_stage(chain)
         grouper = MultiViewGrouper(list(spec.cameras), spec.grouper)
         rate = AdaptiveRate(spec.target_fps)
         busy: float | None = None
@@ -280,18 +293,17 @@ def detect_loop(ctx: _Ctx, spec: DetectSpec, ring_specs: tuple[RingSpec, ...],
             if not images:
                 continue
             t0 = time.monotonic()
-            found = tuple(stage.detect(images, cams, frame_index, min(stamps)))
+            tracked, _ = stage.detect(images, cams, frame_index, min(stamps))
             t1 = time.monotonic()
-            tracked = found if found and isinstance(found[0], TrackedView) else None
-            views = tuple(t.detections for t in tracked) if tracked is not None else found
             busy = ema(busy, t1 - t0)
             next_at = now + rate.period_s(busy)  # from when this group was taken, reading included
             for ring in rings.values():  # the dynamic frame rate reaches back to the cameras
                 ring.set_demand(next_at)
             dropped = sum(group.skipped.values()) / max(1, len(spec.cameras))
             missing = tuple(c for c in spec.cameras if c not in cams)
-            out.put(DetectedFrame(frame_index, min(stamps), views, t0, t1, missing, dropped,
-                                  max(indices), tracked))
+            detected = DetectedFrame(frame_index, min(stamps), tuple(t.detections for t in tracked), t0, t1,
+                                     missing, dropped, max(indices))
+            out.put(TrackedFrame(detected, tracked))
             frame_index += 1
     finally:
         out.close()
@@ -300,11 +312,11 @@ def detect_loop(ctx: _Ctx, spec: DetectSpec, ring_specs: tuple[RingSpec, ...],
 
 
 # ------------------------------------------------------------------------------------- fusion
-def fuse_loop(ctx: _Ctx, fusion_factory: Callable[[], Any], in_box: MailboxSpec, out_box: MailboxSpec,
-              control_q: Any, stream: StreamSpec | None = None) -> None:
-    """Tracking, triangulation, navigator and recognition on the newest detected frame; the
-    result goes to the UDP stream at once (``stream``), then to the main process."""
-    fusion = fusion_factory()
+def fuse_loop(ctx: _Ctx, chain: ChainConfig, in_box: MailboxSpec, out_box: MailboxSpec,
+              control_q: BoundedQueue[ControlMessage], stream: StreamSpec | None = None) -> None:
+    """Triangulation, navigator and recognition (the chain's fusion) on the newest tracked frame;
+    the result goes to the UDP stream at once (``stream``), then to the main process."""
+    fusion = build_fusion(chain)
     inbox, out = Mailbox.attach(in_box), Mailbox.attach(out_box)
     sink = StreamSink.open(stream) if stream is not None else None
     try:
@@ -316,14 +328,14 @@ def fuse_loop(ctx: _Ctx, fusion_factory: Callable[[], Any], in_box: MailboxSpec,
         out.close()
 
 
-def _fuse(ctx: _Ctx, fusion: Any, inbox: Mailbox, out: Mailbox, control_q: Any,
+def _fuse(ctx: _Ctx, fusion: Fusion, inbox: Mailbox, out: Mailbox, control_q: BoundedQueue[ControlMessage],
           sink: StreamSink | None) -> None:
     while ctx.running():
         _control(ctx, fusion, control_q, sink)
         got = inbox.get(timeout=0.05)
         if sink is not None:
             sink.check(time.monotonic())
-        if got is None or not isinstance(got[0], DetectedFrame):
+        if got is None or not isinstance(got[0], TrackedFrame):
             continue
         item, skipped = got
         result = fusion.update(item)
@@ -332,10 +344,12 @@ def _fuse(ctx: _Ctx, fusion: Any, inbox: Mailbox, out: Mailbox, control_q: Any,
         if sink is not None:
             sink.on_result(result)
             sent_s = time.monotonic()
-        out.put(FusedFrame(result, item, fused_s, fusion.mode, skipped, fusion.take_changes(), sent_s))
+        out.put(FusedFrame(result, item.detected, fused_s, fusion.mode, skipped, fusion.take_changes(),
+                           sent_s))
 
 
-def _control(ctx: _Ctx, fusion: Any, control_q: Any, sink: StreamSink | None) -> None:
+def _control(ctx: _Ctx, fusion: Fusion, control_q: BoundedQueue[ControlMessage],
+             sink: StreamSink | None) -> None:
     while True:
         try:
             msg = control_q.get_nowait()
@@ -358,24 +372,22 @@ def _control(ctx: _Ctx, fusion: Any, control_q: Any, sink: StreamSink | None) ->
 
 
 # ---------------------------------------------------------------------------------- simulator
-def sim_loop(ctx: _Ctx, sim_factory: Callable[[], Any], fps: float, out_box: MailboxSpec) -> None:
-    """The simulator in place of capture and pose: its virtual cameras' detections, paced at ``fps``."""
-    world = sim_factory()
+def sim_loop(ctx: _Ctx, chain: ChainConfig, out_box: MailboxSpec) -> None:
+    """The simulator in place of capture and the pose model: its virtual cameras' detections (the
+    chain's detector), tracked by the chain's pose stage, paced at the simulator's rate."""
+    detector, stage = build_detector(chain), build_pose_stage(chain)
     out = Mailbox.attach(out_box)
-    pacer = Pacer(fps)
+    pacer = Pacer(detector.fps)
     frame_index = 0
     while ctx.running():
         pacer.wait_for(frame_index)
         t0 = time.monotonic()
-        sim_frame = world.step(timestamp_s=t0)
+        views = detector.detect(frame_index, t0)
+        tracked = stage.track(views)
         t1 = time.monotonic()
-        views = tuple(_restamp(v, frame_index) for v in sim_frame.views)
-        out.put(DetectedFrame(frame_index, t0, views, t0, t1, source_index=frame_index))
+        detected = DetectedFrame(frame_index, t0, views, t0, t1, source_index=frame_index)
+        out.put(TrackedFrame(detected, tracked))
         frame_index += 1
         due = pacer.due_slot(time.monotonic())
         if due > frame_index:  # fell behind: skip, never build a backlog
             frame_index = due
-
-
-def _restamp(view: Any, frame_index: int) -> Any:
-    return view if view.frame_index == frame_index else replace(view, frame_index=frame_index)

@@ -8,23 +8,23 @@ import numpy as np
 from pipeline.cave import box_cave
 from pipeline.head.config import HeadConfig
 from pipeline.head.pose import angle_deg, head_pose_from_joints
+from pipeline.runtime.chain import ChainConfig, build_chain
 from pipeline.runtime.messages import DetectedFrame
-from pipeline.runtime.stages import FusionFactory
 from pipeline.sim.world import SimConfig, SimWorld
 
 
 def run(head: HeadConfig, frames: int = 150) -> tuple[list[float], list[float], int]:
     world = SimWorld.build(box_cave(), SimConfig(fps=30.0, bystanders=1, seed=11))
-    fusion = FusionFactory(
+    chain = build_chain(ChainConfig(
         cameras=tuple(world.cameras),
         camera_names=tuple(c.name for c in world.cameras),
         recognition=None,
         head=head,
-    )()
+    ))
     pos_mm, rot_deg, with_head = [], [], 0
     for _ in range(frames):
         f = world.step()
-        result = fusion.update(
+        result = chain.update(
             DetectedFrame(f.frame_index, f.timestamp_s, f.views, f.timestamp_s, f.timestamp_s)
         )
         assert len(result.heads) <= 1 and all(h.user_id == result.navigator for h in result.heads), (

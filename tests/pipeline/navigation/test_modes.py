@@ -17,8 +17,8 @@ import pytest
 from pipeline.cave import box_cave
 from pipeline.navigation.config import NavigationConfig
 from pipeline.navigation.stream import frame_commands
+from pipeline.runtime.chain import ChainConfig, build_chain
 from pipeline.runtime.messages import DetectedFrame
-from pipeline.runtime.stages import FusionFactory
 from pipeline.sim.scene import default_cameras
 from pipeline.sim.script import MotionScript, Segment
 from pipeline.sim.world import SimConfig, SimWorld
@@ -53,13 +53,14 @@ def run(mode: str) -> Run:
     cave = box_cave()
     world = SimWorld(cave, default_cameras(cave, "kinect_color", 4),
                      SimConfig(fps=FPS, bystanders=0, seed=SEED), scripts[0], steppers=scripts[1:])
-    fusion = FusionFactory(cameras=tuple(world.cameras), camera_names=tuple(c.name for c in world.cameras),
-                           navigation=NavigationConfig(mode=mode))()  # type: ignore[arg-type]
+    chain = build_chain(ChainConfig(cameras=tuple(world.cameras),
+                                    camera_names=tuple(c.name for c in world.cameras),
+                                    navigation=NavigationConfig(mode=mode)))  # type: ignore[arg-type]
     out = Run()
     for _ in range(round((LEAD_S + 2 * PHASE_S) * FPS)):
         f = world.step()
         t = f.timestamp_s
-        result = fusion.update(DetectedFrame(f.frame_index, t, f.views, t, t))
+        result = chain.update(DetectedFrame(f.frame_index, t, f.views, t, t))
         nav = result.navigation
         assert nav is not None and nav.mode == mode
         out.streams |= {(c.user_id, c.per_user) for c in frame_commands(result)}

@@ -10,9 +10,9 @@ import pytest
 from pipeline.cave import box_cave
 from pipeline.demo_data import DemoData
 from pipeline.emitter.udp import EmitterConfig
+from pipeline.runtime.chain import SimWorldFactory
 from pipeline.runtime.config import RuntimeConfig
 from pipeline.runtime.pipeline import Pipeline
-from pipeline.runtime.stages import FusionFactory, SimWorldFactory
 from pipeline.sim.world import SimConfig
 
 from .live import Listener, shrink_video
@@ -37,8 +37,7 @@ def listener() -> Iterator[Listener]:
 def sim_pipeline() -> Iterator[Pipeline]:
     """The real pipeline on the simulator source (30 fps, one bystander)."""
     sim = SimWorldFactory.build(SimConfig(fps=30.0), box_cave())
-    pipeline = Pipeline(RuntimeConfig(target_fps=30.0), None, sim_factory=sim,
-                        fusion=FusionFactory(cameras=None, camera_names=()),
+    pipeline = Pipeline(RuntimeConfig(target_fps=30.0), None, simulator=sim,
                         emitter=EmitterConfig(heartbeat_s=0.25))
     yield pipeline
     pipeline.close()

@@ -14,9 +14,9 @@ import pytest
 from pipeline.demo_data import DemoData
 from pipeline.errors import InputError, SourceError
 from pipeline.pose.config import PoseConfig
+from pipeline.runtime.chain import PoseModel
 from pipeline.runtime.config import RuntimeConfig
 from pipeline.runtime.pipeline import Pipeline
-from pipeline.runtime.stages import FusionFactory, PoseStageFactory
 from pipeline.sources.grouper import GrouperConfig
 from tests.waiting import wait_until
 
@@ -30,8 +30,7 @@ def video_pipeline(pose_model_path: Path, cameras: dict[str, str] | None = None,
     base = RuntimeConfig(target_fps=15.0, video_pace_fps=15.0, video_loop=True, camera_retry_s=0.3,
                          grouper=GrouperConfig(tolerance_s=0.03, max_wait_s=0.02, gone_after_s=0.6))
     return Pipeline(replace(base, **config), None, camera_sources=cameras,  # type: ignore[arg-type]
-                    pose_factory=PoseStageFactory(PoseConfig(), pose_model_path),
-                    fusion=FusionFactory(cameras=None, camera_names=()))
+                    pose=PoseModel(PoseConfig(), pose_model_path))
 
 
 def test_videos_run_with_the_real_detector_and_stop_clean(
@@ -144,8 +143,7 @@ def test_calibration_that_does_not_match_the_videos(
     from pipeline.calibration.io import load_calibration
 
     cams = load_calibration(demo_data.calibration)
-    pipeline = Pipeline(RuntimeConfig(), cams,
-                        pose_factory=PoseStageFactory(PoseConfig(), pose_model_path))
+    pipeline = Pipeline(RuntimeConfig(), cams, pose=PoseModel(PoseConfig(), pose_model_path))
     try:
         with pytest.raises(InputError, match=r"cameras \['side'\] are not in the calibration"):
             pipeline.start("videos", {"cam01": small_videos["cam01"], "side": small_videos["cam02"]})

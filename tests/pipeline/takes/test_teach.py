@@ -39,7 +39,7 @@ def test_the_identity_changes_nothing_and_a_bias_is_seen_at_once_then_cleared() 
     assert np.allclose(adaptable.run(None, {"x": x})[0], plain, atol=1e-5)
     config = RecognizerConfig(gate=False)
     rec = ActionRecognizer(adaptable, config)
-    fusion = Fusion(None, None, None, rec)
+    fusion = Fusion(recognizer=rec)
     fusion.set_adaptation(FORWARD)
     assert adaptable.adaptation is FORWARD
     probs = [rec.update(f, i / 30.0).probs["forward"] for i, f in enumerate(_march())]
