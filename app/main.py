@@ -9,12 +9,14 @@ served at ``/``, the API under ``/api/v1``, OpenAPI at ``/docs``, the 3D view at
 
 from __future__ import annotations
 
+import asyncio
 import ipaddress
 import logging
 import secrets
 from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager
 from pathlib import Path
+from typing import Any
 
 from fastapi import FastAPI
 from fastapi.middleware.cors import CORSMiddleware
@@ -34,7 +36,7 @@ from app.db.migrate import upgrade
 from app.db.repositories import fail_unfinished_calibration_runs, running_session
 from app.services.calibration import CalibrationService
 from app.services.event_log import EventWriter
-from app.services.live import PipelineFacade, PipelineService, SourceName
+from app.services.live import LiveFeed, PipelineFacade, PipelineService, SourceName
 from app.services.locomotion_watch import LocomotionWatch
 from app.services.models import ModelService
 from app.services.pipeline_factory import runtime_factory, simulator_factory
@@ -71,8 +73,8 @@ def operator_token(settings: Settings) -> str | None:
 
 def _recording_source(pipeline: PipelineService) -> str | None:
     """The running pipeline's source (None when it is not running: nothing to record)."""
-    snap = pipeline.snapshot()
-    return snap.get("source") if snap.get("state") in ("running", "starting") else None
+    status = pipeline.status()
+    return status.source if status.state in ("running", "starting") else None
 
 
 def _sim_calibration(settings: Settings) -> dict[str, object] | None:
@@ -126,11 +128,22 @@ def create_app(
             built, reason = runtime_factory(settings, factory, models.recognition_config)
         else:
             built, reason = (pipeline_factory or None), "no pipeline in this app"
-        watch = LocomotionWatch(events)
-        watch.start()  # raises and logs the alarm even when no status is polled
-        pipeline = PipelineService(
-            built, events, sinks=(watch, *((viewer,) if viewer else ())), rate_hz=settings.server.live_rate_hz
-        )
+
+        def live_message() -> dict[str, Any]:
+            """The live status as the dashboard gets it: the pipeline's newest status (its JSON form)
+            and the app's own live facts (running study session, active calibration, alarm)."""
+            message = pipeline.snapshot()
+            message["running_session_id"] = events.session_id
+            message["active_calibration_id"] = calibration.active_id
+            message["alarm"] = watch.current()
+            return message
+
+        feed = LiveFeed(live_message, settings.server.live_rate_hz)  # the WebSockets' fan-out
+        feed.bind(asyncio.get_running_loop())
+        watch = LocomotionWatch(events, on_change=feed.publish)
+        watch.start()  # raises and logs the alarm even when no status comes
+        pipeline = PipelineService(built, events, sinks=(watch, *((viewer,) if viewer else ())), feed=feed)
+        events.on_session_change(feed.publish)  # a session started or stopped: the dashboard shows it
         if built is None:
             pipeline.unavailable_reason = reason
         models.on_change(pipeline.calibration_changed)  # a newly active model: rebuilt at the next start
@@ -146,6 +159,7 @@ def create_app(
         app.state.events = events
         app.state.viewer = viewer
         app.state.pipeline = pipeline
+        app.state.feed = feed
         app.state.calibration = calibration
         app.state.planner = planner = PlannerService(settings)
         app.state.watch = watch

@@ -23,6 +23,7 @@ from numpy.typing import NDArray
 from app.core.config import Settings
 from pipeline.camera import Camera
 from pipeline.cave import CaveGeometry
+from pipeline.runtime.status import PipelineStatus
 from pipeline.skeleton import BONES, J
 
 log = logging.getLogger(__name__)
@@ -128,12 +129,48 @@ class _Person:
     label: Any = None  # "user 3" (+ "navigator") over the head
 
 
-def label_text(user_id: int, navigator: int | None, command: Mapping[str, Any] | None = None) -> str:
+@dataclass(frozen=True, slots=True)
+class Scene:
+    """What the view draws of one status: each person's skeleton ((17, 3) float32, NaN where
+    unknown), the navigator, the yaw of its arrow (None: the body's own facing) and each person's
+    own command (label, confidence)."""
+
+    skeletons: tuple[tuple[int, F32], ...]
+    navigator: int | None
+    yaw_deg: float | None
+    commands: dict[int, tuple[str, float]]
+
+    @classmethod
+    def of_status(cls, status: PipelineStatus) -> Scene:
+        """A live status, as the pipeline pushed it."""
+        return cls(tuple((s.user_id, s.joints_m.astype(np.float32)) for s in status.people3d),
+                   status.navigator, status.action.yaw_deg if status.action is not None else None,
+                   {p.user_id: (p.command.label, p.command.confidence) for p in status.people
+                    if p.command is not None})
+
+    @classmethod
+    def of_snapshot(cls, snapshot: Mapping[str, Any]) -> Scene:
+        """A status's JSON form, or a recorded frame in it (a take's replay)."""
+        skeletons = []
+        for p in (snapshot.get("extra") or {}).get("people3d") or []:
+            joints = joints_array(p.get("joints") or p.get("joints_m") or [])
+            if joints.shape == (17, 3):
+                skeletons.append((int(p["user_id"]), joints))
+        yaw = (snapshot.get("action") or {}).get("yaw_deg")
+        commands = {}
+        for p in snapshot.get("people") or []:
+            c = p.get("command") if isinstance(p, Mapping) and p.get("user_id") is not None else None
+            if c and c.get("label"):
+                commands[int(p["user_id"])] = (str(c["label"]), float(c.get("confidence") or 0.0))
+        return cls(tuple(skeletons), snapshot.get("navigator"), None if yaw is None else float(yaw), commands)
+
+
+def label_text(user_id: int, navigator: int | None, command: tuple[str, float] | None = None) -> str:
     """``user 3 · navigator · forward 87 %``: the id, the navigator, and the person's own command
-    (each and group modes; in single mode the navigator's)."""
+    (label, confidence; each and group modes; in single mode the navigator's)."""
     text = f"user {user_id}" + (" · navigator" if user_id == navigator else "")
-    if command and command.get("label"):
-        text += f" · {command['label']} {100 * float(command.get('confidence') or 0.0):.0f} %"
+    if command is not None:
+        text += f" · {command[0]} {100 * command[1]:.0f} %"
     return text
 
 
@@ -219,39 +256,38 @@ class Viewer:
                 else:
                     handle.fov, handle.aspect, handle.wxyz, handle.position = fov, w / h, wxyz, pos
 
+    def on_status(self, status: PipelineStatus, message: Mapping[str, Any]) -> None:
+        """Show a live status as the pipeline pushed it: its skeletons' joints, the navigator's arrow."""
+        self.show(Scene.of_status(status))
+
     def update(self, snapshot: Mapping[str, Any]) -> None:
-        """Show the skeletons of a status snapshot (``extra.people3d``) and the navigator's arrow;
-        ignored while a take replays (:meth:`show_replay`)."""
+        """Show the skeletons of a status's JSON form (``extra.people3d``) and the navigator's arrow."""
+        self.show(Scene.of_snapshot(snapshot))
+
+    def show(self, scene: Scene) -> None:
+        """The live people; ignored while a take replays (:meth:`show_replay`)."""
         if self.replay_until:
             if time.monotonic() < self.replay_until:
                 return
             self.replay_until = 0.0  # the replay was left: back to the live people
-        self._draw(snapshot)
+        self._draw(scene)
 
     def show_replay(self, snapshot: Mapping[str, Any] | None, hold_s: float = REPLAY_HOLD_S) -> None:
-        """A recorded frame (the same shape as a live snapshot) in place of the live people, for
+        """A recorded frame (the same shape as a live status's JSON) in place of the live people, for
         ``hold_s`` seconds unless another comes; None: back to live at the next update."""
         if snapshot is None:
             self.replay_until = 0.0
             return
         self.replay_until = time.monotonic() + hold_s
-        self._draw(snapshot)
+        self._draw(Scene.of_snapshot(snapshot))
 
-    def _draw(self, snapshot: Mapping[str, Any]) -> None:
-        people3d = (snapshot.get("extra") or {}).get("people3d") or []
-        navigator = snapshot.get("navigator")
-        action = snapshot.get("action") or {}
-        commands = {int(p["user_id"]): p.get("command") for p in snapshot.get("people") or []
-                    if isinstance(p, Mapping) and p.get("user_id") is not None}
+    def _draw(self, view: Scene) -> None:
+        navigator, commands = view.navigator, view.commands
         scene = self.server.scene
         seen: set[int] = set()
         nav_joints: F32 | None = None
         with self.server.atomic():
-            for p in people3d:
-                uid = int(p["user_id"])
-                joints = joints_array(p.get("joints") or p.get("joints_m") or [])
-                if joints.shape != (17, 3):
-                    continue
+            for uid, joints in view.skeletons:
                 seen.add(uid)
                 color = NAVIGATOR_COLOR if uid == navigator else user_color(uid)
                 valid = joints[np.all(np.isfinite(joints), axis=1)]
@@ -298,8 +334,8 @@ class Viewer:
                     gone.label.remove()
             arrow = None
             if nav_joints is not None:
-                yaw = action.get("yaw_deg")  # the recogniser's smoothed yaw, else the body's own
-                arrow = facing_arrow(nav_joints, float(yaw) if yaw is not None else body_yaw_deg(nav_joints))
+                yaw = view.yaw_deg  # the recogniser's smoothed yaw, else the body's own
+                arrow = facing_arrow(nav_joints, yaw if yaw is not None else body_yaw_deg(nav_joints))
             if arrow is None:
                 if self.arrow is not None:
                     self.arrow.visible = False

@@ -6,7 +6,7 @@ import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import IO, Any
+from typing import IO, Any, overload
 
 import numpy as np
 
@@ -68,6 +68,14 @@ def person_record(p: Person3D) -> dict[str, Any]:
         else:
             joints.append(None)
     return {"user_id": int(p.user_id), "joints": joints, "reproj_px": _num(p.reproj_px, 3)}
+
+
+@overload
+def action_record(a: ActionEstimate) -> dict[str, Any]: ...
+
+
+@overload
+def action_record(a: None) -> None: ...
 
 
 def action_record(a: ActionEstimate | None) -> dict[str, Any] | None:

@@ -107,7 +107,7 @@ class CalibrationService:
     def start(self) -> CalibrationRun:
         with self._factory() as db:
             run = repo.create_calibration_run(db)  # StateConflict while another run is unfinished
-        source = self._pipeline.snapshot().get("source") or "simulator"
+        source = self._pipeline.status().source or "simulator"
         self._thread = threading.Thread(
             target=self._run, args=(run.id, str(source)), name=f"calibration-{run.id}", daemon=True
         )

@@ -59,6 +59,11 @@ class EventWriter:
         self._thread: threading.Thread | None = None
         self.written = 0
         self.failed = 0
+        self._on_session: tuple[Callable[[], None], ...] = ()
+
+    def on_session_change(self, callback: Callable[[], None]) -> None:
+        """Call ``callback()`` after each :meth:`set_session` (the live status shows the session)."""
+        self._on_session = (*self._on_session, callback)
 
     # -- producer side (any thread) ----------------------------------------------------
     @property
@@ -74,6 +79,8 @@ class EventWriter:
         with self._lock:
             self._session_id = session_id
             self._session_since = float(since_ts)
+        for callback in self._on_session:
+            callback()
 
     def record(self, kind: str, payload: dict[str, Any], ts: float | None = None) -> None:
         """Queue one event; never blocks on the database."""

@@ -1,21 +1,27 @@
 """The app's owner of the recognition pipeline.
 
-:class:`PipelineService` holds the runtime's ``Pipeline`` façade (``pipeline.runtime``),
-polls it about ten times a second from one background thread, and fans the result
-out: the latest status snapshot (for ``GET /status`` and the WebSocket), the 3D view,
-and the event log (the pipeline's events go to :class:`~app.services.event_log.EventWriter`,
-so a running study session gets every action, navigator and state change).
-Requests never wait for the pipeline: they read the snapshot.
+:class:`PipelineService` holds the runtime's ``Pipeline`` façade (``pipeline.runtime``) and
+subscribes to its status, which the pipeline pushes (``pipeline.runtime.publisher``: at most
+``server.live_rate_hz`` times a second, while something changes; at once after a start or stop).
+Each :class:`~pipeline.runtime.status.PipelineStatus` is kept as it came, with its one JSON form
+(``PipelineStatus.to_json``: ``GET /status``), and handed on without re-shaping: to the status
+sinks (the 3D view, the no-locomotion watch), to the WebSockets (:class:`LiveFeed`), and the
+pipeline's events since the last status to the event log (:class:`~app.services.event_log.EventWriter`,
+so a running study session gets every action, navigator and state change). Requests never wait
+for the pipeline: they read the newest status.
 """
 
 from __future__ import annotations
 
+import asyncio
+import contextlib
 import dataclasses
 import logging
 import math
 import threading
 import time
 from collections.abc import Callable, Mapping
+from dataclasses import replace
 from enum import Enum
 from pathlib import Path
 from typing import Any, Literal, Protocol
@@ -24,10 +30,17 @@ import numpy as np
 
 from app.services.event_log import EventWriter
 from pipeline.errors import InputError
+from pipeline.navigation.config import NavigationConfig
+from pipeline.runtime.plan import SourceName
+from pipeline.runtime.publisher import StatusSink
+from pipeline.runtime.sinks import ResultSink
+from pipeline.runtime.status import NavigationStatus, PipelineEvent, PipelineStatus
+from pipeline.takes.teach import OutputAdaptation
+from pipeline.takes.video import VideoControl
 
 log = logging.getLogger(__name__)
 
-SourceName = Literal["simulator", "cameras", "videos"]
+__all__ = ["LiveFeed", "LiveSink", "PipelineService", "PipelineUnavailable", "SourceName", "UnknownUser"]
 
 
 class PipelineUnavailable(RuntimeError):
@@ -39,21 +52,94 @@ class UnknownUser(LookupError):
 
 
 class PipelineFacade(Protocol):
-    """What the app uses of ``pipeline.runtime.Pipeline``."""
+    """What the app uses of ``pipeline.runtime.pipeline.Pipeline``."""
 
     def start(self, source: SourceName, videos: dict[str, Path] | None = None) -> None: ...
     def stop(self) -> None: ...
-    def status(self) -> Any: ...
+    def close(self) -> None: ...
+    def subscribe(self, sink: StatusSink) -> None: ...
+    def drain_events(self) -> list[PipelineEvent]: ...
     def set_navigator(self, user_id: int | None) -> None: ...
-    def drain_events(self) -> list[Any]: ...
+    def set_navigation(self, mode: str, user_ids: list[int]) -> None: ...
+    def set_adaptation(self, adaptation: OutputAdaptation | None) -> None: ...
+    def add_sink(self, sink: ResultSink) -> None: ...
     def snapshot_jpeg(self, camera: str) -> bytes | None: ...
     def send_prompt(self, text: str, label: str, remaining_s: float) -> None: ...
+    def video_controls(self) -> dict[str, tuple[VideoControl, float]]: ...
 
 
 class LiveSink(Protocol):
-    """Something that shows each status (the viser 3D view)."""
+    """Something that shows each status (the viser 3D view, the no-locomotion watch): the typed
+    status and its JSON form (``message``), on the pipeline's status thread; returns quickly."""
 
-    def update(self, snapshot: Mapping[str, Any]) -> None: ...
+    def on_status(self, status: PipelineStatus, message: Mapping[str, Any]) -> None: ...
+
+
+class LiveFeed:
+    """The live status to every WebSocket, from the app's event loop.
+
+    :meth:`publish` (any thread) says that a new status came or one of the app's own live facts
+    changed; the feed then composes the message once (``compose``: the newest status and the
+    app's facts) and hands it to every socket's queue, never more often than ``rate_hz``. Each
+    socket awaits its queue (:meth:`subscribe`), which keeps only the newest message: a slow
+    client skips messages, it never builds a backlog, and no socket polls.
+    """
+
+    def __init__(self, compose: Callable[[], dict[str, Any]], rate_hz: float) -> None:
+        if not rate_hz > 0:
+            raise ValueError(f"rate_hz must be > 0, got {rate_hz}")
+        self.compose = compose
+        self.period_s = 1.0 / rate_hz
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._queues: set[asyncio.Queue[dict[str, Any]]] = set()
+        self._last_s = -math.inf
+        self._due: asyncio.TimerHandle | None = None
+        self._changed = False  # something was published since the last message
+
+    def bind(self, loop: asyncio.AbstractEventLoop) -> None:
+        """The event loop the sockets run on (the app's lifespan's)."""
+        self._loop = loop
+
+    def subscribe(self) -> asyncio.Queue[dict[str, Any]]:
+        """A new socket's queue (in the event loop): it gets each message from now on."""
+        q: asyncio.Queue[dict[str, Any]] = asyncio.Queue(maxsize=1)
+        self._queues.add(q)
+        return q
+
+    def unsubscribe(self, q: asyncio.Queue[dict[str, Any]]) -> None:
+        self._queues.discard(q)
+
+    def publish(self) -> None:
+        """A new status or a changed fact (any thread): the sockets get it within the period."""
+        loop = self._loop
+        self._changed = True
+        if loop is None or loop.is_closed():
+            return
+        with contextlib.suppress(RuntimeError):  # the loop closed meanwhile (shutdown)
+            loop.call_soon_threadsafe(self._deliver)
+
+    def _deliver(self) -> None:
+        if not self._queues or self._due is not None or not self._changed:
+            return  # nobody listens, a delivery is due already (it takes the newest), or sent already
+        wait_s = self._last_s + self.period_s - time.monotonic()
+        if wait_s > 0 and self._loop is not None:
+            self._due = self._loop.call_later(wait_s, self._deliver_due)
+            return
+        self._last_s = time.monotonic()
+        self._changed = False
+        try:
+            message = self.compose()
+        except Exception:  # the loop boundary: report, keep serving
+            log.exception("composing the live status failed")
+            return
+        for q in self._queues:
+            if q.full():
+                q.get_nowait()  # the client has not taken the last one: the newest replaces it
+            q.put_nowait(message)
+
+    def _deliver_due(self) -> None:
+        self._due = None
+        self._deliver()
 
 
 def jsonable(obj: Any) -> Any:
@@ -77,170 +163,59 @@ def jsonable(obj: Any) -> Any:
     return obj
 
 
-def idle_snapshot(state: str = "stopped", source: str | None = None) -> dict[str, Any]:
-    return {
-        "state": state,
-        "source": source,
-        "fps": 0.0,
-        "dropped": 0,
-        "latency_ms": {},
-        "cameras": [],
-        "people": [],
-        "navigator": None,
-        "navigator_mode": "auto",
-        "navigation": {"mode": "single", "chosen": [], "group": None},
-        "action": None,
-        "ts": time.time(),
-        "extra": {},
-    }
-
-
-def _position(person: Mapping[str, Any]) -> list[float] | None:
-    pos = person.get("position_m")
-    if pos is None:
-        return None
-    vals = [float(v) if v is not None else math.nan for v in pos]
-    return [round(v, 4) for v in vals] if len(vals) == 3 and all(math.isfinite(v) for v in vals) else None
-
-
-def _command(c: Mapping[str, Any] | None) -> dict[str, Any] | None:
-    """A person's own command (issue 20): label, confidence and the step strip's evidence."""
-    if c is None:
-        return None
-    found = c.get("action")
-    action: Mapping[str, Any] = found if isinstance(found, Mapping) else {}
-    return {"label": str(c.get("label")), "confidence": float(c.get("confidence") or 0.0),
-            "yaw_deg": action.get("yaw_deg"), "speed_mps": action.get("speed_mps"),
-            "steps": action.get("steps")}
-
-
-def _group(g: Any) -> dict[str, Any] | None:
-    if not isinstance(g, Mapping):
-        return None
-    return {"label": str(g.get("label")), "confidence": float(g.get("confidence") or 0.0),
-            "members": [int(u) for u in g.get("members") or []],
-            "votes": {str(k): int(v) for k, v in (g.get("votes") or {}).items()}}
-
-
-def status_snapshot(status: Any) -> dict[str, Any]:
-    """The runtime's ``PipelineStatus`` -> the JSON object of ``GET /status`` and the WebSocket.
-
-    3D joints (``people3d``) go under ``extra`` for the 3D view and the dashboard's overlay.
-    """
-    raw = jsonable(status)
-    if not isinstance(raw, dict):
-        raise TypeError(f"pipeline status must be a dataclass or mapping, got {type(status).__name__}")
-    snap = idle_snapshot(str(raw.get("state", "stopped")), raw.get("source"))
-    snap["fps"] = float(raw.get("fps") or 0.0)
-    snap["dropped"] = int(raw.get("dropped") or 0)
-    lat = raw.get("latency_ms") or {}
-    snap["latency_ms"] = {
-        str(stage): {
-            k: (None if v is None else round(float(v), 3))
-            for k, v in dict(q).items()
-            if k in ("p50", "p95", "p99")
-        }
-        for stage, q in lat.items()
-        if isinstance(q, Mapping)
-    }
-    snap["cameras"] = [
-        {
-            "name": str(c.get("name")),
-            "ok": bool(c.get("ok")),
-            "fps": c.get("fps"),
-            "last_error": c.get("last_error"),
-        }
-        for c in raw.get("cameras") or []
-        if isinstance(c, Mapping)
-    ]
-    navigator = raw.get("navigator")
-    snap["navigator"] = None if navigator is None else int(navigator)
-    snap["navigator_mode"] = "manual" if raw.get("navigator_mode") == "manual" else "auto"
-    found = raw.get("navigation")
-    nav: Mapping[str, Any] = found if isinstance(found, Mapping) else {}
-    commands = {int(c["user_id"]): c for c in nav.get("commands") or [] if isinstance(c, Mapping)}
-    snap["navigation"] = {"mode": str(nav.get("mode") or "single"), "chosen": list(nav.get("chosen") or []),
-                          "group": _group(nav.get("group"))}
-    snap["people"] = [
-        {
-            "user_id": int(p["user_id"]),
-            "position_m": _position(p),
-            "reproj_px": p.get("reproj_px"),
-            "is_navigator": snap["navigator"] is not None and int(p["user_id"]) == snap["navigator"],
-            "navigating": int(p["user_id"]) in commands,
-            "command": _command(commands.get(int(p["user_id"]))),
-        }
-        for p in raw.get("people") or []
-        if isinstance(p, Mapping) and p.get("user_id") is not None
-    ]
-    action = raw.get("action")
-    if isinstance(action, Mapping) and action.get("label") is not None:
-        snap["action"] = {
-            "label": str(action["label"]),
-            "probs": {str(k): float(v or 0.0) for k, v in (action.get("probs") or {}).items()},
-            "yaw_deg": action.get("yaw_deg"),
-            "speed_mps": action.get("speed_mps"),
-            "steps": action.get("steps"),  # step evidence + gate verdict (frontend/js/panels/steps.js)
-        }
-    people3d = raw.get("people3d")
-    if people3d:
-        snap["extra"]["people3d"] = people3d
-    return snap
-
-
 #: The runtime's event kinds -> the event log's kinds (others are kept as they are).
 EVENT_KINDS = {"state": "pipeline", "worker": "pipeline", "camera": "pipeline"}
 
 
-def event_fields(event: Any) -> tuple[str, dict[str, Any], float]:
-    """A runtime ``PipelineEvent`` (timestamp_s, kind, message, data) -> (kind, payload, unix ts)."""
-    raw = jsonable(event)
-    if not isinstance(raw, dict):
-        return "pipeline", {"value": raw}, time.time()
-    kind = str(raw.pop("kind", None) or "pipeline")
-    ts_val = raw.pop("timestamp_s", None)
-    if ts_val is None:
-        ts_val = raw.pop("ts", None)
-    data = raw.pop("data", None)
-    payload: dict[str, Any] = (
-        dict(data) if isinstance(data, dict) else ({} if data is None else {"data": data})
-    )
-    payload.update(raw)  # message and anything else
-    if kind in ("worker", "camera"):
-        payload.setdefault("source", kind)
-    ts = float(ts_val) if isinstance(ts_val, int | float) and math.isfinite(ts_val) else time.time()
-    return EVENT_KINDS.get(kind, kind), payload, ts
+def event_fields(event: PipelineEvent) -> tuple[str, dict[str, Any], float]:
+    """A runtime ``PipelineEvent`` -> (the event log's kind, its payload, unix ts)."""
+    payload: dict[str, Any] = {str(k): jsonable(v) for k, v in event.data.items()}
+    payload["message"] = event.message
+    if event.kind in ("worker", "camera"):
+        payload.setdefault("source", event.kind)
+    ts = event.timestamp_s if math.isfinite(event.timestamp_s) else time.time()
+    return EVENT_KINDS.get(event.kind, event.kind), payload, ts
+
+
+class _Subscription:
+    """One pipeline's status subscriber: the service learns which pipeline a status is from."""
+
+    def __init__(self, service: PipelineService, pipeline: PipelineFacade) -> None:
+        self._service = service
+        self._pipeline = pipeline
+
+    def on_status(self, status: PipelineStatus) -> None:
+        self._service.on_status(self._pipeline, status)
 
 
 class PipelineService:
-    """Owns one pipeline (built on first start by ``factory``) and polls it in a thread."""
+    """Owns one pipeline (built on first start by ``factory``) and hands its pushed status on."""
 
     def __init__(
         self,
         factory: Callable[[], PipelineFacade] | None,
         events: EventWriter,
         sinks: tuple[LiveSink, ...] = (),
-        rate_hz: float = 10.0,
+        feed: LiveFeed | None = None,
     ) -> None:
         self._factory = factory
         self._events = events
         self._sinks = sinks
-        self._period = 1.0 / rate_hz
+        self.feed = feed
         self._pipeline: PipelineFacade | None = None
         # _lock serialises the control of the pipeline (start, stop, navigator, rebuild), which may
         # take seconds (spawning or joining workers, on a busy machine many); _snap_lock guards only
-        # the latest snapshot, so that status reads (GET /status, every WebSocket message, on the
+        # the newest status, so that status reads (GET /status, every WebSocket message, on the
         # event loop) never wait for a start or stop (issue 15 S3: they did, and timed out)
         self._lock = threading.RLock()
         self._snap_lock = threading.Lock()
-        self._snapshot: dict[str, Any] = idle_snapshot("stopped" if factory else "unavailable")
-        self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
+        self._status = PipelineStatus("stopped" if factory else "unavailable")
+        self._snapshot: dict[str, Any] = self._status.to_json()
         self.unavailable_reason = "" if factory else "the pipeline runtime is not available"
         self._rebuild = False
-        self._result_sinks: tuple[Any, ...] = ()
+        self._result_sinks: tuple[ResultSink, ...] = ()
         self._navigation: str | None = None  # the operator's navigation mode, kept over rebuilds
-        self._adaptation: Any = None  # the running session's teach adaptation, kept over rebuilds
+        self._adaptation: OutputAdaptation | None = None  # the running session's teach adaptation
 
     def send_prompt(self, text: str, label: str, remaining_s: float) -> None:
         """A ``prompt`` datagram to the workstations (the recording protocol's instruction)."""
@@ -248,46 +223,73 @@ class PipelineService:
         if pipeline is not None:
             pipeline.send_prompt(text, label, remaining_s)
 
-    def set_adaptation(self, adaptation: Any) -> None:
+    def set_adaptation(self, adaptation: OutputAdaptation | None) -> None:
         """A participant's teach adaptation of the recogniser (None: none), now and for later pipelines
         (pipeline.takes.teach.OutputAdaptation; issue 18 item 3)."""
         with self._lock:
             self._adaptation = adaptation
-            set_adaptation = getattr(self._pipeline, "set_adaptation", None)
-            if callable(set_adaptation):
-                set_adaptation(adaptation)
+            if self._pipeline is not None:
+                self._pipeline.set_adaptation(adaptation)
 
     @property
-    def adaptation(self) -> Any:
+    def adaptation(self) -> OutputAdaptation | None:
         return self._adaptation
 
-    def video_controls(self) -> dict[str, Any]:
+    def video_controls(self) -> dict[str, tuple[VideoControl, float]]:
         """The running pipeline's camera video switches (``Pipeline.video_controls``; {}: none)."""
         pipeline = self._pipeline  # one reference read: no need to wait for a start or stop
-        get = getattr(pipeline, "video_controls", None)
-        return dict(get()) if get is not None else {}
+        return dict(pipeline.video_controls()) if pipeline is not None else {}
 
-    def add_result_sink(self, sink: Any) -> None:
+    def add_result_sink(self, sink: ResultSink) -> None:
         """``sink.on_result(FrameResult)`` for every fused frame of this and every later pipeline."""
         with self._lock:
             self._result_sinks = (*self._result_sinks, sink)
-            add = getattr(self._pipeline, "add_sink", None)
-            if add is not None:
-                add(sink)
+            if self._pipeline is not None:
+                self._pipeline.add_sink(sink)
 
     def calibration_changed(self) -> None:
-        """A new calibration is active: the next start builds the pipeline with its cameras."""
+        """A new calibration is active: the next start builds the pipeline with its cameras (and the
+        live status shows the active calibration's id)."""
         with self._lock:
             self._rebuild = True
+        self.refresh()
 
     @property
     def available(self) -> bool:
         return self._factory is not None
 
+    # -- the pushed status (the pipeline's status thread) -----------------------------------
+    def on_status(self, pipeline: PipelineFacade, status: PipelineStatus) -> None:
+        """A status ``pipeline`` published: kept, its events logged, shown, sent to the sockets."""
+        message = status.to_json()
+        with self._snap_lock:
+            self._status, self._snapshot = status, message
+        for event in pipeline.drain_events():
+            kind, payload, ts = event_fields(event)
+            self._events.record(kind, payload, ts)
+        for sink in self._sinks:
+            try:
+                sink.on_status(status, message)
+            except Exception:
+                log.exception("live view update failed")
+        self.refresh()
+
+    def refresh(self) -> None:
+        """The live status or one of the app's own live facts (session, calibration, alarm) changed:
+        the WebSockets get it."""
+        if self.feed is not None:
+            self.feed.publish()
+
     # -- requests (any thread; never block on the pipeline's work) ------------------------
     def snapshot(self) -> dict[str, Any]:
+        """The newest status as JSON (``GET /status`` without the app's own fields)."""
         with self._snap_lock:
             return dict(self._snapshot)
+
+    def status(self) -> PipelineStatus:
+        """The newest status."""
+        with self._snap_lock:
+            return self._status
 
     def start(self, source: SourceName, videos: dict[str, Path] | None = None) -> None:
         with self._lock:
@@ -297,38 +299,36 @@ class PipelineService:
                 self._close_pipeline()
             self._rebuild = False
             if self._pipeline is None:
-                try:
-                    self._pipeline = self._factory()
-                except ImportError as exc:
-                    raise PipelineUnavailable(f"the pipeline cannot be built: {exc}") from exc
-                add = getattr(self._pipeline, "add_sink", None)
-                if callable(add):
-                    for sink in self._result_sinks:
-                        add(sink)
-                set_navigation = getattr(self._pipeline, "set_navigation", None)
-                if self._navigation is not None and callable(set_navigation):
-                    set_navigation(self._navigation, ())  # the chosen ids belong to the last run
-                set_adaptation = getattr(self._pipeline, "set_adaptation", None)
-                if self._adaptation is not None and callable(set_adaptation):
-                    set_adaptation(self._adaptation)
+                self._pipeline = self._build(self._factory)
             # (re)start: the pipeline validates first, so a bad request leaves the running one as it was;
-            # it reports its own state changes as events
+            # it reports its own state changes as events, and publishes the status it starts with
             self._pipeline.start(source, videos)
-            self._ensure_thread()
-        self.poll_once()
+
+    def _build(self, factory: Callable[[], PipelineFacade]) -> PipelineFacade:
+        try:
+            pipeline = factory()
+        except ImportError as exc:
+            raise PipelineUnavailable(f"the pipeline cannot be built: {exc}") from exc
+        for sink in self._result_sinks:
+            pipeline.add_sink(sink)
+        if self._navigation is not None:
+            pipeline.set_navigation(self._navigation, [])  # the chosen ids belong to the last run
+        if self._adaptation is not None:
+            pipeline.set_adaptation(self._adaptation)
+        pipeline.subscribe(_Subscription(self, pipeline))
+        return pipeline
 
     def stop(self) -> None:
         with self._lock:
             if self._pipeline is None:
                 return
-            self._pipeline.stop()
-        self.poll_once()
+            self._pipeline.stop()  # publishes the stopped status before it returns
 
     def set_navigator(self, user_id: int | None) -> tuple[int | None, Literal["auto", "manual"]]:
         """Pick the navigator (None = automatic); an id nobody has now raises UnknownUser."""
         with self._lock:
-            now = self.snapshot()
-            if self._pipeline is None or now["state"] not in ("running", "starting"):
+            now = self.status()
+            if self._pipeline is None or now.state not in ("running", "starting"):
                 if user_id is None:
                     return None, "auto"  # nothing runs: automatic is what it will start with
                 raise UnknownUser("the pipeline is not running")
@@ -336,104 +336,54 @@ class PipelineService:
                 self._pipeline.set_navigator(user_id)
             except InputError as exc:  # the pipeline knows who is tracked (TRACKED_WITHIN_S)
                 raise UnknownUser(str(exc)) from exc
-        self.poll_once()
-        snap = self.snapshot()
         mode: Literal["auto", "manual"] = "manual" if user_id is not None else "auto"
-        return (user_id if user_id is not None else snap["navigator"]), mode
+        return (user_id if user_id is not None else self.status().navigator), mode
 
     def set_navigation(self, mode: str, user_ids: list[int]) -> dict[str, Any]:
         """The navigation mode (issue 20) with its chosen people (empty = everyone tracked).
         UnknownUser for an id nobody has now; InputError for a bad mode; nothing changes then."""
         with self._lock:
-            now = self.snapshot()
-            if user_ids and (self._pipeline is None or now["state"] not in ("running", "starting")):
+            now = self.status()
+            if user_ids and (self._pipeline is None or now.state not in ("running", "starting")):
                 raise UnknownUser(f"no person with user_id {sorted(user_ids)} is tracked now: "
                                   "the pipeline is not running")
-            set_navigation = getattr(self._pipeline, "set_navigation", None)
-            if self._pipeline is not None and callable(set_navigation):
+            if self._pipeline is not None:
                 try:
-                    set_navigation(mode, list(user_ids))
+                    self._pipeline.set_navigation(mode, list(user_ids))
                 except InputError as exc:  # the pipeline knows who is tracked (TRACKED_WITHIN_S)
                     if user_ids and "not tracked" in str(exc):
                         raise UnknownUser(str(exc)) from exc
                     raise
             else:  # nothing built yet: the first start takes it
-                from pipeline.navigation.config import NavigationConfig
-
                 try:
-                    NavigationConfig(mode, tuple(user_ids))  # type: ignore[arg-type]
+                    config = NavigationConfig(mode, tuple(user_ids))  # type: ignore[arg-type]
                 except ValueError as exc:
                     raise InputError(str(exc)) from None
                 with self._snap_lock:
-                    self._snapshot["navigation"] = {"mode": mode, "chosen": [], "group": None}
+                    self._status = replace(self._status, navigation=NavigationStatus(config.mode))
+                    self._snapshot = self._status.to_json()
+                self.refresh()
             self._navigation = mode
-        self.poll_once()
         return {"mode": mode, "chosen": sorted(user_ids)}  # the fusion worker takes it within a frame
 
     def snapshot_jpeg(self, camera: str) -> bytes | None:
         pipeline = self._pipeline  # one reference read: no need to wait for a start or stop
         return None if pipeline is None else pipeline.snapshot_jpeg(camera)
 
-    # -- the polling thread ------------------------------------------------------------
-    def poll_once(self) -> None:
-        """Read the pipeline's status and events once and hand them on."""
-        with self._lock:
-            pipeline = self._pipeline
-        if pipeline is None:
-            return
-        try:
-            snap = status_snapshot(pipeline.status())
-            for event in pipeline.drain_events():
-                kind, payload, ts = event_fields(event)
-                self._events.record(kind, payload, ts)
-        except Exception as exc:  # the loop boundary: report, keep serving
-            log.exception("pipeline status failed")
-            snap = idle_snapshot("error")
-            snap["extra"]["error"] = str(exc)
-        with self._snap_lock:
-            self._snapshot = snap
-        for sink in self._sinks:
-            try:
-                sink.update(snap)
-            except Exception:
-                log.exception("live view update failed")
-
-    def _ensure_thread(self) -> None:
-        if self._thread is None or not self._thread.is_alive():
-            self._stop.clear()
-            self._thread = threading.Thread(target=self._run, name="pipeline-poll", daemon=True)
-            self._thread.start()
-
-    def _run(self) -> None:
-        next_t = time.monotonic()
-        while not self._stop.is_set():
-            self.poll_once()
-            next_t += self._period
-            delay = next_t - time.monotonic()
-            if delay < 0:
-                next_t = time.monotonic()
-                delay = 0
-            self._stop.wait(delay)
-
     def _close_pipeline(self) -> None:
         if self._pipeline is None:
             return
         try:
             self._pipeline.stop()
-            close = getattr(self._pipeline, "close", None)
-            if callable(close):
-                close()
+            self._pipeline.close()
         except Exception:
             log.exception("pipeline stop failed")
         self._pipeline = None
 
     def close(self) -> None:
-        """Stop the pipeline and the polling thread (the app's shutdown)."""
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join(timeout=5)
-            self._thread = None
+        """Stop the pipeline (the app's shutdown)."""
         with self._lock:
             self._close_pipeline()
             with self._snap_lock:
-                self._snapshot = idle_snapshot("stopped" if self._factory else "unavailable")
+                self._status = PipelineStatus("stopped" if self._factory else "unavailable")
+                self._snapshot = self._status.to_json()

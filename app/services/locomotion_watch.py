@@ -1,15 +1,16 @@
 """The alarm of a session with nobody steering: no locomotion command for more than 2 s.
 
-:class:`LocomotionWatch` is a sink of the live status (it gets every snapshot the pipeline owner
-polls, about ten a second). A locomotion command goes out while the pipeline runs and has a
+:class:`LocomotionWatch` is a sink of the live status (it gets every status the pipeline pushes,
+about ten a second while it runs). A locomotion command goes out while the pipeline runs and has a
 navigator with an action (the emitter sends one per frame then). During a running study session a
 gap longer than ``threshold_s`` raises the alarm: the dashboard shows it (``alarm`` in the live
 status) and the session's log gets an ``alarm`` event when it is raised and when it clears, so the
 session's summary can say how long it ran without commands.
 
 The rule is also checked on the watch's own clock (:meth:`LocomotionWatch.start`, four times a
-second), so the alarm is raised and logged when nobody polls the status: with no dashboard open, or
-with the pipeline stopped or crashed during a running session (then no snapshots arrive at all).
+second), so the alarm is raised and logged when no status comes: with the pipeline stopped or
+crashed during a running session. Each change of the alarm (raised, its gap grown, cleared) calls
+``on_change``, so the live status shows it also while no pipeline status comes.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from app.services.event_log import EventWriter
+from pipeline.runtime.status import PipelineStatus
 
 log = logging.getLogger(__name__)
 
@@ -65,8 +67,10 @@ class LocomotionWatch:
         events: EventWriter,
         config: WatchConfig | None = None,
         clock: Callable[[], float] = time.monotonic,
+        on_change: Callable[[], None] = lambda: None,
     ) -> None:
         self._events = events
+        self._on_change = on_change
         self.config = config or WatchConfig()
         self._clock = clock
         self._lock = threading.Lock()
@@ -103,17 +107,32 @@ class LocomotionWatch:
                 log.exception("locomotion watch check failed")
 
     # -- the sink ----------------------------------------------------------------------
+    def on_status(self, status: PipelineStatus, message: Mapping[str, Any]) -> None:
+        """A live status pushed by the pipeline (its JSON form is what the rule reads)."""
+        self.update(message)
+
     def update(self, snapshot: Mapping[str, Any]) -> None:
         with self._lock:
+            before = self._alarm_now()
             self._snapshot, self._snapshot_at = snapshot, self._clock()
             self._check_locked()
+            changed = self._alarm_now() != before
+        if changed:
+            self._on_change()
 
     # -- readers -----------------------------------------------------------------------
     def current(self) -> dict[str, Any] | None:
         """The alarm now (for the live status), or None."""
         with self._lock:
+            before = self._alarm_now()
             self._check_locked()
-            return dict(self._alarm) if self._alarm is not None else None
+            alarm = self._alarm_now()
+        if alarm != before:
+            self._on_change()
+        return alarm
+
+    def _alarm_now(self) -> dict[str, Any] | None:
+        return dict(self._alarm) if self._alarm is not None else None
 
     # -- the rule ----------------------------------------------------------------------
     def _check_locked(self) -> None:

@@ -56,6 +56,7 @@ def build_pipeline(settings: Settings, cameras: list[Camera] | None = None,
         camera_sources={c.name: c.source for c in settings.cameras},
         chain=chain_config(settings, recognition), pose=pose_model(settings), simulator=sim,
         workstations=settings.endpoints, emitter=settings.emitter,
+        status_rate_hz=settings.server.live_rate_hz,
     )
 
 
@@ -75,8 +76,6 @@ def runtime_factory(
             run = active_calibration_run(db)
             cameras = cameras_from_result(run.result) if run is not None and run.result else None
         rec = recognition() if recognition is not None else None
-        pipeline: PipelineFacade = build_pipeline(settings, cameras, simulator_factory(settings),  # type: ignore[assignment]
-                                                  recognition=rec)
-        return pipeline
+        return build_pipeline(settings, cameras, simulator_factory(settings), recognition=rec)
 
     return build, ""

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import logging
 import multiprocessing as mp
+import multiprocessing.queues as mpq
 import os
 import platform
 import queue as _queue
@@ -29,6 +30,7 @@ from pipeline.pose.config import PoseConfig
 from pipeline.runtime.metrics import percentiles
 from pipeline.runtime.pipeline import Pipeline
 from pipeline.runtime.status import PipelineStatus
+from pipeline.runtime.workers import StopFlag
 from pipeline.takes.config import TakesConfig
 from pipeline.takes.video import VideoSession
 
@@ -60,7 +62,7 @@ class ProcessSampler:
         self.sample()
         self.cpu_samples.clear()
 
-    def _procs(self) -> list[Any]:
+    def _procs(self) -> list[psutil.Process]:
         try:
             return [self._me, *self._me.children(recursive=True)]
         except self._psutil.Error:
@@ -90,7 +92,8 @@ class ProcessSampler:
         self.rss_samples_mb.append(rss / 1e6)
 
 
-def receiver_process(port_q: Any, go: Any, stop: Any, out_q: Any) -> None:
+def receiver_process(port_q: mpq.Queue[int], go: StopFlag, stop: StopFlag,
+                     out_q: mpq.Queue[dict[str, Any]]) -> None:
     """The workstation end of a benchmark, in its own process (no GIL shared with the pipeline):
     binds a port, discards what came before ``go``, receives until ``stop``, returns the summary."""
     sock = open_receiver_socket(0, "127.0.0.1")
@@ -208,7 +211,7 @@ def _figures(scenario: Scenario, elapsed: float, s0: PipelineStatus, s1: Pipelin
         "latency_samples": {stage: len(vals) for stage, vals in samples.items()},
         "cpu_percent": _summary(sampler.cpu_samples),
         "rss_mb": _summary(sampler.rss_samples_mb),
-        "cameras": list(s1.cameras),
+        "cameras": [c.to_json() for c in s1.cameras],
         "receiver": rx_summary,
         "videos": video_stats,
     }

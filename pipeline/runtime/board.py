@@ -3,24 +3,34 @@
 One :class:`StatusBoard` per pipeline. Every state change goes through it (the façade's
 start and stop, the router's first result, the supervision's stall and chain errors), so
 the state, the standby emitter's heartbeats and the ``state`` events always agree; a change
-asked for on behalf of a run that is no longer the current one is ignored.
+asked for on behalf of a run that is no longer the current one is ignored. Each state
+change, event, fused result (the router) and supervision tick calls ``on_change``: the
+status publisher's poke (:mod:`pipeline.runtime.publisher`).
 """
 
 from __future__ import annotations
 
-import math
 import threading
 import time
 from collections import deque
+from collections.abc import Callable
+from dataclasses import replace
 from typing import Any
 
 from pipeline.emitter.udp import UdpEmitter
 from pipeline.navigation.config import NavigationConfig
-from pipeline.navigation.views import navigation_record
-from pipeline.results import FrameResult, action_record, person_record
 from pipeline.runtime.metrics import RuntimeMetrics
 from pipeline.runtime.run import Run
-from pipeline.runtime.status import PipelineEvent, PipelineStatus, State
+from pipeline.runtime.status import (
+    ActionStatus,
+    CameraStatus,
+    NavigationStatus,
+    PipelineEvent,
+    PipelineStatus,
+    Skeleton,
+    State,
+    frame_people,
+)
 
 EVENT_LOG_SIZE = 2000
 
@@ -28,8 +38,9 @@ EVENT_LOG_SIZE = 2000
 class StatusBoard:
     """State, last error, events; thread-safe."""
 
-    def __init__(self, emitter: UdpEmitter) -> None:
+    def __init__(self, emitter: UdpEmitter, on_change: Callable[[], None] = lambda: None) -> None:
         self.emitter = emitter
+        self._on_change = on_change
         self._lock = threading.RLock()
         self._state: State = "stopped"
         self._last_error: str | None = None
@@ -57,6 +68,7 @@ class StatusBoard:
         with self._lock:
             self._run = None
             self._state = "error"
+        self._on_change()
 
     def stopped(self) -> None:
         with self._lock:
@@ -85,10 +97,15 @@ class StatusBoard:
         self.emitter.set_state(state)
         self.event("state", message, data)
 
+    def changed(self) -> None:
+        """Something the status shows may have changed (a result, a tick): tell the publisher."""
+        self._on_change()
+
     # -- events ----------------------------------------------------------------------------
     def event(self, kind: str, message: str, data: dict[str, Any]) -> None:
         with self._lock:
             self._events.append(PipelineEvent(time.time(), kind, message, data))
+        self._on_change()
 
     def drain(self) -> list[PipelineEvent]:
         with self._lock:
@@ -98,32 +115,29 @@ class StatusBoard:
 
     # -- the snapshot -----------------------------------------------------------------------
     def status(self, navigation: NavigationConfig) -> PipelineStatus:
+        """The status now: the run's health and its newest fused frame (``navigation``: the
+        configured mode, shown while no frame says otherwise)."""
         with self._lock:
             run, state, error = self._run, self._state, self._last_error
         endpoints, sent = tuple(self.emitter.endpoints), self.emitter.sent
         if run is None:
-            return PipelineStatus(state, None, 0.0, 0, 0, RuntimeMetrics().latency_summary(), (), (),
-                                  None, "auto", None, (), -1, error, endpoints, sent,
-                                  navigation_record(None, navigation))
-        now = time.monotonic()
+            return PipelineStatus(state, latency_ms=RuntimeMetrics().latency_summary(), last_error=error,
+                                  workstations=endpoints, emitted=sent,
+                                  navigation=NavigationStatus.of(None, navigation))
         latest = run.latest
-        result = latest.result if latest is not None else FrameResult(-1, 0.0)
         processed = run.metrics.processed
-        people = tuple({"user_id": p.user_id, "position_m": [_f(v) for v in p.position_m],
-                        "reproj_px": _f(p.reproj_px)} for p in result.people3d)
-        return PipelineStatus(
-            state=state, source=run.source, fps=round(run.metrics.fps.rate(now), 2),
-            dropped=max(0, run.produced - processed), processed=processed,
-            latency_ms=run.metrics.latency_summary(),
-            cameras=tuple({"name": c.name, "ok": c.ok, "fps": round(c.fps, 2), "last_error": c.last_error}
-                          for c in run.cameras.values()),
-            people=people, navigator=result.navigator,
-            navigator_mode=latest.navigator_mode if latest is not None else "auto",
-            action=action_record(result.action), people3d=tuple(person_record(p) for p in result.people3d),
-            frame_index=result.frame_index, last_error=error, workstations=endpoints, emitted=sent,
-            navigation=navigation_record(result.navigation, navigation),
-        )
-
-
-def _f(x: float) -> float | None:
-    return round(float(x), 4) if math.isfinite(float(x)) else None
+        health = PipelineStatus(
+            state, run.source, round(run.metrics.fps.rate(time.monotonic()), 2),
+            max(0, run.produced - processed), processed, run.metrics.latency_summary(),
+            tuple(CameraStatus(c.name, c.ok, round(c.fps, 2), c.last_error) for c in run.cameras.values()),
+            navigation=NavigationStatus.of(None, navigation), last_error=error, workstations=endpoints,
+            emitted=sent)
+        if latest is None:
+            return health
+        result = latest.result
+        return replace(
+            health, people=frame_people(result), navigator=result.navigator,
+            navigator_mode="manual" if latest.navigator_mode == "manual" else "auto",
+            navigation=NavigationStatus.of(result.navigation, navigation),
+            action=ActionStatus.of(result.action) if result.action is not None else None,
+            people3d=tuple(Skeleton.of(p) for p in result.people3d), frame_index=result.frame_index)

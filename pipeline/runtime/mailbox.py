@@ -23,7 +23,6 @@ import os
 import pickle
 import time
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
@@ -39,8 +38,8 @@ class MailboxSpec:
     """What a process needs to use a mailbox (picklable: the pipe ends travel to the child)."""
 
     ring: RingSpec
-    wake_r: Any  # multiprocessing.connection.Connection, read end
-    wake_w: Any  # write end
+    wake_r: mpc.Connection  # read end
+    wake_w: mpc.Connection  # write end
 
 
 class Mailbox:
@@ -74,8 +73,9 @@ class Mailbox:
         with contextlib.suppress(BlockingIOError, BrokenPipeError, InterruptedError):
             os.write(fd, b"\x01")
 
-    def get(self, timeout: float) -> tuple[Any, int] | None:
-        """(the newest message not taken yet, how many older ones it skipped), or None after ``timeout``."""
+    def get(self, timeout: float) -> tuple[object, int] | None:
+        """(the newest message not taken yet, how many older ones it skipped), or None after ``timeout``.
+        The reader checks what it got (``isinstance``): a message is whatever was unpickled."""
         for _ in range(3):  # the writer may lap the slot being read; try the newer one
             if not self.get_wait(timeout):
                 return None
@@ -86,7 +86,7 @@ class Mailbox:
                 return pickle.loads(slot.image.tobytes()), skipped
         return None
 
-    def get_all(self, timeout: float) -> list[Any]:
+    def get_all(self, timeout: float) -> list[object]:
         """Every message not taken yet that the ring still holds (oldest first; the newest ``SLOTS``
         at most), waiting up to ``timeout`` s for one: for a reader that must see each (events)."""
         if not self.get_wait(timeout):

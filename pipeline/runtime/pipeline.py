@@ -9,13 +9,14 @@ Topology (one process per box; frames in shared memory, small results in mailbox
 
 The chain's stages (pose stage, fusion) are built in the workers from one
 :class:`~pipeline.runtime.chain.ChainConfig` (:mod:`pipeline.runtime.chain`). The façade only
-coordinates; each responsibility has its module (issue 16, item 5):
+coordinates; each responsibility has its module (issue 16, items 4 and 5):
 
 - :mod:`pipeline.runtime.plan` — the run plan, checked before anything is stopped;
 - :mod:`pipeline.runtime.launcher` — the launcher (worker processes, queues, rings) and the
   supervision thread (worker events, restarts, camera health, stalls);
 - :mod:`pipeline.runtime.router` — the result router: the collector thread and the sinks;
-- :mod:`pipeline.runtime.board` — the status: state machine, events, the status snapshot.
+- :mod:`pipeline.runtime.board` — the status: state machine, events, the status snapshot;
+- :mod:`pipeline.runtime.publisher` — the status pushed to its subscribers (the web app).
 
 Everything here is thread-safe and returns quickly. The fusion worker sends the UDP stream
 itself; the main process's emitter (role ``standby``) sends the heartbeats while no fusion
@@ -42,6 +43,7 @@ from pipeline.runtime.launcher import ChainParts, Launcher, Supervision
 from pipeline.runtime.messages import SendPrompt, SetAdaptation, SetNavigation, SetNavigator, put_latest
 from pipeline.runtime.metrics import RuntimeMetrics
 from pipeline.runtime.plan import SOURCES, PlanInputs, SourceName, plan_run
+from pipeline.runtime.publisher import StatusPublisher, StatusSink
 from pipeline.runtime.router import ResultRouter
 from pipeline.runtime.run import Run
 from pipeline.runtime.sinks import ResultSink, StreamSpec
@@ -69,7 +71,8 @@ class Pipeline:
                  pose: PoseModel | None = None,
                  simulator: SimWorldFactory | None = None,
                  workstations: Sequence[tuple[str, int]] = (),
-                 emitter: EmitterConfig | None = None) -> None:
+                 emitter: EmitterConfig | None = None,
+                 status_rate_hz: float = 10.0) -> None:
         guard_resource_tracker()
         self.config = config
         self.cameras_calibrated = list(cameras_calibrated) if cameras_calibrated else None
@@ -85,7 +88,8 @@ class Pipeline:
         self._sock = stream_socket(emitter)
         self.emitter = UdpEmitter(emitter, list(workstations), emitter.osc_endpoints or None,
                                   head=self.chain.head, shared=self._book, role="standby", sock=self._sock)
-        self._board = StatusBoard(self.emitter)
+        self._publisher = StatusPublisher(self.status, status_rate_hz)
+        self._board = StatusBoard(self.emitter, on_change=self._publisher.poke)
         self._router = ResultRouter(self._board)
         self._launcher = Launcher(config)
         self._supervision = Supervision(config, self._board)
@@ -121,6 +125,7 @@ class Pipeline:
             self._board.started(run)
             for t in run.threads:
                 t.start()
+        self._publisher.publish_now()
 
     def _stream_spec(self) -> StreamSpec:
         return StreamSpec(self._emitter_config, self.chain.head, self._book.spec, self._sock,
@@ -133,6 +138,7 @@ class Pipeline:
                 return
             self._stop_locked()
             self._board.stopped()
+        self._publisher.publish_now()
         gc.collect()  # frees the run's named semaphores now, not at some later collection
 
     def _stop_locked(self) -> None:
@@ -144,14 +150,25 @@ class Pipeline:
         self._book.release()  # no fusion worker sends now: the standby emitter does
 
     def close(self) -> None:
-        """Stop the pipeline and the emitter (the heartbeat ends too)."""
+        """Stop the pipeline, its status publisher (after the ``stopped`` status) and the emitter
+        (the heartbeat ends too)."""
         self.stop()
+        self._publisher.close()
         self.emitter.close()
         self._book.unlink()
 
     # --------------------------------------------------------------------------------- queries
     def status(self) -> PipelineStatus:
+        """The status now (subscribers get it pushed: :meth:`subscribe`)."""
         return self._board.status(self.chain.navigation)
+
+    def subscribe(self, sink: StatusSink) -> None:
+        """Push the status to ``sink.on_status`` at most ``status_rate_hz`` times a second while
+        something changes (results, health, state, events; :mod:`pipeline.runtime.publisher`)."""
+        self._publisher.subscribe(sink)
+
+    def unsubscribe(self, sink: StatusSink) -> None:
+        self._publisher.unsubscribe(sink)
 
     def latency_samples(self) -> dict[str, list[float]]:
         """The raw latency window of every stage (ms), for benchmarks."""

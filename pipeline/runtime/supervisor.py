@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import multiprocessing.synchronize as mps
 import os
 import queue
 import signal
@@ -37,6 +38,7 @@ import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from multiprocessing import spawn
+from multiprocessing.process import BaseProcess
 from typing import Any
 
 import psutil
@@ -67,7 +69,7 @@ class SupervisorConfig:
 class Worker:
     """One worker process; also watched by pid once multiprocessing lost track of it (fork server died)."""
 
-    def __init__(self, name: str, proc: Any) -> None:
+    def __init__(self, name: str, proc: BaseProcess) -> None:
         self.name = name
         self.proc = proc
         self.pid: int | None = proc.pid
@@ -126,7 +128,7 @@ class Worker:
 class WorkerGroup:
     name: str
     build: Callable[[], list[WorkerDef]]
-    stop: Any = None
+    stop: mps.Event | None = None
     workers: list[Worker] = field(default_factory=list)
     started_at: float = 0.0
     restarts: int = 0

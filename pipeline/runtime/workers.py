@@ -335,9 +335,11 @@ def _fuse(ctx: _Ctx, fusion: Fusion, inbox: Mailbox, out: Mailbox, control_q: Bo
         got = inbox.get(timeout=0.05)
         if sink is not None:
             sink.check(time.monotonic())
-        if got is None or not isinstance(got[0], TrackedFrame):
+        if got is None:
             continue
         item, skipped = got
+        if not isinstance(item, TrackedFrame):
+            continue
         result = fusion.update(item)
         fused_s = time.monotonic()
         sent_s = None

@@ -133,3 +133,36 @@ def test_app_lifespan_frees_the_viser_port(tmp_path: Path) -> None:
         assert c.get("/api/v1/info").json()["viser_port"] == settings.server.viser_port
         assert not port_is_free(settings.server.viser_port)
     assert port_is_free(settings.server.viser_port)
+
+
+def test_a_pushed_status_is_drawn_from_its_arrays_as_its_json_form_is(tmp_path: Path) -> None:
+    """The live view takes the pipeline's typed status as it comes (issue 16 item 4); a replay's
+    JSON frame of the same people draws the same scene."""
+    from pipeline.runtime.status import ActionStatus, PersonStatus, PipelineStatus, Skeleton
+
+    joints = {3: joints_array(standing_person(0, 0)), 5: joints_array(standing_person(1, 1))}
+    joints[5][J["l_ankle"]] = np.nan
+    status = PipelineStatus(
+        "running", navigator=3, action=ActionStatus("forward", 0.9, {"forward": 0.9}, 30.0, 0.5),
+        people=(PersonStatus(3, (0.0, 0.0, 0.95), 1.0, True, True,
+                             ActionStatus("left", 0.874, {"left": 0.874}, 10.0, 0.4)),
+                PersonStatus(5, (1.0, 1.0, 0.95), 1.0)),
+        people3d=tuple(Skeleton(uid, j.astype(np.float64), 1.0) for uid, j in joints.items()))
+    settings = make_settings(tmp_path, viser=True)
+    viewer = Viewer.start(settings)
+    try:
+        drawn: list[dict[Any, Any]] = []
+        for typed in (True, False):
+            if typed:
+                viewer.on_status(status, status.to_json())
+            else:
+                viewer.update(status.to_json())
+            drawn.append({uid: (p.label.text, np.asarray(p.joints.points).round(4).tolist(),
+                                np.asarray(p.bones.points).round(4).tolist())
+                          for uid, p in viewer.people.items()})
+            drawn[-1]["arrow"] = np.asarray(viewer.arrow.points).round(4).tolist()
+        assert drawn[0] == drawn[1], "the typed status and its JSON draw the same scene"
+        assert drawn[0][3][0] == "user 3 · navigator · left 87 %" and drawn[0][5][0] == "user 5"
+        assert len(drawn[0][5][2]) == len(BONES) - 1, "the bone to the unknown ankle is left out"
+    finally:
+        viewer.stop()

@@ -1,4 +1,4 @@
-"""WebSocket ``/ws/live``: the live status about ten times a second."""
+"""WebSocket ``/ws/live``: the live status as the pipeline pushes it (about ten times a second)."""
 
 from __future__ import annotations
 
@@ -18,7 +18,9 @@ router = APIRouter(tags=["live"])
 
 @router.websocket("/ws/live")
 async def live(ws: WebSocket) -> None:
-    """Sends ``{"type": "status", ...}`` (the ``GET /status`` object) every ``1 / rate`` seconds.
+    """Sends ``{"type": "status", ...}`` (the ``GET /status`` object): the current one at once, then
+    each new one the app's live feed hands on (``app.services.live.LiveFeed``: at most
+    ``server.live_rate_hz`` a second, the newest when the client is slower).
 
     With an operator token configured, pass it as ``?token=...``; a wrong one closes with 1008.
     """
@@ -26,15 +28,30 @@ async def live(ws: WebSocket) -> None:
         await ws.close(code=status.WS_1008_POLICY_VIOLATION, reason="operator token required")
         return
     await ws.accept()
-    period = 1.0 / ws.app.state.settings.server.live_rate_hz
+    feed = ws.app.state.feed
+    messages = feed.subscribe()
+    closed = asyncio.ensure_future(_until_closed(ws))
     try:
+        await ws.send_json({"type": "status", **live_snapshot(ws)})
         while True:
-            snap = live_snapshot(ws)
-            await ws.send_json({"type": "status", **snap})
-            # Anything the client sends is ignored; a disconnect ends the loop promptly.
-            with contextlib.suppress(TimeoutError):
-                await asyncio.wait_for(ws.receive_text(), timeout=period)
+            message = asyncio.ensure_future(messages.get())
+            await asyncio.wait({message, closed}, return_when=asyncio.FIRST_COMPLETED)
+            if not message.done():
+                message.cancel()
+                break
+            await ws.send_json({"type": "status", **message.result()})
     except WebSocketDisconnect:
         pass
     except RuntimeError as exc:  # sending after the client went away
         log.debug("live socket closed: %s", exc)
+    finally:
+        feed.unsubscribe(messages)
+        closed.cancel()
+        with contextlib.suppress(asyncio.CancelledError, WebSocketDisconnect, RuntimeError):
+            await closed
+
+
+async def _until_closed(ws: WebSocket) -> None:
+    """Until the client goes away (anything it sends is ignored)."""
+    while (await ws.receive())["type"] != "websocket.disconnect":
+        pass

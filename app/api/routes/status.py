@@ -25,13 +25,10 @@ class DashboardInfo(BaseModel):
 
 
 def live_snapshot(conn: HTTPConnection) -> dict[str, Any]:
-    """The pipeline's snapshot plus the app's own live facts (running study session, active calibration)."""
-    snap = conn.app.state.pipeline.snapshot()
-    snap["running_session_id"] = conn.app.state.events.session_id
-    snap["active_calibration_id"] = conn.app.state.calibration.active_id
-    watch = getattr(conn.app.state, "watch", None)  # the no-locomotion alarm of a running session
-    snap["alarm"] = watch.current() if watch is not None else None
-    return snap
+    """The pipeline's newest status plus the app's own live facts (running study session, active
+    calibration, the no-locomotion alarm): the object the WebSocket sends (``LiveFeed.compose``)."""
+    message: dict[str, Any] = conn.app.state.feed.compose()
+    return message
 
 
 @router.get("/status", response_model=StatusPublic)

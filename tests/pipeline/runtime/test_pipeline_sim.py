@@ -25,12 +25,12 @@ def test_simulator_runs_reports_and_stops_clean(sim_pipeline: Pipeline, listener
     wait_for(lambda: bool(sim_pipeline.status().people), 30, "3D people from the simulated views")
     st = sim_pipeline.status()
     assert st.state == "running" and st.source == "simulator"
-    assert [c["name"] for c in st.cameras] == ["cam01", "cam02", "cam03", "cam04"]
-    assert all(c["ok"] for c in st.cameras), st.cameras
+    assert [c.name for c in st.cameras] == ["cam01", "cam02", "cam03", "cam04"]
+    assert all(c.ok for c in st.cameras), st.cameras
     assert set(st.latency_ms) == {"capture", "detect", "fuse", "emit", "end_to_end"}
     assert st.latency_ms["end_to_end"]["p50"] > 0
     assert st.fps > 0
-    assert st.people3d and len(st.people3d[0]["joints"]) == 17
+    assert st.people3d and len(st.people3d[0].joints_m) == 17
     pids = sim_pipeline.worker_pids()
     assert len(pids) == 2, "simulator + fusion workers"
 
@@ -64,7 +64,7 @@ def test_navigator_choice(sim_pipeline: Pipeline) -> None:
     with pytest.raises(InputError, match="user 999 is not tracked"):
         sim_pipeline.set_navigator(999)
     assert sim_pipeline.status().navigator_mode == "auto", "a rejected choice changes nothing"
-    uid = sim_pipeline.status().people[0]["user_id"]
+    uid = sim_pipeline.status().people[0].user_id
     sim_pipeline.set_navigator(uid)
     wait_for(lambda: sim_pipeline.status().navigator_mode == "manual", 10, "manual mode")
     assert sim_pipeline.status().navigator == uid

@@ -90,7 +90,7 @@ def test_a_video_that_ends_and_a_camera_that_vanishes_do_not_stop_the_others(
     pipeline = video_pipeline(pose_model_path, cameras, video_loop=False, video_pace_fps=10.0)
 
     def health() -> dict[str, dict[str, Any]]:
-        return {c["name"]: c for c in pipeline.status().cameras}
+        return {c.name: c.to_json() for c in pipeline.status().cameras}
 
     def camera(name: str) -> dict[str, Any]:
         return health().get(name, {})
@@ -166,7 +166,7 @@ def test_a_killed_capture_worker_is_restarted_and_its_camera_returns(
         os.kill(victim, signal.SIGKILL)
         wait_for(lambda: pipeline.workers().get("capture-cam02") not in (None, victim), 30,
                  "the capture worker to be restarted")
-        wait_for(lambda: all(c["ok"] for c in pipeline.status().cameras), 30, "both cameras ok again")
+        wait_for(lambda: all(c.ok for c in pipeline.status().cameras), 30, "both cameras ok again")
         count = pipeline.status().processed
         wait_for(lambda: pipeline.status().processed >= count + 2, 60, "results after the restart")
         assert pipeline.status().state == "running"

@@ -1,0 +1,99 @@
+"""The live status, pushed (issue 16 item 4): one typed status to every subscriber, built when
+something changed, never more often than the rate; the pipeline publishes its start and stop."""
+
+from __future__ import annotations
+
+import threading
+
+import pytest
+
+from pipeline.runtime.pipeline import Pipeline
+from pipeline.runtime.publisher import StatusPublisher
+from pipeline.runtime.status import PipelineStatus
+from tests.waiting import wait_until
+
+from .live import wait_for
+
+
+class Built:
+    """A status builder that counts its calls (each status carries its number in ``processed``)."""
+
+    def __init__(self) -> None:
+        self.calls = 0
+
+    def __call__(self) -> PipelineStatus:
+        self.calls += 1
+        return PipelineStatus("running", processed=self.calls)
+
+
+class Collected:
+    def __init__(self) -> None:
+        self.statuses: list[PipelineStatus] = []
+        self.threads: list[str] = []
+
+    def on_status(self, status: PipelineStatus) -> None:
+        self.statuses.append(status)
+        self.threads.append(threading.current_thread().name)
+
+
+class Broken:
+    def on_status(self, status: PipelineStatus) -> None:
+        raise RuntimeError("a subscriber that fails")
+
+
+def test_nothing_is_built_without_a_subscriber_and_a_change() -> None:
+    built = Built()
+    publisher = StatusPublisher(built, rate_hz=10.0)
+    publisher.poke()
+    publisher.publish_now()
+    publisher.close()
+    assert built.calls == 0, "nobody listens: no status is built"
+
+
+def test_pokes_within_one_period_are_one_status_and_the_rest_goes_out_at_close() -> None:
+    built, got = Built(), Collected()
+    publisher = StatusPublisher(built, rate_hz=0.01)  # a period of 100 s: nothing is due twice here
+    publisher.subscribe(got)  # the first status at once
+    wait_until(lambda: len(got.statuses) == 1, "the first status")
+    for _ in range(100):
+        publisher.poke()
+    publisher.close()  # publishes what was poked, once, then ends
+    assert [s.processed for s in got.statuses] == [1, 2], "100 pokes within the period: one status"
+    assert built.calls == 2 and set(got.threads) == {"cavewalk-status"}
+    with pytest.raises(RuntimeError, match="closed"):
+        publisher.subscribe(Collected())
+
+
+def test_a_failing_subscriber_does_not_stop_the_others_and_publish_now_is_synchronous() -> None:
+    built, got = Built(), Collected()
+    publisher = StatusPublisher(built, rate_hz=0.01)
+    publisher.subscribe(Broken())
+    publisher.subscribe(got)
+    wait_until(lambda: len(got.statuses) == 1, "the first status")
+    publisher.publish_now()  # on this thread, before it returns, whatever the period
+    assert [s.processed for s in got.statuses] == [1, 2]
+    assert got.threads[-1] == threading.current_thread().name
+    publisher.unsubscribe(got)
+    publisher.publish_now()
+    assert len(got.statuses) == 2, "unsubscribed: no more statuses"
+    publisher.close()
+
+
+@pytest.mark.slow
+def test_the_pipeline_pushes_typed_statuses_from_start_to_stop(sim_pipeline: Pipeline) -> None:
+    got = Collected()
+    sim_pipeline.subscribe(got)
+    sim_pipeline.start("simulator")
+    assert got.statuses and got.statuses[-1].state in ("starting", "running"), (
+        "the start's status is pushed before start() returns")
+    wait_for(lambda: any(s.state == "running" and s.people3d for s in got.statuses), 60,
+             "a pushed status with the simulated people")
+    running = next(s for s in got.statuses if s.state == "running" and s.people3d)
+    assert running.source == "simulator" and [c.name for c in running.cameras] == [
+        "cam01", "cam02", "cam03", "cam04"]
+    assert all(s.joints_m.shape == (17, 3) for s in running.people3d), "the 3D view gets arrays"
+    assert {p.user_id for p in running.people} == {s.user_id for s in running.people3d}
+    sim_pipeline.stop()
+    assert got.statuses[-1].state == "stopped", "the stop's status is pushed before stop() returns"
+    stamps = [s.timestamp_s for s in got.statuses]
+    assert stamps == sorted(stamps), "statuses arrive in the order they were made"
