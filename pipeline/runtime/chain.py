@@ -122,6 +122,14 @@ class ChainConfig:
     navigation: NavigationConfig = field(default_factory=NavigationConfig)
     adaptation: OutputAdaptation | None = None
 
+    def __post_init__(self) -> None:
+        if len(set(self.camera_names)) != len(self.camera_names):
+            raise ValueError(f"camera_names must be distinct, got {list(self.camera_names)}")
+        calibrated = [c.name for c in self.cameras or ()]
+        if self.camera_names and not set(calibrated) <= set(self.camera_names):
+            raise ValueError(f"calibrated cameras {sorted(set(calibrated) - set(self.camera_names))} are not "
+                             f"among the views {list(self.camera_names)}")
+
     def with_views(self, detector: Detector, camera_names: tuple[str, ...],
                    cameras: tuple[Camera, ...] | None) -> ChainConfig:
         """This chain on a run's detector and views (the live runtime, at each start)."""

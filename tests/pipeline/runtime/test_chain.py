@@ -94,6 +94,9 @@ def test_the_simulator_is_a_detector_and_the_pose_stage_tracks_its_views() -> No
      ValueError, "not the simulator"),
     (lambda: build_detector(ChainConfig(camera_names=("cam01",))), ValueError, "not the simulator"),
     (lambda: build_pose_stage(ChainConfig()), ValueError, "non-empty camera names"),
+    (lambda: ChainConfig(camera_names=("cam01", "cam01")), ValueError, "must be distinct"),
+    (lambda: ChainConfig(cameras=simulator().cameras, camera_names=("cam01", "cam02")), ValueError,
+     r"calibrated cameras \['cam03', 'cam04'\] are not among the views"),
     (lambda: PoseStage(MultiViewTracker(["cam01"])).detect([], ["cam01"], 0, 0.0), ModelError,
      "no pose model"),
     (lambda: PoseStage(MultiViewTracker(["cam01"]),  # a model that tracks with a tracker of its own
