@@ -1,8 +1,8 @@
 """The app's owner of the recognition pipeline.
 
 :class:`PipelineService` holds the runtime's ``Pipeline`` façade (``pipeline.runtime``) and
-subscribes to its status, which the pipeline pushes (``pipeline.runtime.publisher``: at most
-``server.live_rate_hz`` times a second, while something changes; at once after a start or stop).
+subscribes to its status, which the pipeline pushes (``pipeline.runtime.publisher``:
+``server.live_rate_hz`` times a second, and at once after a start or stop).
 Each :class:`~pipeline.runtime.status.PipelineStatus` is kept as it came, with its one JSON form
 (``PipelineStatus.to_json``: ``GET /status``), and handed on without re-shaping: to the status
 sinks (the 3D view, the no-locomotion watch), to the WebSockets (:class:`LiveFeed`), and the
@@ -78,11 +78,13 @@ class LiveSink(Protocol):
 class LiveFeed:
     """The live status to every WebSocket, from the app's event loop.
 
-    :meth:`publish` (any thread) says that a new status came or one of the app's own live facts
-    changed; the feed then composes the message once (``compose``: the newest status and the
-    app's facts) and hands it to every socket's queue, never more often than ``rate_hz``. Each
-    socket awaits its queue (:meth:`subscribe`), which keeps only the newest message: a slow
-    client skips messages, it never builds a backlog, and no socket polls.
+    :meth:`publish` (any thread) says that the pipeline pushed a new status or one of the app's
+    own live facts changed; the feed then composes the message once (``compose``: the newest
+    status and the app's facts) and hands it to every socket's queue, never more often than
+    ``rate_hz``. Each socket awaits its queue (:meth:`subscribe`), which keeps only the newest
+    message: a slow client skips messages, it never builds a backlog, and no socket polls. While
+    no pipeline publishes (none built yet, or none can be), the feed keeps the sockets' rate on
+    its own clock (:meth:`own_clock`): one clock at a time, the pipeline's or the feed's.
     """
 
     def __init__(self, compose: Callable[[], dict[str, Any]], rate_hz: float) -> None:
@@ -94,7 +96,8 @@ class LiveFeed:
         self._queues: set[asyncio.Queue[dict[str, Any]]] = set()
         self._last_s = -math.inf
         self._due: asyncio.TimerHandle | None = None
-        self._changed = False  # something was published since the last message
+        self._pending = False  # something was published since the last message
+        self._ticking = True  # the feed's own clock (no pipeline publishes)
 
     def bind(self, loop: asyncio.AbstractEventLoop) -> None:
         """The event loop the sockets run on (the app's lifespan's)."""
@@ -104,6 +107,7 @@ class LiveFeed:
         """A new socket's queue (in the event loop): it gets each message from now on."""
         q: asyncio.Queue[dict[str, Any]] = asyncio.Queue(maxsize=1)
         self._queues.add(q)
+        self._schedule()
         return q
 
     def unsubscribe(self, q: asyncio.Queue[dict[str, Any]]) -> None:
@@ -111,35 +115,51 @@ class LiveFeed:
 
     def publish(self) -> None:
         """A new status or a changed fact (any thread): the sockets get it within the period."""
+        self._call(self._published)
+
+    def own_clock(self, on: bool) -> None:
+        """Whether the feed keeps the sockets' rate itself (no pipeline publishes) (any thread)."""
+        self._call(lambda: self._set_ticking(on))
+
+    def _call(self, fn: Callable[[], None]) -> None:
         loop = self._loop
-        self._changed = True
         if loop is None or loop.is_closed():
             return
         with contextlib.suppress(RuntimeError):  # the loop closed meanwhile (shutdown)
-            loop.call_soon_threadsafe(self._deliver)
+            loop.call_soon_threadsafe(fn)
 
-    def _deliver(self) -> None:
-        if not self._queues or self._due is not None or not self._changed:
-            return  # nobody listens, a delivery is due already (it takes the newest), or sent already
-        wait_s = self._last_s + self.period_s - time.monotonic()
-        if wait_s > 0 and self._loop is not None:
-            self._due = self._loop.call_later(wait_s, self._deliver_due)
+    def _published(self) -> None:
+        self._pending = True
+        self._schedule()
+
+    def _set_ticking(self, on: bool) -> None:
+        self._ticking = on
+        self._schedule()
+
+    def _schedule(self) -> None:
+        """The next message, as soon as the rate allows, if one is wanted and none is due yet."""
+        if self._due is not None or not self._queues or not (self._pending or self._ticking):
             return
+        if self._loop is not None:
+            wait_s = max(0.0, self._last_s + self.period_s - time.monotonic())
+            self._due = self._loop.call_later(wait_s, self._send)
+
+    def _send(self) -> None:
+        self._due = None
+        if not self._queues:
+            return
+        self._pending = False
         self._last_s = time.monotonic()
-        self._changed = False
         try:
             message = self.compose()
         except Exception:  # the loop boundary: report, keep serving
             log.exception("composing the live status failed")
-            return
-        for q in self._queues:
-            if q.full():
-                q.get_nowait()  # the client has not taken the last one: the newest replaces it
-            q.put_nowait(message)
-
-    def _deliver_due(self) -> None:
-        self._due = None
-        self._deliver()
+        else:
+            for q in self._queues:
+                if q.full():
+                    q.get_nowait()  # the client has not taken the last one: the newest replaces it
+                q.put_nowait(message)
+        self._schedule()  # on the feed's own clock: the next one period later
 
 
 def jsonable(obj: Any) -> Any:
@@ -316,6 +336,8 @@ class PipelineService:
         if self._adaptation is not None:
             pipeline.set_adaptation(self._adaptation)
         pipeline.subscribe(_Subscription(self, pipeline))
+        if self.feed is not None:
+            self.feed.own_clock(False)  # the pipeline's statuses set the sockets' rate now
         return pipeline
 
     def stop(self) -> None:
@@ -379,6 +401,8 @@ class PipelineService:
         except Exception:
             log.exception("pipeline stop failed")
         self._pipeline = None
+        if self.feed is not None:
+            self.feed.own_clock(True)  # no pipeline publishes: the feed keeps the rate
 
     def close(self) -> None:
         """Stop the pipeline (the app's shutdown)."""

@@ -3,9 +3,7 @@
 One :class:`StatusBoard` per pipeline. Every state change goes through it (the façade's
 start and stop, the router's first result, the supervision's stall and chain errors), so
 the state, the standby emitter's heartbeats and the ``state`` events always agree; a change
-asked for on behalf of a run that is no longer the current one is ignored. Each state
-change, event, fused result (the router) and supervision tick calls ``on_change``: the
-status publisher's poke (:mod:`pipeline.runtime.publisher`).
+asked for on behalf of a run that is no longer the current one is ignored.
 """
 
 from __future__ import annotations
@@ -13,7 +11,6 @@ from __future__ import annotations
 import threading
 import time
 from collections import deque
-from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
 
@@ -38,9 +35,8 @@ EVENT_LOG_SIZE = 2000
 class StatusBoard:
     """State, last error, events; thread-safe."""
 
-    def __init__(self, emitter: UdpEmitter, on_change: Callable[[], None] = lambda: None) -> None:
+    def __init__(self, emitter: UdpEmitter) -> None:
         self.emitter = emitter
-        self._on_change = on_change
         self._lock = threading.RLock()
         self._state: State = "stopped"
         self._last_error: str | None = None
@@ -68,7 +64,6 @@ class StatusBoard:
         with self._lock:
             self._run = None
             self._state = "error"
-        self._on_change()
 
     def stopped(self) -> None:
         with self._lock:
@@ -97,15 +92,10 @@ class StatusBoard:
         self.emitter.set_state(state)
         self.event("state", message, data)
 
-    def changed(self) -> None:
-        """Something the status shows may have changed (a result, a tick): tell the publisher."""
-        self._on_change()
-
     # -- events ----------------------------------------------------------------------------
     def event(self, kind: str, message: str, data: dict[str, Any]) -> None:
         with self._lock:
             self._events.append(PipelineEvent(time.time(), kind, message, data))
-        self._on_change()
 
     def drain(self) -> list[PipelineEvent]:
         with self._lock:

@@ -178,7 +178,6 @@ class Supervision:
                 self.on_worker_event(run, ev)
             self.sample_cameras(run)
             self.check_stall(run)
-            self._board.changed()  # the run's health, also while no result comes
             run.stop.wait(0.05)
 
     def check_stall(self, run: Run) -> None:

@@ -88,8 +88,8 @@ class Pipeline:
         self._sock = stream_socket(emitter)
         self.emitter = UdpEmitter(emitter, list(workstations), emitter.osc_endpoints or None,
                                   head=self.chain.head, shared=self._book, role="standby", sock=self._sock)
+        self._board = StatusBoard(self.emitter)
         self._publisher = StatusPublisher(self.status, status_rate_hz)
-        self._board = StatusBoard(self.emitter, on_change=self._publisher.poke)
         self._router = ResultRouter(self._board)
         self._launcher = Launcher(config)
         self._supervision = Supervision(config, self._board)
@@ -163,8 +163,8 @@ class Pipeline:
         return self._board.status(self.chain.navigation)
 
     def subscribe(self, sink: StatusSink) -> None:
-        """Push the status to ``sink.on_status`` at most ``status_rate_hz`` times a second while
-        something changes (results, health, state, events; :mod:`pipeline.runtime.publisher`)."""
+        """Push the status to ``sink.on_status`` ``status_rate_hz`` times a second, and at once after
+        each start and stop (:mod:`pipeline.runtime.publisher`)."""
         self._publisher.subscribe(sink)
 
     def unsubscribe(self, sink: StatusSink) -> None:

@@ -1,13 +1,13 @@
 """The live status, pushed (issue 16, item 4): one :class:`~pipeline.runtime.status.PipelineStatus`
-to every subscriber, at most ``rate_hz`` times a second.
+to every subscriber, ``rate_hz`` times a second.
 
-The pipeline pokes the publisher whenever what its status shows may have changed: each result
-fusion hands on (the collector), each tick of the supervision thread (so a stalled run still
-reports its health), each state change and event (so a stop is published at once). The
-publisher's own thread builds the status and hands it to the subscribers, never sooner than
-``1 / rate_hz`` after the previous one: that period is the one clock of the live status. With
-nothing poked, nothing is published (a stopped pipeline is quiet). A subscriber's
-``on_status`` runs on the publisher's thread and must return quickly (queue its own work).
+The publisher's own thread is the one clock of the live status: every ``1 / rate_hz`` seconds
+it builds the status (the run's health and the newest result fusion handed on) and hands it to
+every subscriber; a start or stop publishes at once as well (:meth:`StatusPublisher.publish_now`,
+so the caller's answer shows the new state). Nothing downstream keeps a clock of its own: the web
+app hands each status to its WebSockets, its 3D view and its event log as it comes. A
+subscriber's ``on_status`` runs on the publisher's thread (or the start's or stop's) and must
+return quickly (queue its own work).
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ class StatusSink(Protocol):
 
 
 class StatusPublisher:
-    """Builds and pushes the status when poked, at most once per ``1 / rate_hz``; thread-safe."""
+    """Builds and pushes the status every ``1 / rate_hz`` while it has subscribers; thread-safe."""
 
     def __init__(self, build: Callable[[], PipelineStatus], rate_hz: float = 10.0) -> None:
         if not rate_hz > 0:
@@ -39,7 +39,6 @@ class StatusPublisher:
         self.period_s = 1.0 / rate_hz
         self._cond = threading.Condition()
         self._sinks: tuple[StatusSink, ...] = ()
-        self._poked = False
         self._closed = False
         self._last_s = -float("inf")
         self._thread: threading.Thread | None = None
@@ -55,31 +54,23 @@ class StatusPublisher:
             if self._thread is None:
                 self._thread = threading.Thread(target=self._run, name="cavewalk-status", daemon=True)
                 self._thread.start()
-            self._poked = True
+            self._last_s = -float("inf")  # the new subscriber's first status: now
             self._cond.notify()
 
     def unsubscribe(self, sink: StatusSink) -> None:
         with self._cond:
             self._sinks = tuple(s for s in self._sinks if s is not sink)
 
-    def poke(self) -> None:
-        """What the status shows may have changed: publish within the period."""
-        with self._cond:
-            if self._sinks and not self._poked:
-                self._poked = True
-                self._cond.notify()
-
     def publish_now(self) -> None:
         """Build and push the status at once, on the caller's thread (a start or stop that the
-        caller waits for: its answer shows the new state)."""
+        caller waits for: its answer shows the new state); the clock goes on from here."""
         with self._cond:
             sinks = self._sinks
-            self._poked = False
         if sinks:
             self._publish(sinks)
 
     def close(self) -> None:
-        """Publish once more if poked, then stop the thread."""
+        """Stop the clock (the statuses published so far were delivered)."""
         with self._cond:
             self._closed = True
             self._cond.notify()
@@ -90,15 +81,12 @@ class StatusPublisher:
     def _run(self) -> None:
         while True:
             with self._cond:
-                while not self._poked and not self._closed:
-                    self._cond.wait()
-                if not self._poked:  # closed with nothing new
+                if self._closed:
                     return
                 wait_s = self._last_s + self.period_s - time.monotonic()
-                if wait_s > 0 and not self._closed:  # never sooner than one period after the last
+                if wait_s > 0:
                     self._cond.wait(wait_s)
-                    continue  # woken early (a close): look again
-                self._poked = False
+                    continue  # due now, or woken (a close, a new subscriber): look again
                 sinks = self._sinks
             self._publish(sinks)
 

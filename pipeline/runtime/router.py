@@ -3,9 +3,8 @@
 The collector thread takes each :class:`~pipeline.runtime.messages.FusedFrame` from the
 fusion worker's mailbox, in order, measures its stages' latency (the fusion worker stamped
 when its stream had it, ``sent_s``), keeps the run's newest result and counters, hands the
-result to every main-process sink (``on_result``: the take recorder, ...), turns its
-navigator and action changes into events and pokes the status publisher (the status shows the
-result: :mod:`pipeline.runtime.publisher`). The UDP stream is not here: the fusion worker
+result to every main-process sink (``on_result``: the take recorder, ...) and turns its
+navigator and action changes into events. The UDP stream is not here: the fusion worker
 sends it (:class:`~pipeline.runtime.sinks.StreamSink`).
 """
 
@@ -92,7 +91,6 @@ class ResultRouter:
         self._board.transition(run, "running", ("starting", "error", "stalled"), "running",
                                {"state": "running", "source": run.source})
         self._events(fused)
-        self._board.changed()  # fusion's result: the status shows it
 
     def _events(self, fused: FusedFrame) -> None:
         result, board = fused.result, self._board

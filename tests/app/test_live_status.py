@@ -1,6 +1,6 @@
 """The one typed status and its fan-out (issue 16 item 4): its JSON form is exactly the API's
-object; the WebSockets get each pushed status from one feed, and the app's own live facts when
-they change, with no socket polling."""
+object; the WebSockets get each pushed status from one feed (composed once for all of them), and
+the app's own live facts when they change, with no socket polling."""
 
 from __future__ import annotations
 
@@ -101,8 +101,9 @@ def test_the_feed_composes_once_per_change_for_every_socket_and_never_faster_tha
     async def scenario() -> None:
         feed = LiveFeed(compose, rate_hz=0.01)  # a period of 100 s: a second message is never due here
         feed.bind(asyncio.get_running_loop())
+        feed.own_clock(False)  # a pipeline publishes
         a, b = feed.subscribe(), feed.subscribe()
-        await asyncio.to_thread(feed.publish)  # a status pushed from another thread
+        await asyncio.to_thread(feed.publish)  # a status pushed from the pipeline's thread
         first = await asyncio.wait_for(asyncio.gather(a.get(), b.get()), HTTP_TIMEOUT_S)
         assert first == [{"n": 1}, {"n": 1}] and composed == [1], "one message, composed once, for both"
         feed.publish()
@@ -116,9 +117,21 @@ def test_the_feed_composes_once_per_change_for_every_socket_and_never_faster_tha
     asyncio.run(scenario())
 
 
+def test_without_a_pipeline_the_feed_keeps_the_rate_on_its_own_clock() -> None:
+    async def scenario() -> None:
+        feed = LiveFeed(lambda: {"state": "unavailable"}, rate_hz=50.0)
+        feed.bind(asyncio.get_running_loop())
+        q = feed.subscribe()
+        got = [await asyncio.wait_for(q.get(), HTTP_TIMEOUT_S) for _ in range(3)]
+        assert got == [{"state": "unavailable"}] * 3, "the current status, again on the feed's clock"
+        feed.unsubscribe(q)
+
+    asyncio.run(scenario())
+
+
 @pytest.mark.slow
 def test_a_socket_gets_the_current_status_at_once_then_the_app_s_changes_pushed(tmp_path: Path) -> None:
-    """No pipeline runs (nothing publishes): the socket still gets the session that starts."""
+    """No pipeline is built (the feed keeps the rate itself): the socket gets the session that starts."""
     with Served(make_settings(tmp_path), pipeline_factory=None, autostart=None) as served:
         base = f"{served.base}/api/v1"
         url = f"ws://127.0.0.1:{served.settings.server.port}/api/v1/ws/live"

@@ -1,5 +1,5 @@
-"""The live status, pushed (issue 16 item 4): one typed status to every subscriber, built when
-something changed, never more often than the rate; the pipeline publishes its start and stop."""
+"""The live status, pushed (issue 16 item 4): one typed status to every subscriber on the
+publisher's clock; the pipeline publishes its start and stop at once."""
 
 from __future__ import annotations
 
@@ -41,41 +41,42 @@ class Broken:
         raise RuntimeError("a subscriber that fails")
 
 
-def test_nothing_is_built_without_a_subscriber_and_a_change() -> None:
+def test_nothing_is_built_without_a_subscriber() -> None:
     built = Built()
     publisher = StatusPublisher(built, rate_hz=10.0)
-    publisher.poke()
     publisher.publish_now()
     publisher.close()
     assert built.calls == 0, "nobody listens: no status is built"
 
 
-def test_pokes_within_one_period_are_one_status_and_the_rest_goes_out_at_close() -> None:
+def test_the_publisher_s_clock_pushes_the_status_whether_or_not_anything_changed() -> None:
     built, got = Built(), Collected()
-    publisher = StatusPublisher(built, rate_hz=0.01)  # a period of 100 s: nothing is due twice here
-    publisher.subscribe(got)  # the first status at once
-    wait_until(lambda: len(got.statuses) == 1, "the first status")
-    for _ in range(100):
-        publisher.poke()
-    publisher.close()  # publishes what was poked, once, then ends
-    assert [s.processed for s in got.statuses] == [1, 2], "100 pokes within the period: one status"
-    assert built.calls == 2 and set(got.threads) == {"cavewalk-status"}
+    publisher = StatusPublisher(built, rate_hz=50.0)
+    publisher.subscribe(got)
+    wait_until(lambda: len(got.statuses) >= 3, "three statuses on the publisher's clock")
+    publisher.close()
+    assert [s.processed for s in got.statuses] == list(range(1, len(got.statuses) + 1)), (
+        "in order, each built once")
+    assert set(got.threads) == {"cavewalk-status"}, "on the publisher's own thread"
     with pytest.raises(RuntimeError, match="closed"):
         publisher.subscribe(Collected())
 
 
-def test_a_failing_subscriber_does_not_stop_the_others_and_publish_now_is_synchronous() -> None:
-    built, got = Built(), Collected()
-    publisher = StatusPublisher(built, rate_hz=0.01)
+def test_publish_now_is_synchronous_and_a_failing_subscriber_stops_nobody() -> None:
+    built, got, later = Built(), Collected(), Collected()
+    publisher = StatusPublisher(built, rate_hz=0.01)  # a period of 100 s: the clock is not due again here
     publisher.subscribe(Broken())
     publisher.subscribe(got)
-    wait_until(lambda: len(got.statuses) == 1, "the first status")
+    wait_until(lambda: len(got.statuses) == 1, "the first status at once")
     publisher.publish_now()  # on this thread, before it returns, whatever the period
     assert [s.processed for s in got.statuses] == [1, 2]
     assert got.threads[-1] == threading.current_thread().name
+    publisher.subscribe(later)  # a new subscriber gets its first status at once
+    wait_until(lambda: len(later.statuses) == 1, "the new subscriber's first status")
+    assert len(got.statuses) == 3
     publisher.unsubscribe(got)
     publisher.publish_now()
-    assert len(got.statuses) == 2, "unsubscribed: no more statuses"
+    assert len(got.statuses) == 3 and len(later.statuses) == 2, "unsubscribed: no more statuses"
     publisher.close()
 
 
