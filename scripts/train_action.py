@@ -11,7 +11,9 @@ model, converted real motion capture...), prepared by :mod:`pipeline.recognition
 (30 fps, mirrored, ``--warp NAME`` sources also at 0.85x / 1.15x, captured through the simulated
 CAVE cameras and our triangulation, step evidence from the run-time tracker; cached in --cache).
 Windows are drawn with each source weighing (its frames) ** 0.5. Needs the ``train`` extra
-(torch, onnx). Deterministic for a seed.
+(torch, onnx). Deterministic for a seed. ``--members N`` trains N networks, the k-th with seed
+``--seed`` + k for its data draw and its weights, and writes their ensemble (the mean of their
+logits, :class:`pipeline.recognition.model.SlowFastEnsemble`) as one ONNX file.
 """
 
 from __future__ import annotations
@@ -48,6 +50,12 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--slow-only", action="store_true", help="no fast pathway (the ablation)")
     ap.add_argument("--window", type=int, default=_T.window, help="frames per window (a multiple of 4)")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument(
+        "--members",
+        type=int,
+        default=1,
+        help="networks in the ensemble, the k-th trained with seed --seed + k (default 1: one network)",
+    )
     ap.add_argument(
         "--augment",
         action="store_true",
@@ -93,21 +101,39 @@ def main() -> int:
     t0 = time.monotonic()
     sources = [SourceSpec.parse(s) for s in (args.source or ["sim"])]
     sources = [replace(s, warp=s.name in args.warp) for s in sources]
-    items = prepare_corpus(sources, args.cache, args.sequences, args.duration, args.seed, progress=say)
-    t_data = time.monotonic() - t0
-    tr_items, val_items = split_items(items, _T.validation_fraction, args.seed)
-    train, val = to_dataset(tr_items), to_dataset(val_items)
-    say(
-        f"{len(train.labels)} training frames, {len(val.labels)} validation frames "
-        f"({t_data:.0f} s to prepare)"
-    )
-    cfg = train_config(args, args.features)
-    model, metrics = train_model(train, val, cfg, progress=say)
+    if args.members < 1:
+        raise SystemExit(f"error: --members must be at least 1, got {args.members}")
+    seeds = [args.seed + k for k in range(args.members)]
+    members, member_metrics = [], []
+    t_data = 0.0
+    for seed in seeds:  # each member: its own draw of the generated sources, its own weights
+        t1 = time.monotonic()
+        items = prepare_corpus(sources, args.cache, args.sequences, args.duration, seed, progress=say)
+        t_data += time.monotonic() - t1
+        tr_items, val_items = split_items(items, _T.validation_fraction, seed)
+        if seed == seeds[0]:
+            first_items, first_val = items, val_items
+        train, val = to_dataset(tr_items), to_dataset(val_items)
+        say(f"seed {seed}: {len(train.labels)} training frames, {len(val.labels)} validation frames")
+        model, metrics = train_model(train, val, replace(train_config(args, args.features), seed=seed), say)
+        members.append(model)
+        member_metrics.append({"seed": seed, **metrics})
+    items, val_items = first_items, first_val
     meta = {
-        "seed": str(args.seed),
+        "seed": ",".join(str(s) for s in seeds),
         "sources": ",".join(s.name for s in sources),
         "trained": time.strftime("%Y-%m-%d"),
     }
+    if len(members) > 1:
+        from pipeline.recognition.model import SlowFastEnsemble
+
+        model = SlowFastEnsemble(members)  # type: ignore[arg-type]
+        meta["members"] = str(len(members))
+        metrics = {
+            "parameters": sum(int(m["parameters"]) for m in member_metrics),  # type: ignore[call-overload]
+            "members": member_metrics,
+        }
+    cfg = train_config(args, args.features)
     export_onnx(model, args.out, cfg.window, train.fps, extra=meta, features=args.features)
     size = args.out.stat().st_size
     gate_choice: dict[str, object] | None = None

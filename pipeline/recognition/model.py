@@ -105,3 +105,24 @@ class SkeletonSlowFast(nn.Module):
             [slow.mean(dim=2), slow[:, :, -1], fast.mean(dim=2), fast[:, :, -a:].mean(dim=2)], dim=1
         )
         return self.head(self.drop(pooled))
+
+
+class SlowFastEnsemble(nn.Module):
+    """Several skeleton SlowFast networks trained from different seeds (and data draws): the mean of
+    their logits (the geometric mean of their probabilities once a softmax follows). One network's
+    judgement varies with its seed more than the behaviour tests allow; the mean varies less."""
+
+    def __init__(self, members: list[SkeletonSlowFast]) -> None:
+        super().__init__()
+        if not members:
+            raise ValueError("an ensemble needs at least one member")
+        self.members = nn.ModuleList(members)
+
+    @property
+    def cfg(self) -> SlowFastConfig:
+        """The members' architecture (alike)."""
+        first: SkeletonSlowFast = self.members[0]  # type: ignore[assignment]
+        return first.cfg
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return torch.stack([m(x) for m in self.members]).mean(dim=0)

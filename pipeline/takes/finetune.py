@@ -2,7 +2,8 @@
 
 The network starts from a registered ONNX model's own weights (the committed model by default):
 :func:`torch_from_onnx` reads the exported graph's convolutions (batch norm folded in by the export)
-back into :class:`~pipeline.recognition.model.SkeletonSlowFast`, whose batch norms then stay
+back into :class:`~pipeline.recognition.model.SkeletonSlowFast` (each network of an ensemble file
+into its :class:`~pipeline.recognition.model.SlowFastEnsemble`), whose batch norms then stay
 frozen at the identity, so the untrained network computes exactly what the file does.
 The data: every take's participant frames at the model's frame rate, mirrored (a mirrored left
 side step is a right one), with the step evidence of the run-time tracker; plus simulated routines
@@ -106,20 +107,19 @@ class FinetuneConfig:
 
 # ----------------------------------------------------------------------------- ONNX -> torch
 def torch_from_onnx(path: Path) -> tuple[Any, dict[str, Any]]:
-    """(SkeletonSlowFast with the file's weights and frozen identity batch norms, the file's facts)."""
+    """(SkeletonSlowFast with the file's weights and frozen identity batch norms, or their
+    SlowFastEnsemble for a file of several networks; the file's facts)."""
     import onnx
-    import torch
     from onnx import numpy_helper
-    from torch import nn
 
-    from pipeline.recognition.model import SkeletonSlowFast, SlowFastConfig
+    from pipeline.recognition.model import SlowFastEnsemble
 
     info = model_info(open_session(path))
     proto = onnx.load(str(path))
     init = {t.name: numpy_helper.to_array(t) for t in proto.graph.initializer}
     convs: list[tuple[NDArray[Any], NDArray[Any] | None]] = []
-    head: tuple[NDArray[Any], NDArray[Any]] | None = None
-    for node in proto.graph.node:
+    heads: list[tuple[NDArray[Any], NDArray[Any]]] = []
+    for node in proto.graph.node:  # the export's order: the forward pass's, one network after another
         if node.op_type == "Conv":
             w = init.get(node.input[1])
             b = init.get(node.input[2]) if len(node.input) > 2 else None
@@ -132,18 +132,44 @@ def torch_from_onnx(path: Path) -> tuple[Any, dict[str, Any]]:
             w, b = init.get(node.input[1]), init.get(node.input[2]) if len(node.input) > 2 else None
             if w is None or b is None:
                 raise ModelError(f"{path.name}: the classifier head's weights are not constants")
-            head = (w, b)
-    if head is None or len(convs) not in (3, 8):
+            heads.append((w, b))
+    per = len(convs) // max(len(heads), 1)
+    if not heads or per not in (3, 8) or per * len(heads) != len(convs):
         raise ModelError(
-            f"{path.name}: not the skeleton SlowFast network cavewalk trains ({len(convs)} convolutions); "
-            "it can be run and evaluated but not fine-tuned"
+            f"{path.name}: not the skeleton SlowFast network cavewalk trains ({len(convs)} convolutions, "
+            f"{len(heads)} heads); it can be run and evaluated but not fine-tuned"
         )
+    members = [
+        _network(path, info.window, convs[k * per : (k + 1) * per], heads[k]) for k in range(len(heads))
+    ]
+    model = members[0] if len(members) == 1 else SlowFastEnsemble(members).eval()
+    facts = {
+        "window": info.window,
+        "fps": info.fps,
+        "features": info.features,
+        "metadata": dict(open_session(path).get_modelmeta().custom_metadata_map),
+    }
+    return model, facts
+
+
+def _network(
+    path: Path,
+    window: int,
+    convs: list[tuple[NDArray[Any], NDArray[Any] | None]],
+    head: tuple[NDArray[Any], NDArray[Any]],
+) -> Any:
+    """One SkeletonSlowFast from its exported convolutions (batch norm folded in) and head."""
+    import torch
+    from torch import nn
+
+    from pipeline.recognition.model import SkeletonSlowFast, SlowFastConfig
+
     fast = len(convs) == 8
     cs, cin = convs[0][0].shape[:2]
     cfg = SlowFastConfig(
         in_channels=int(cin),
         num_classes=len(ACTIONS),
-        window=info.window,
+        window=window,
         alpha=int(convs[2][0].shape[2]) if fast else 4,
         slow_channels=int(cs),
         beta=(convs[1][0].shape[0] / cs) if fast else 1 / 8,
@@ -177,13 +203,7 @@ def torch_from_onnx(path: Path) -> tuple[Any, dict[str, Any]]:
         model.head.weight.copy_(torch.from_numpy(np.array(head[0])))
         model.head.bias.copy_(torch.from_numpy(np.array(head[1])))
     model.eval()
-    facts = {
-        "window": info.window,
-        "fps": info.fps,
-        "features": info.features,
-        "metadata": dict(open_session(path).get_modelmeta().custom_metadata_map),
-    }
-    return model, facts
+    return model
 
 
 # ------------------------------------------------------------------------------------- data
