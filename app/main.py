@@ -229,7 +229,12 @@ def create_app(
             allow_methods=["*"],
             allow_headers=["*"],
         )
-    app.add_middleware(BodySizeLimit, max_bytes=settings.server.max_request_bytes)
+    app.add_middleware(
+        BodySizeLimit,
+        max_bytes=settings.server.max_request_bytes,
+        upload_paths=(f"{api_router.prefix}/models",),
+        upload_bytes=settings.server.max_model_bytes,
+    )
     app.add_middleware(  # outermost: Host and Origin before anything reads the request
         SameOriginGuard,
         allowed_hosts=allowed_host_names(settings.server.host, settings.server.allowed_hosts),

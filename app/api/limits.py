@@ -8,20 +8,32 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 
 class BodySizeLimit:
-    """Rejects a request whose Content-Length, or whose streamed body, exceeds ``max_bytes``.
+    """Rejects a request whose Content-Length, or whose streamed body, exceeds ``max_bytes``
+    (``upload_bytes`` for a POST to one of ``upload_paths``: a model file, base64 in JSON, is
+    larger than any other request).
 
     A body without a Content-Length is read (up to the limit) before the app sees it,
     so an oversized chunked upload is also answered with 413 and never parsed.
     """
 
-    def __init__(self, app: ASGIApp, max_bytes: int) -> None:
+    def __init__(
+        self,
+        app: ASGIApp,
+        max_bytes: int,
+        upload_paths: tuple[str, ...] = (),
+        upload_bytes: int | None = None,
+    ) -> None:
         self.app = app
-        self.max_bytes = max_bytes
+        self.default_bytes = max_bytes
+        self.upload_paths = upload_paths
+        self.upload_bytes = max(max_bytes, upload_bytes or max_bytes)
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] != "http":
             await self.app(scope, receive, send)
             return
+        upload = scope.get("method") == "POST" and scope.get("path") in self.upload_paths
+        limit = self.upload_bytes if upload else self.default_bytes
         declared: int | None = None
         for name, value in scope.get("headers", []):
             if name == b"content-length":
@@ -30,8 +42,8 @@ class BodySizeLimit:
                 except ValueError:
                     declared = None
         if declared is not None:
-            if declared > self.max_bytes:
-                await self._reject(send)
+            if declared > limit:
+                await self._reject(send, limit)
                 return
             await self.app(scope, receive, send)
             return
@@ -43,8 +55,8 @@ class BodySizeLimit:
                 break
             chunk = message.get("body", b"")
             size += len(chunk)
-            if size > self.max_bytes:
-                await self._reject(send)
+            if size > limit:
+                await self._reject(send, limit)
                 return
             chunks.append(chunk)
             if not message.get("more_body", False):
@@ -61,8 +73,8 @@ class BodySizeLimit:
 
         await self.app(scope, replay, send)
 
-    async def _reject(self, send: Send) -> None:
-        body = json.dumps({"detail": f"request body larger than {self.max_bytes} bytes"}).encode()
+    async def _reject(self, send: Send, limit: int) -> None:
+        body = json.dumps({"detail": f"request body larger than {limit} bytes"}).encode()
         await send(
             {
                 "type": "http.response.start",

@@ -138,6 +138,7 @@ class ServerSettings(_Section):
     # app/api/origin.py): e.g. the DNS name of the server machine, or a reverse proxy's name
     allowed_hosts: list[str] = Field(default_factory=list)
     max_request_bytes: int = Field(1_000_000, gt=0)
+    max_model_bytes: int = Field(16_000_000, gt=0)  # POST /api/v1/models: an action model, base64
     live_rate_hz: float = Field(10.0, gt=0, le=60)  # WebSocket status messages per second
     viser: bool = True  # serve the 3D view
     # the address a participant's tablet opens (the participant link and its QR code); None = this

@@ -31,7 +31,11 @@ class ModelUpload(StrictRequest):
     """A model file sent as base64 (the API takes JSON only), with its card."""
 
     name: str = Field(min_length=1, max_length=128, pattern=r"^[^\x00-\x1f]+$")
-    onnx_base64: str = Field(min_length=1, max_length=900_000, description="The ONNX file, base64.")
+    onnx_base64: str = Field(
+        min_length=1,
+        max_length=15_000_000,
+        description="The ONNX file, base64 (up to ~11 MB; the request up to server.max_model_bytes).",
+    )
     card: dict[str, Any] | None = Field(
         None,
         description="The model card's figures; window, fps, classes, features, sha256 must match the file.",

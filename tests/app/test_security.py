@@ -95,6 +95,21 @@ def test_oversized_requests_get_413_and_store_nothing(tmp_path: Path) -> None:
         assert c.post("/api/v1/participants", json={"code": "P03", "notes": "short"}).status_code == 201
 
 
+def test_a_model_upload_has_its_own_larger_limit(tmp_path: Path) -> None:
+    """POST /api/v1/models carries an action model (base64 in JSON, ~1.1 MB for the committed one):
+    it may be up to server.max_model_bytes; every other request stays under max_request_bytes."""
+    settings = make_settings(tmp_path, max_request_bytes=2000, max_model_bytes=8000)
+    with TestClient(create_app(settings, pipeline_factory=None)) as c:
+        upload = {"name": "m", "onnx_base64": "QUFB" * 1000}  # 4 kB: over 2000, under 8000
+        r = c.post("/api/v1/models", json=upload)
+        assert r.status_code != 413 and 400 <= r.status_code < 500, r.text  # refused for what it is
+        assert "request body larger" not in r.text
+        r = c.post("/api/v1/models", json={"name": "m", "onnx_base64": "QUFB" * 3000})
+        assert r.status_code == 413 and "8000 bytes" in r.json()["detail"]
+        r = c.post("/api/v1/participants", json={"code": "P01", "notes": "x" * 4000})
+        assert r.status_code == 413 and "2000 bytes" in r.json()["detail"], "other routes keep their limit"
+
+
 # ------------------------------------------------------------------ what held (issue 15): kept held
 TRAVERSALS = [
     "/../pyproject.toml", "/../../etc/passwd", "/..%2fpyproject.toml", "/%2e%2e/pyproject.toml",
