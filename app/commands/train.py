@@ -80,7 +80,10 @@ def train(
         start = registry.get(base) if base is not None else registry.active()
         base_path = Path(registry.file_of(start["id"]))
         say(0.0, f"fine-tuning model {start['id']} ({start['name']}) on {len(data)} takes")
-        result = train_on_takes(data, out, config, settings.paths.cache_dir / "action-cache", base_path, say)
+        cache = settings.paths.cache_dir
+        result = train_on_takes(
+            data, out, config, cache / "action-cache", base_path, say, sources_cache=cache
+        )
         card = result.card | {"base_model_id": start["id"]}
         out.with_suffix(".json").write_text(json.dumps(card, indent=1, default=str) + "\n", encoding="utf-8")
         out.with_suffix(".md").write_text(result.card_md, encoding="utf-8")

@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.errors import CavewalkError, ModelError
+from pipeline.errors import CavewalkError, InputError, ModelError
 from pipeline.recognition import corpus
 from pipeline.recognition.dataset import LabelledSequence
 from pipeline.recognition.evaluation import network_trace, replay, scored
@@ -351,8 +351,27 @@ def summary(ev: Evaluation) -> dict[str, Any]:
         "macro_f1": ev.macro_f1,
         "frames": ev.frames,
         "false_movement": ev.overall.false_movement,
+        "movement_detected": ev.overall.movement_detected,
         "confusion": ev.confusion.tolist(),
     }
+
+
+def heldout_sources(cache_dir: Path) -> dict[str, list[LabelledSequence]]:
+    """The recognition issue's held-out sources (``cavewalk data sources``: every folder of use
+    ``eval``: the third and second motion models' held-out sets, the still library's, real motion
+    capture), as they are on disk; empty when the sources were never made on this machine."""
+    from pipeline.mocap.sources import load_sources
+
+    try:
+        manifest = load_sources(cache_dir)
+    except InputError:
+        return {}
+    out = {}
+    for name, m in sorted(manifest.items()):
+        folder = Path(m["dir"])
+        if m.get("use") == "eval" and folder.is_dir():
+            out[name] = corpus.from_folder(folder, source=name)
+    return out
 
 
 @dataclass(frozen=True, slots=True)
@@ -369,9 +388,12 @@ def train_on_takes(
     cache_dir: Path,
     base: Path = DEFAULT_MODEL_PATH,
     progress: Progress | None = None,
+    sources_cache: Path | None = None,
 ) -> TrainingResult:
     """Fine-tune ``base`` on the takes plus simulator data, write ``out`` and its card; the card's
-    figures: leave-one-participant-out, confusion matrix, held-out simulated routines."""
+    figures: leave-one-participant-out, confusion matrix, held-out simulated routines, and the
+    recognition issue's held-out sources when ``cavewalk data sources`` made them under
+    ``sources_cache`` (the settings' cache folder)."""
     require_training()
     say: Progress = progress or (lambda _f, _m: None)
     t0 = time.monotonic()
@@ -443,6 +465,17 @@ def train_on_takes(
             "seed": HELDOUT_SEED,
             "base": summary(score(base, heldout)),
             "fine_tuned": summary(score(out, heldout)),
+        }
+    sources = heldout_sources(sources_cache) if sources_cache is not None else {}
+    if sources:
+        say(0.97, f"scoring base and fine-tuned on {len(sources)} held-out sources")
+    figures["heldout_sources"] = {}
+    for name, seqs in sources.items():
+        before, after = score(base, seqs), score(out, seqs)
+        figures["heldout_sources"][name] = {
+            "clips": len(seqs),
+            "base": summary(before),
+            "fine_tuned": summary(after),
         }
     total_s = time.monotonic() - t0
     card = {
@@ -564,6 +597,22 @@ def card_markdown(card: dict[str, Any]) -> str:
             f"| fine-tuned | {_f(h['fine_tuned']['accuracy'])} | {_f(h['fine_tuned']['macro_f1'])} | "
             f"{_f(h['fine_tuned']['false_movement'])} |",
         ]
+    lines += ["", "## The recognition issue's held-out sources (as `cavewalk evaluate` reads them)", ""]
+    if f.get("heldout_sources"):
+        lines += [
+            "| source | clips | base accuracy | fine-tuned accuracy | base false movement | "
+            "fine-tuned false movement | base detected | fine-tuned detected |",
+            "|---|---|---|---|---|---|---|---|",
+        ]
+        for name, h in f["heldout_sources"].items():
+            b, t = h["base"], h["fine_tuned"]
+            lines.append(
+                f"| {name} | {h['clips']} | {_f(b['accuracy'])} | {_f(t['accuracy'])} "
+                f"| {_f(b['false_movement'])} | {_f(t['false_movement'])} "
+                f"| {_f(b['movement_detected'])} | {_f(t['movement_detected'])} |"
+            )
+    else:
+        lines.append("Not measured: no held-out sources here (`cavewalk data sources` makes them).")
     ts = card["times_s"]
     lines += [
         "",

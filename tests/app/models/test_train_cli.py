@@ -38,9 +38,24 @@ def takes(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return root
 
 
+def _one_heldout_source(cache: Path) -> None:
+    """What `cavewalk data sources` leaves for the card: a manifest naming an eval-only folder (one
+    short clip of the third motion model here)."""
+    from pipeline.mocap.sources import MANIFEST, BlindSet, sources_dir, write_blind_set
+
+    folder = sources_dir(cache) / "blind-heldout"
+    write_blind_set(folder, BlindSet(count=1, duration_s=8.0, seed=5), progress=lambda _m: None)
+    manifest = {
+        "blind-heldout": {"dir": str(folder), "use": "eval"},
+        "gait": {"dir": str(folder), "use": "train"},
+    }
+    (sources_dir(cache) / MANIFEST).write_text(json.dumps(manifest))
+
+
 @pytest.mark.slow
 def test_train_one_epoch_evaluate_activate_and_roll_back(takes: Path, tmp_path: Path, cavewalk: Cli) -> None:
     db, out = str(tmp_path / "c.db"), tmp_path / "lab.onnx"
+    _one_heldout_source(tmp_path / "cache")
     code, stdout, stderr = cavewalk("train", "--takes", str(takes), "--out", str(out), *TINY, "--db", db)
     assert code == 0, stdout + stderr
     assert "registered as model 2" in stdout, stdout
@@ -53,8 +68,12 @@ def test_train_one_epoch_evaluate_activate_and_roll_back(takes: Path, tmp_path: 
     assert len(conf) == 4 and sum(map(sum, conf)) == frames > 0
     assert 0.0 <= card["figures"]["loso_accuracy"] <= 1.0 and card["base_model_id"] == 1
     assert card["figures"]["heldout_sim"]["routines"] == 1
+    held = card["figures"]["heldout_sources"]
+    assert list(held) == ["blind-heldout"], "the eval sources only, not a training one"
+    assert held["blind-heldout"]["clips"] == 1 and held["blind-heldout"]["base"]["frames"] > 0
     md = out.with_suffix(".md").read_text()
     assert "Leave-one-participant-out" in md and "| P2 | 1 |" in md and "truth \\ predicted" in md
+    assert "| blind-heldout | 1 |" in md, "the recognition issue's held-out sources in the card"
 
     listed = cavewalk("models", "list", "--db", db)[1].splitlines()
     assert listed[1].startswith("    2  trained") and info.sha256[:12] in listed[1], listed
