@@ -29,7 +29,11 @@ What a user expects (MODEL_CARD.md, "Behaviour"):
   a crouch, a jump (both feet took off together; a foot still up ``jump_air_s`` after the other
   one landed is a step, not a jump: running) or a body that is not upright (bent far over,
   lying, crawling: an unfamiliar posture) ends it at once, and so does a pivot (the body turning more than
-  ``max_turn_deg`` during one swing: a turn on the spot).
+  ``max_turn_deg`` during one swing: a turn on the spot). Rhythmic pivot steps turn the body less
+  per swing but keep turning: a swing while the steps turn the body (``swing_turn_deg``, this swing
+  or the other foot's last one) and the body turned more than ``max_window_turn_deg`` within
+  ``turn_window_s``, the feet stepping in place, is a turn on the spot too: no bout starts, and a bout of fewer than ``steer_steps`` landed steps ends (an
+  established march that starts to turn is steering and goes on).
 - **Direction** (forward / left / right): the network's smoothed probabilities among the moving
   classes, weighted by the evidence of the newest step (``evidence_weight``): a foot opening
   sideways away from the other foot is a side step to that foot's side; a vertical (march) or
@@ -88,6 +92,15 @@ class GateConfig:
     travel_steps: int = 2  # ... or one, after this many opening steps the same way in a row (travel)
     march_confirm_s: float = 0.2  # a side-step bout turns forward once a foot has risen this long without
     # moving sideways (or on the landing of such a step)
+    # Turning on the spot: a foot swinging, its swing (or the other foot's last one) turned the body
+    # swing_turn_deg, the body turned more than max_window_turn_deg within turn_window_s, every step in
+    # place (less than turn_travel_m forward or back: walking a curve moves the feet) ...
+    turn_window_s: float = 0.7
+    max_window_turn_deg: float = 10.0  # inf: never
+    swing_turn_deg: float = 5.0
+    turn_travel_m: float = 0.2
+    steer_steps: int = 2  # ... unless the bout has already landed this many steps: steering while marching
+    # (0: a turning bout always ends)
 
     def __post_init__(self) -> None:
         if self.rhythm not in RHYTHMS:
@@ -105,6 +118,9 @@ class GateConfig:
             "max_interval_s",
             "min_swing_s",
             "march_confirm_s",
+            "turn_window_s",
+            "turn_travel_m",
+            "swing_turn_deg",
         ):
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
@@ -114,8 +130,12 @@ class GateConfig:
                 f"min_allowance_s ({self.min_allowance_s}) must not exceed "
                 f"max_allowance_s ({self.max_allowance_s})"
             )
+        if not self.max_window_turn_deg > 0:
+            raise ValueError(f"max_window_turn_deg must be > 0 (inf: never), got {self.max_window_turn_deg}")
         if not self.jump_air_s >= 0:
             raise ValueError(f"jump_air_s must be >= 0 (inf: never), got {self.jump_air_s}")
+        if self.steer_steps < 0:
+            raise ValueError(f"steer_steps must be >= 0 (0: never), got {self.steer_steps}")
         if self.side_switch_steps < 1 or self.travel_steps < 1:
             raise ValueError(
                 f"side_switch_steps and travel_steps must be >= 1, got {self.side_switch_steps}, "
@@ -203,6 +223,7 @@ class BoutGate:
         self._opposite = 0  # opening steps to the other side since, in a row
         self._same = 0  # opening steps to the bout's side in a row
         self._side_t = -math.inf  # when the bout's newest step was seen (the side is kept that long)
+        self._yaws: deque[tuple[float, float]] = deque()  # (t, body yaw in degrees) over turn_window_s
 
     def _stance_ok(self, frame: StepFrame, k: int) -> bool:
         """The other foot carries the body (planted and not taking off too: no jump), or it has been
@@ -259,6 +280,16 @@ class BoutGate:
                 else:  # the way back: the next step out starts a new run
                     self._same = 0
         return self._side
+
+    def _turned(self, frame: StepFrame) -> float:
+        """How far (degrees) the body turned within the last ``turn_window_s``, 0 if unknown."""
+        if not math.isfinite(frame.yaw_deg):
+            return 0.0
+        ys = self._yaws
+        ys.append((frame.t, frame.yaw_deg))
+        while len(ys) > 1 and ys[1][0] <= frame.t - self.config.turn_window_s:
+            ys.popleft()  # keep one entry at or before the window's start
+        return abs(frame.yaw_deg - ys[0][1])
 
     def _start_direction(self, frame: StepFrame, ev: int | None, p: NDArray[np.float64]) -> int:
         """A new bout's direction: a step back from the side steps just before (the way back of an
@@ -328,6 +359,18 @@ class BoutGate:
             and abs(frame.feet[k].turn_deg) <= c.max_turn_deg
         ]  # fmt: skip
         pivot = any(abs(frame.feet[k].turn_deg) > c.max_turn_deg for k in swings)
+        turned = self._turned(frame)
+        if self._active:
+            self._bout_steps += len(landed_steps)
+        steering = self._active and 0 < c.steer_steps <= self._bout_steps
+        # a foot's current swing, or the other's last one, turned the body: the steps are turning it
+        swing_turning = bool(swings) and any(
+            abs(f.turn_deg) >= c.swing_turn_deg for f in frame.feet if f.known
+        )
+        if swing_turning and turned > c.max_window_turn_deg and not steering:
+            # steps in place while the body turns this fast: turning on the spot (walking a curve moves
+            # the feet forward; an established bout that starts to turn is steering)
+            pivot = pivot or all(abs(f.sagittal_m) < c.turn_travel_m for f in frame.feet if f.known)
         jumping = any(not f.planted and jump[k] for k, f in enumerate(frame.feet))
 
         if frame.crouched:
@@ -342,7 +385,7 @@ class BoutGate:
             if stepping and max(self._swing_maxp[k] for k in stepping) >= c.start_prob:
                 self._active = True
                 self._label = self._start_direction(frame, ev, p)
-                self._bout_steps = 1
+                self._bout_steps = 0  # landed steps of the bout
                 return GateVerdict(True, self._label, "stepping", ev_name, self._allowance(), math.nan)
             if not all(f.known for f in frame.feet):
                 reason = "feet-unknown"

@@ -168,6 +168,8 @@ class StepFrame:
     pelvis_ratio: pelvis height above the feet / its standing height.
     stepping: index of the foot whose step is the newest (0 left, 1 right), -1 before any.
     last_land_t: time of the newest touch-down (NaN before any); last_lift_t: newest lift-off.
+    upright / tilt_deg: the trunk's lean from vertical. yaw_deg: the body's facing (smoothed,
+        unwrapped: a whole turn adds 360; NaN before the hips and shoulders were seen).
     """
 
     t: float
@@ -180,6 +182,7 @@ class StepFrame:
     last_land_t: float
     upright: bool = True
     tilt_deg: float = 0.0
+    yaw_deg: float = math.nan
 
     @property
     def both_planted(self) -> bool:
@@ -217,6 +220,7 @@ class StepFrame:
             "pelvis_ratio": r(self.pelvis_ratio),
             "upright": bool(self.upright),
             "tilt_deg": r(self.tilt_deg, 1),
+            "yaw_deg": r(self.yaw_deg, 1),
             "stepping": FEET[int(self.stepping)] if self.stepping >= 0 else None,
         }
 
@@ -665,6 +669,7 @@ class StepTracker:
             last_land_t=self._last_land_t,
             upright=self._tilt <= c.max_tilt_deg,
             tilt_deg=self._tilt,
+            yaw_deg=math.degrees(self._yaw) if self._yaw is not None else math.nan,
         )
 
 

@@ -11,7 +11,7 @@ from pipeline.recognition.bout import BoutGate, GateConfig, choose_direction
 from pipeline.recognition.steps import StepTracker
 from pipeline.skeleton import ACTIONS
 
-from .kinematic import Scene, Swing, march, noisy, render
+from .kinematic import ANKLES, Scene, Swing, march, noisy, render
 
 FPS = 30.0
 S, F, L, R = 0, 1, 2, 3
@@ -236,3 +236,73 @@ def test_side_steps_that_change_side_turn_the_bout() -> None:
         assert (labels[(t > turn + 0.3) & (t < left[-1].t1)] == L).mean() > 0.9, f"{n_right} steps right"
         if late:
             assert (labels[(t > left[0].t0 + 0.3) & (t < turn)] == R).mean() > 0.9, "one step late"
+
+
+def _turned(scene: Scene, per_step_deg: float, from_step: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """The scene's joints, the whole body turning about the vertical by ``per_step_deg`` during each
+    swing from the ``from_step``-th on, about the planted foot (which stays where it is)."""
+    joints, contacts = render(scene)
+    t = np.arange(len(joints)) / FPS
+    yaw = np.zeros(len(joints))
+    for sw in scene.swings[from_step:]:
+        yaw += np.radians(per_step_deg) * np.clip((t - sw.t0) / (sw.t1 - sw.t0), 0.0, 1.0)
+    rot, shift = np.eye(2), np.zeros(2)  # world = rot @ body + shift
+    out = joints.copy()
+    for i in range(len(joints)):
+        d = yaw[i] - yaw[i - 1] if i else 0.0
+        if d:
+            stance = ANKLES[0] if contacts[i, 0] else ANKLES[1]
+            pivot = rot @ joints[i - 1, stance, :2] + shift  # the planted ankle, where it stands
+            c, s_ = np.cos(d), np.sin(d)
+            r = np.array([[c, -s_], [s_, c]])
+            rot, shift = r @ rot, r @ (shift - pivot) + pivot
+        out[i, :, :2] = joints[i, :, :2] @ rot.T + shift
+    return out, yaw
+
+
+def _gate_joints(joints: np.ndarray, probs: np.ndarray, config: GateConfig | None = None) -> np.ndarray:
+    tr, gate = StepTracker(), BoutGate(config)
+    return np.array(
+        [gate.update(tr.update(f, i / FPS), probs, i / FPS).label for i, f in enumerate(noisy(joints, 0.01))]
+    )
+
+
+NO_TURN_RULE = GateConfig(max_window_turn_deg=float("inf"))
+
+
+def test_rhythmic_pivot_steps_that_turn_the_body_are_still() -> None:
+    """A turn on the spot in small pivot steps (each swing turning the body 20 degrees, less than the
+    one-swing pivot rule's 30) is no movement, even with a network sure it is forward; without the
+    turning rule the same steps are a forward bout."""
+    swings = march(1.0, 8, 0.6, 0.35)  # 160 degrees in 4.6 s
+    joints, _ = _turned(Scene(7.0, swings), 20.0)
+    t = np.arange(len(joints)) / FPS
+    during = (t > swings[0].t0) & (t < swings[-1].t1 + 0.5)
+    labels = _gate_joints(joints, FWD)
+    assert (labels[during] != S).mean() < 0.1, f"{100 * (labels[during] != S).mean():.0f} % moving"
+    assert (_gate_joints(joints, FWD, NO_TURN_RULE)[during] == F).mean() > 0.6, "the rule is what stops it"
+
+
+def test_a_march_that_starts_to_turn_steers_and_a_walk_on_a_curve_goes_on() -> None:
+    """Marching that turns after four straight steps is steering: one forward bout throughout (a
+    bout of fewer than ``steer_steps`` steps would end). Walking a curve moves the feet forward
+    with every step: not a turn on the spot, however fast the body turns."""
+    swings = march(1.0, 12, 0.6, 0.35)
+    joints, _ = _turned(Scene(9.0, swings), 12.0, from_step=4)  # then 20 degrees/s
+    t = np.arange(len(joints)) / FPS
+    inside = (t > swings[0].t0 + 0.3) & (t < swings[-1].t1)
+    assert (_gate_joints(joints, FWD)[inside] == F).mean() > 0.95
+    assert (_gate_joints(joints, FWD, GateConfig(steer_steps=0))[inside] == F).mean() < 0.7
+    walk = tuple(Swing(i % 2, 1.0 + 0.5 * i, 1.4 + 0.5 * i, sagittal=0.6, peak=0.08) for i in range(10))
+    joints, _ = _turned(Scene(7.0, walk), 15.0)  # 37 degrees/s, from the first step
+    t = np.arange(len(joints)) / FPS
+    inside = (t > walk[0].t0 + 0.3) & (t < walk[-1].t1)
+    assert (_gate_joints(joints, FWD)[inside] == F).mean() > 0.9
+    in_place = GateConfig(turn_travel_m=10.0)  # every step read as in place: the walk is a turn
+    assert (_gate_joints(joints, FWD, in_place)[inside] == F).mean() < 0.7
+
+
+def test_the_turning_rule_checks_its_settings() -> None:
+    for bad in ({"turn_window_s": -1.0}, {"max_window_turn_deg": 0.0}, {"steer_steps": -1}):
+        with pytest.raises(ValueError, match=next(iter(bad))):
+            GateConfig(**bad)  # type: ignore[arg-type]
