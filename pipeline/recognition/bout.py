@@ -28,12 +28,14 @@ What a user expects (MODEL_CARD.md, "Behaviour"):
   ``pause_still_prob``, that the person has stopped (it has learnt what a last step looks like);
   a crouch, a jump (both feet took off together; a foot still up ``jump_air_s`` after the other
   one landed is a step, not a jump: running) or a body that is not upright (bent far over,
-  lying, crawling: an unfamiliar posture) ends it at once, and so does a pivot (the body turning more than
-  ``max_turn_deg`` during one swing: a turn on the spot). Rhythmic pivot steps turn the body less
-  per swing but keep turning: a swing while the steps turn the body (``swing_turn_deg``, this swing
-  or the other foot's last one) and the body turned more than ``max_window_turn_deg`` within
-  ``turn_window_s``, the feet stepping in place, is a turn on the spot too: no bout starts, and a bout of fewer than ``steer_steps`` landed steps ends (an
-  established march that starts to turn is steering and goes on).
+  lying, crawling: an unfamiliar posture) ends it at once, and so does a pivot (the body turning
+  more than ``max_turn_deg`` during one swing in place, twice that for a step that moves the foot
+  ``turn_travel_m`` forward or back: walking a curve). Rhythmic pivot steps turn the body less per
+  swing but keep turning: a swing while the steps turn the body (``swing_turn_deg``, this swing or
+  the other foot's last one) and the body turned more than ``max_window_turn_deg`` within
+  ``turn_window_s``, the feet stepping in place, is a turn on the spot too: no bout starts, and a
+  bout of fewer than ``steer_steps`` landed steps ends (an established march that starts to turn
+  is steering and goes on).
 - **Direction** (forward / left / right): the network's smoothed probabilities among the moving
   classes, weighted by the evidence of the newest step (``evidence_weight``): a foot opening
   sideways away from the other foot is a side step to that foot's side; a vertical (march) or
@@ -79,7 +81,7 @@ class GateConfig:
     max_allowance_s: float = 1.2
     evidence_direction: bool = True
     evidence_weight: float = 3.0
-    max_turn_deg: float = 30.0
+    max_turn_deg: float = 30.0  # one swing in place turning the body this far is a pivot (twice: walking)
     pause_still_prob: float = 0.75
     min_pause_s: float = 0.1
     max_interval_s: float = 2.2
@@ -224,6 +226,8 @@ class BoutGate:
         self._same = 0  # opening steps to the bout's side in a row
         self._side_t = -math.inf  # when the bout's newest step was seen (the side is kept that long)
         self._yaws: deque[tuple[float, float]] = deque()  # (t, body yaw in degrees) over turn_window_s
+        self._lift_yaw = [math.nan, math.nan]  # body yaw at each foot's newest lift-off (unwrapped)
+        self._last_turn = [0.0, 0.0]  # the body's turn during each foot's current or last swing
 
     def _stance_ok(self, frame: StepFrame, k: int) -> bool:
         """The other foot carries the body (planted and not taking off too: no jump), or it has been
@@ -291,6 +295,15 @@ class BoutGate:
             ys.popleft()  # keep one entry at or before the window's start
         return abs(frame.yaw_deg - ys[0][1])
 
+    def _step_turn(self, frame: StepFrame, k: int) -> float:
+        """How far the body turned (degrees) during foot ``k``'s current or last swing, unwrapped (a
+        spin turns more than 180); the tracker's own figure where the yaw was not known."""
+        f = frame.feet[k]
+        if f.planted or not (math.isfinite(frame.yaw_deg) and math.isfinite(self._lift_yaw[k])):
+            return self._last_turn[k] if f.planted else f.turn_deg
+        self._last_turn[k] = frame.yaw_deg - self._lift_yaw[k]
+        return self._last_turn[k]
+
     def _start_direction(self, frame: StepFrame, ev: int | None, p: NDArray[np.float64]) -> int:
         """A new bout's direction: a step back from the side steps just before (the way back of an
         opening step to the other side, or a closing step) keeps their side; else the network
@@ -340,6 +353,7 @@ class BoutGate:
                 if self._active:
                     self._side_t = f.event_t
                 self._swing_lift[k], self._swing_maxp[k] = f.event_t, p_move
+                self._lift_yaw[k] = frame.yaw_deg
             elif not f.planted and math.isfinite(self._swing_lift[k]):
                 self._swing_maxp[k] = max(self._swing_maxp[k], p_move)
             if f.landed and math.isfinite(self._swing_lift[k]):
@@ -358,19 +372,25 @@ class BoutGate:
             if t - self._swing_lift[k] >= c.confirm_s and self._stance_ok(frame, k)
             and abs(frame.feet[k].turn_deg) <= c.max_turn_deg
         ]  # fmt: skip
-        pivot = any(abs(frame.feet[k].turn_deg) > c.max_turn_deg for k in swings)
+        turn = [self._step_turn(frame, k) for k in (0, 1)]
+        # a step that moved the foot forward or back without turning the body far walks (a curve)
+        in_place = not any(
+            f.known and abs(f.sagittal_m) >= c.turn_travel_m and abs(turn[k]) <= 2.0 * c.max_turn_deg
+            for k, f in enumerate(frame.feet)
+        )
+        pivot = any(abs(turn[k]) > c.max_turn_deg * (1.0 if in_place else 2.0) for k in swings)
         turned = self._turned(frame)
         if self._active:
             self._bout_steps += len(landed_steps)
         steering = self._active and 0 < c.steer_steps <= self._bout_steps
         # a foot's current swing, or the other's last one, turned the body: the steps are turning it
         swing_turning = bool(swings) and any(
-            abs(f.turn_deg) >= c.swing_turn_deg for f in frame.feet if f.known
+            abs(turn[k]) >= c.swing_turn_deg for k, f in enumerate(frame.feet) if f.known
         )
         if swing_turning and turned > c.max_window_turn_deg and not steering:
             # steps in place while the body turns this fast: turning on the spot (walking a curve moves
             # the feet forward; an established bout that starts to turn is steering)
-            pivot = pivot or all(abs(f.sagittal_m) < c.turn_travel_m for f in frame.feet if f.known)
+            pivot = pivot or in_place
         jumping = any(not f.planted and jump[k] for k, f in enumerate(frame.feet))
 
         if frame.crouched:

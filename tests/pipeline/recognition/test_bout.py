@@ -298,6 +298,9 @@ def test_a_march_that_starts_to_turn_steers_and_a_walk_on_a_curve_goes_on() -> N
     t = np.arange(len(joints)) / FPS
     inside = (t > walk[0].t0 + 0.3) & (t < walk[-1].t1)
     assert (_gate_joints(joints, FWD)[inside] == F).mean() > 0.9
+    sharp, _ = _turned(Scene(7.0, walk), 35.0)  # each step turns more than a pivot step in place may
+    assert (_gate_joints(sharp, FWD)[inside] == F).mean() > 0.9
+    assert (_gate_joints(sharp, FWD, GateConfig(turn_travel_m=10.0))[inside] == F).mean() < 0.3
     in_place = GateConfig(turn_travel_m=10.0)  # every step read as in place: the walk is a turn
     assert (_gate_joints(joints, FWD, in_place)[inside] == F).mean() < 0.7
 
