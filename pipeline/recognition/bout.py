@@ -404,6 +404,7 @@ class BoutGate:
         if not self._active:
             if stepping and max(self._swing_maxp[k] for k in stepping) >= c.start_prob:
                 self._active = True
+                self._side_t = max(self._swing_lift[k] for k in stepping)  # the bout's first step
                 self._label = self._start_direction(frame, ev, p)
                 self._bout_steps = 0  # landed steps of the bout
                 return GateVerdict(True, self._label, "stepping", ev_name, self._allowance(), math.nan)

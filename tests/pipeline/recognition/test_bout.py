@@ -309,3 +309,20 @@ def test_the_turning_rule_checks_its_settings() -> None:
     for bad in ({"turn_window_s": -1.0}, {"max_window_turn_deg": 0.0}, {"steer_steps": -1}):
         with pytest.raises(ValueError, match=next(iter(bad))):
             GateConfig(**bad)  # type: ignore[arg-type]
+
+
+def test_a_one_step_side_bout_keeps_its_side_for_the_way_back_after_a_pause() -> None:
+    """The right foot steps out to the right, stays there 1.3 s (the bout ends: rhythm broken), then
+    comes back: the way back of that side step is a new bout to the right, even with a network that
+    reads it as a step to the left (the side of a bout's first step is remembered like any other)."""
+    out = Swing(1, 1.0, 1.4, lateral=0.3, peak=0.05)
+    back = Swing(1, 2.7, 3.1, lateral=-0.3, peak=0.05)
+    n = round(4.5 * FPS)
+    t = np.arange(n) / FPS
+    lead, wrong = np.array([0.1, 0.05, 0.05, 0.8]), np.array([0.1, 0.1, 0.7, 0.1])
+    probs = [wrong if t[i] > 2.5 else lead for i in range(n)]
+    labels, verdicts, _ = _gate(Scene(4.5, (out, back)), probs)
+    assert (labels[(t > 1.2) & (t < 1.4)] == R).all()
+    assert "rhythm-broke" in {v.reason for v in verdicts[round(1.4 * FPS) : round(2.7 * FPS)]}
+    way_back = labels[(t > back.t0 + 0.2) & (t < back.t1)]
+    assert (way_back == R).mean() > 0.9, f"way back: {np.bincount(way_back, minlength=4)}"
