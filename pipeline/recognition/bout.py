@@ -90,6 +90,12 @@ class GateConfig:
     hold_still_prob: float = 0.35  # the deadline waits while the network's p(still) stays below this
     late_still_prob: float = 0.35  # past the median rhythm's due time, this p(still) ends the bout
     jump_air_s: float = 0.6  # a "jump" foot still up this long after the other landed: a step
+    # a jump's feet both leave the floor: one foot off contact jump_rise_s but never jump_min_height_m
+    # high while the other rose slide_step_m is a step over a sliding stance (a treadmill's belt, a
+    # march sliding back), not a jump (both feet sliding low, as in a dance, stay a jump: no step)
+    jump_rise_s: float = 0.15
+    jump_min_height_m: float = 0.03
+    slide_step_m: float = 0.05
     side_switch_steps: int = 2  # opening steps to the other side in a row that turn a side-step bout
     travel_steps: int = 2  # ... or one, after this many opening steps the same way in a row (travel)
     march_confirm_s: float = 0.2  # a side-step bout turns forward once a foot has risen this long without
@@ -120,6 +126,8 @@ class GateConfig:
             "max_interval_s",
             "min_swing_s",
             "march_confirm_s",
+            "jump_rise_s",
+            "jump_min_height_m",
             "turn_window_s",
             "turn_travel_m",
             "swing_turn_deg",
@@ -132,6 +140,8 @@ class GateConfig:
                 f"min_allowance_s ({self.min_allowance_s}) must not exceed "
                 f"max_allowance_s ({self.max_allowance_s})"
             )
+        if not self.slide_step_m >= 0:
+            raise ValueError(f"slide_step_m must be >= 0 (inf: never), got {self.slide_step_m}")
         if not self.max_window_turn_deg > 0:
             raise ValueError(f"max_window_turn_deg must be > 0 (inf: never), got {self.max_window_turn_deg}")
         if not self.jump_air_s >= 0:
@@ -228,6 +238,8 @@ class BoutGate:
         self._yaws: deque[tuple[float, float]] = deque()  # (t, body yaw in degrees) over turn_window_s
         self._lift_yaw = [math.nan, math.nan]  # body yaw at each foot's newest lift-off (unwrapped)
         self._last_turn = [0.0, 0.0]  # the body's turn during each foot's current or last swing
+        self._swing_top = [0.0, 0.0]  # each foot's highest point (above its standing level) this swing
+        self._slid = [False, False]  # the current (or last) swing of each foot was part of a slide
 
     def _stance_ok(self, frame: StepFrame, k: int) -> bool:
         """The other foot carries the body (planted and not taking off too: no jump), or it has been
@@ -244,11 +256,27 @@ class BoutGate:
         is not a foot still up ``jump_air_s`` after the other one landed (a jump lands on both feet
         together; a foot that stays up is stepping, e.g. running, whose feet overlap in the air)."""
         f, other = frame.feet[k], frame.feet[1 - k]
-        if not f.jump:
+        if not f.jump or self._slid[k]:
             return False
         if f.planted:
             return True
         return not (other.planted and frame.t - self._land_seen[1 - k] > self.config.jump_air_s)
+
+    def _track_slides(self, frame: StepFrame) -> None:
+        """Each foot's highest point this swing; a "jump" in which one foot has been off contact
+        ``jump_rise_s`` without rising ``jump_min_height_m`` while the other rose ``slide_step_m`` is a
+        step over a sliding stance, for both feet's swings."""
+        c = self.config
+        for k, f in enumerate(frame.feet):
+            h = f.height_m if math.isfinite(f.height_m) else 0.0
+            if f.lifted:
+                self._swing_top[k], self._slid[k] = h, False
+            elif not f.planted:
+                self._swing_top[k] = max(self._swing_top[k], h)
+        for k, f in enumerate(frame.feet):
+            low = f.swing_s >= c.jump_rise_s and self._swing_top[k] < c.jump_min_height_m
+            if f.jump and not f.planted and low and self._swing_top[1 - k] >= c.slide_step_m:
+                self._slid[k] = self._slid[1 - k] = True
 
     def _allowance(self, rhythm: str | None = None) -> float:
         """How long after the newest touch-down the next lift-off may come: when the person's rhythm
@@ -337,6 +365,7 @@ class BoutGate:
         for k, f in enumerate(frame.feet):
             if f.landed:
                 self._land_seen[k] = t
+        self._track_slides(frame)
         jump = [self._jump(frame, k) for k in (0, 1)]
         landed_steps: list[float] = []  # max p(moving) of bout swings that ended now
         for k, f in enumerate(frame.feet):

@@ -306,7 +306,13 @@ def test_a_march_that_starts_to_turn_steers_and_a_walk_on_a_curve_goes_on() -> N
 
 
 def test_the_turning_rule_checks_its_settings() -> None:
-    for bad in ({"turn_window_s": -1.0}, {"max_window_turn_deg": 0.0}, {"steer_steps": -1}):
+    for bad in (
+        {"turn_window_s": -1.0},
+        {"max_window_turn_deg": 0.0},
+        {"steer_steps": -1},
+        {"slide_step_m": -0.1},
+        {"jump_rise_s": float("nan")},
+    ):
         with pytest.raises(ValueError, match=next(iter(bad))):
             GateConfig(**bad)  # type: ignore[arg-type]
 
@@ -326,3 +332,26 @@ def test_a_one_step_side_bout_keeps_its_side_for_the_way_back_after_a_pause() ->
     assert "rhythm-broke" in {v.reason for v in verdicts[round(1.4 * FPS) : round(2.7 * FPS)]}
     way_back = labels[(t > back.t0 + 0.2) & (t < back.t1)]
     assert (way_back == R).mean() > 0.9, f"way back: {np.bincount(way_back, minlength=4)}"
+
+
+def test_a_step_over_a_sliding_stance_is_no_jump() -> None:
+    """Walking on a treadmill (or a march whose stance foot slides back): the stance foot slides
+    back along the floor while the other swings forward, lifted 10 cm. Both leave "contact" together,
+    which the tracker calls a jump; the gate reads a foot that stays low for ``jump_rise_s`` while
+    the other clearly rises as a step over a sliding stance, not a jump."""
+    swings = []
+    for i in range(10):
+        t0, f = 1.0 + 0.6 * i, i % 2
+        swings += [
+            Swing(f, t0, t0 + 0.4, sagittal=0.3, peak=0.1),
+            Swing(1 - f, t0, t0 + 0.5, sagittal=-0.3, peak=0.0),
+        ]
+    t = np.arange(round(8.0 * FPS)) / FPS
+    walking = (t > 1.5) & (t < 7.0)
+    labels, _, _ = _gate(Scene(8.0, tuple(swings)), FWD)
+    jump_only, verdicts, _ = _gate(
+        Scene(8.0, tuple(swings)), FWD, config=GateConfig(slide_step_m=float("inf"))
+    )
+    assert (labels[walking] == F).mean() > 0.5
+    assert (jump_only[walking] == F).mean() < 0.1, "without the rule the slides are jumps"
+    assert "jump" in {v.reason for v in verdicts}
