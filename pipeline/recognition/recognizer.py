@@ -309,6 +309,10 @@ class ActionRecognizer:
         self._yaw.reset()
         self._last_t: float | None = None
         self._last_j: NDArray[np.float64] | None = None
+        # model frame n is taken at tick0 + n / fps; the tracker, filter and gate count time from
+        # tick0 (n / fps exactly, as in the replay of a recorded sequence: no summed drift, and
+        # durations that are whole frames compare the same way on any clock)
+        self._tick0, self._ticks = 0.0, 0
         self._next_tick = 0.0
         self._filter.reset()
         self._tracker.reset()
@@ -377,24 +381,28 @@ class ActionRecognizer:
 
         ticks = 0
         if self._last_t is None or self._last_j is None:
-            self._add_frame(j, t)
+            self._tick0, self._ticks = t, 0
+            self._add_frame(j, 0.0)
+            self._ticks = 1
             self._next_tick = t + self._dt
             ticks = 1
         else:
             span = t - self._last_t
             while self._next_tick <= t + 1e-9:
                 w = (self._next_tick - self._last_t) / span
-                self._add_frame(_interpolate(self._last_j, j, min(max(w, 0.0), 1.0)), self._next_tick)
-                self._next_tick += self._dt
+                self._add_frame(_interpolate(self._last_j, j, min(max(w, 0.0), 1.0)), self._ticks * self._dt)
+                self._ticks += 1
+                self._next_tick = self._tick0 + self._ticks * self._dt
                 ticks += 1
         self._last_t, self._last_j = t, j
         self._yaw.update(raw_yaw_deg(j), t)
         if ticks:
-            self._step(ticks, t)
+            self._step(ticks)
         return self._estimate()
 
     def _add_frame(self, frame: NDArray[np.float64], tick_t: float) -> None:
-        """One model frame: kept for the window, and through the step tracker."""
+        """One model frame (``tick_t``: seconds since the stream's first frame): kept for the window,
+        and through the step tracker."""
         self._frames.append(frame)
         sf = self._tracker.update(frame, tick_t)
         self._pending.append(sf)
@@ -417,10 +425,10 @@ class ActionRecognizer:
         evidence = self._evidence_window() if self.info.features in WITH_EVIDENCE else None
         return model_input(feats, evidence, self.info.features)[None]
 
-    def _step(self, ticks: int, t: float) -> None:
+    def _step(self, ticks: int) -> None:
         x = self._model_input()
         out = np.asarray(self._session.run(None, {self.info.input_name: x})[0][0], dtype=np.float64)
-        label = self._filter.update(out, t, ticks)
+        label = self._filter.update(out, self._pending[-1].t, ticks)
         if self.config.gate:
             for sf in self._pending:
                 self._verdict = self._gate.update(sf, self._filter.probs, sf.t)

@@ -112,6 +112,24 @@ def test_streaming_follows_a_routine(recognizer: ActionRecognizer) -> None:
         assert sum(e.probs.values()) == pytest.approx(1.0, abs=1e-4) and set(e.probs) == set(ACTIONS)
 
 
+def test_the_clock_origin_changes_nothing(recognizer: ActionRecognizer) -> None:
+    """A live clock (seconds since 1970) or a recording's (from 0): the same motion gives the same
+    commands and gate verdicts, frame for frame. The tracker, filter and gate count time from the
+    stream's first frame in whole model frames (no sum of 1/30 s steps drifting across a
+    threshold that is a whole number of frames, such as the 0.1 s a swing must last)."""
+    segs = (Segment("still", 2.0), Segment("forward", 4.0), Segment("still", 1.5), Segment("right", 3.0))
+    _, joints = _routine(segs, 1.7, -20.0, seed=9)
+    runs = []
+    for origin in (0.0, 1_733_300_000.0):
+        recognizer.reset()
+        est = [recognizer.update(f, origin + i / FPS) for i, f in enumerate(joints)]
+        runs.append(est)
+    a, b = runs
+    assert [e.label for e in a] == [e.label for e in b]
+    assert [e.gate.reason for e in a if e.gate] == [e.gate.reason for e in b if e.gate]
+    assert [e.steps.t for e in b if e.steps] == pytest.approx([i / FPS for i in range(len(joints))], abs=1e-9)
+
+
 def test_sixty_fps_input_is_resampled(recognizer: ActionRecognizer) -> None:
     segs = (Segment("still", 2.5), Segment("forward", 3.5))
     m60 = simulate_user(MotionScript(segs, start_yaw_deg=10.0), body_from_height(1.8), 60.0, seed=2)
