@@ -26,9 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pipeline.runtime.shm import FrameRing, RingSpec
+from pipeline.runtime.shm import MAILBOX_PREFIX, FrameRing, RingSpec
 
-MAILBOX_PREFIX = "cwbox_"  # /dev/shm names (camera rings are cavewalk_*)
 SLOTS = 4
 CAPACITY_BYTES = 2 * 1024 * 1024  # the largest pickled message (a few people in a few views: ~50 kB)
 

@@ -46,6 +46,7 @@ from pipeline.runtime.plan import SOURCES, PlanInputs, SourceName, plan_run
 from pipeline.runtime.publisher import StatusPublisher, StatusSink
 from pipeline.runtime.router import ResultRouter
 from pipeline.runtime.run import Run
+from pipeline.runtime.shm import sweep_stale_segments
 from pipeline.runtime.sinks import ResultSink, StreamSpec
 from pipeline.runtime.snapshot import SnapshotCache
 from pipeline.runtime.status import PipelineEvent, PipelineStatus
@@ -74,6 +75,7 @@ class Pipeline:
                  emitter: EmitterConfig | None = None,
                  status_rate_hz: float = 10.0) -> None:
         guard_resource_tracker()
+        sweep_stale_segments()  # what a crashed run left in /dev/shm
         self.config = config
         self.cameras_calibrated = list(cameras_calibrated) if cameras_calibrated else None
         self.camera_sources = dict(camera_sources or {})

@@ -15,9 +15,12 @@ process died unlinks the segments it attached (:func:`unlink_attached`).
 from __future__ import annotations
 
 import contextlib
+import logging
 import secrets
+import time
 from dataclasses import dataclass
 from multiprocessing import resource_tracker, shared_memory
+from pathlib import Path
 
 try:
     import _posixshmem
@@ -29,7 +32,11 @@ from numpy.typing import NDArray
 
 from pipeline.errors import SourceError
 
-SHM_PREFIX = "cavewalk_"
+SHM_PREFIX = "cavewalk_"  # /dev/shm names of the camera rings
+MAILBOX_PREFIX = "cwbox_"  # ... of the mailboxes between the stages
+STREAM_PREFIX = "cwstream_"  # ... of the stream book (the emitter's shared sequence)
+PREFIXES = (SHM_PREFIX, MAILBOX_PREFIX, STREAM_PREFIX)
+log = logging.getLogger(__name__)
 _attached: set[str] = set()  # segments this process attached to (for unlink_attached)
 _GLOBAL_WORDS = 2  # [latest seq, reader's demand time (float64 bits)]
 _SLOT_WORDS = 8  # [seq, ts (float64 bits), rows, width, channels (0: a 2-D image), frame index, nbytes,
@@ -77,8 +84,9 @@ class FrameRing:
         self._shm = shm
         self.owner = owner
         self._buf: memoryview = shm.buf  # type: ignore[assignment]
-        self._words = np.ndarray((_GLOBAL_WORDS + _SLOT_WORDS * spec.slots,), dtype=np.int64,
-                                 buffer=self._buf[: spec.header_bytes])
+        self._words = np.ndarray(
+            (_GLOBAL_WORDS + _SLOT_WORDS * spec.slots,), dtype=np.int64, buffer=self._buf[: spec.header_bytes]
+        )
         self._ts = self._words.view(np.float64)
 
     @classmethod
@@ -105,7 +113,7 @@ class FrameRing:
 
     def _data(self, slot: int, nbytes: int) -> NDArray[np.uint8]:
         start = self.spec.header_bytes + slot * self.spec.capacity_bytes
-        return np.ndarray((nbytes,), dtype=np.uint8, buffer=self._buf[start: start + nbytes])
+        return np.ndarray((nbytes,), dtype=np.uint8, buffer=self._buf[start : start + nbytes])
 
     @property
     def demand_s(self) -> float:
@@ -129,8 +137,10 @@ class FrameRing:
             raise ValueError(f"frames must be (H, W, C) or (H, W) uint8, got shape {shape}")
         nbytes = int(np.prod(shape))
         if nbytes > self.spec.capacity_bytes:
-            raise SourceError(f"frame of {shape} ({nbytes} bytes) exceeds the ring's slot "
-                              f"capacity of {self.spec.capacity_bytes} bytes")
+            raise SourceError(
+                f"frame of {shape} ({nbytes} bytes) exceeds the ring's slot "
+                f"capacity of {self.spec.capacity_bytes} bytes"
+            )
         slot = (self.latest_seq + 1) % self.spec.slots
         self._words[self._slot_base(slot)] = -1
         return self._data(slot, nbytes).reshape(shape)
@@ -141,7 +151,7 @@ class FrameRing:
         base = self._slot_base(seq % self.spec.slots)
         h, w, c = shape if len(shape) == 3 else (*shape, 0)
         self._ts[base + 1] = timestamp_s
-        self._words[base + 2: base + 7] = (h, w, c, index, int(np.prod(shape)))
+        self._words[base + 2 : base + 7] = (h, w, c, index, int(np.prod(shape)))
         self._words[base] = seq
         self._words[0] = seq
         return seq
@@ -184,7 +194,7 @@ class FrameRing:
         if int(self._words[base]) != seq:
             return None
         ts = float(self._ts[base + 1])
-        h, w, c, index, nbytes = (int(v) for v in self._words[base + 2: base + 7])
+        h, w, c, index, nbytes = (int(v) for v in self._words[base + 2 : base + 7])
         if out is not None and out.nbytes >= nbytes:
             flat = out.reshape(-1)[:nbytes]
             np.copyto(flat, self._data(slot, nbytes))
@@ -235,4 +245,46 @@ def unlink_attached() -> list[str]:
             _posixshmem.shm_unlink("/" + name)
             removed.append(name)
     _attached.clear()
+    return removed
+
+
+def _mapped_segments(proc_dir: Path) -> set[str]:
+    """The /dev/shm names that some live process maps (``/proc/*/maps``)."""
+    mapped: set[str] = set()
+    for maps in proc_dir.glob("[0-9]*/maps"):
+        with contextlib.suppress(OSError):
+            for line in maps.read_text(errors="replace").splitlines():
+                if "/dev/shm/" in line:
+                    mapped.add(line.rsplit("/dev/shm/", 1)[1].split(" ")[0])
+    return mapped
+
+
+def sweep_stale_segments(
+    shm_dir: Path = Path("/dev/shm"), proc_dir: Path = Path("/proc"), settle_s: float = 0.2
+) -> list[str]:
+    """Remove cavewalk's segments that a crash left behind: named with one of :data:`PREFIXES` and
+    mapped by no live process in two looks ``settle_s`` apart (a process creating a segment maps
+    it within microseconds). A server killed with its workers and the resource tracker (``kill -9``
+    of the process group, the OOM killer) leaves 16 MB of mailboxes a run, which nothing else
+    would remove before a reboot. Returns the names removed; nothing on a system without these
+    folders."""
+    if _posixshmem is None or not shm_dir.is_dir() or not proc_dir.is_dir():
+        return []
+    candidates = {p.name for p in shm_dir.iterdir() if p.name.startswith(PREFIXES)}
+    if not candidates:
+        return []
+    stale = candidates - _mapped_segments(proc_dir)
+    if stale:
+        time.sleep(settle_s)
+        stale -= _mapped_segments(proc_dir)
+    removed = []
+    for name in sorted(stale):
+        with contextlib.suppress(OSError):
+            _posixshmem.shm_unlink("/" + name)
+            removed.append(name)
+    if removed:
+        log.warning(
+            "removed %d shared-memory segments left behind by a crashed run (%s)",
+            len(removed), ", ".join(removed[:6]) + (", ..." if len(removed) > 6 else ""),
+        )  # fmt: skip
     return removed

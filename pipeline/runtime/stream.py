@@ -34,11 +34,10 @@ from numpy.typing import NDArray
 
 from pipeline.emitter.udp import TICK_S
 from pipeline.errors import InputError
-from pipeline.runtime.shm import attach_segment
+from pipeline.runtime.shm import STREAM_PREFIX, attach_segment
 
 Endpoint = tuple[str, int]
 
-STREAM_PREFIX = "cwstream_"  # /dev/shm names (camera rings are cavewalk_*, mailboxes cwbox_*)
 MAX_ENDPOINTS = 16
 ACTIVE_S = 3 * TICK_S  # a tick younger than this: the fusion worker sends the stream
 _HEAD = 6

@@ -14,8 +14,9 @@ from multiprocessing import forkserver
 
 import pytest
 
-from pipeline.runtime.mailbox import MAILBOX_PREFIX, Mailbox
+from pipeline.runtime.mailbox import Mailbox
 from pipeline.runtime.pipeline import Pipeline
+from pipeline.runtime.shm import MAILBOX_PREFIX
 
 from .live import Listener, children_alive, wait_for
 

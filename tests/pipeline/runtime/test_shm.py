@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from pipeline.errors import SourceError
-from pipeline.runtime.shm import SHM_PREFIX, FrameRing, RingSpec
+from pipeline.runtime.shm import PREFIXES, SHM_PREFIX, FrameRing, RingSpec, sweep_stale_segments
 
 
 def shm_names() -> set[str]:
@@ -126,3 +126,33 @@ def test_reader_demand_is_shared_through_the_header() -> None:
         reader.close()
     finally:
         ring.unlink()
+
+
+def _leftover(name: str) -> None:
+    """A segment as a crashed run leaves it: created, mapped by nobody, unknown to any resource
+    tracker (the tracker died with the run)."""
+    from multiprocessing import resource_tracker, shared_memory
+
+    shm = shared_memory.SharedMemory(name=name, create=True, size=4096)
+    resource_tracker.unregister(shm._name, "shared_memory")  # type: ignore[attr-defined]
+    shm.close()
+
+
+def test_segments_a_crash_left_behind_are_swept_and_nothing_else() -> None:
+    tag = os.urandom(3).hex()
+    stale = [f"{prefix}sweeptest_{tag}" for prefix in PREFIXES]
+    foreign = f"othersoftware_sweeptest_{tag}"
+    for name in [*stale, foreign]:
+        _leftover(name)
+    live = FrameRing.create(2, 64, f"sweeptest_{tag}")  # mapped by this process: in use
+    try:
+        removed = sweep_stale_segments()
+        listed = set(os.listdir("/dev/shm"))
+        assert set(stale) <= set(removed) and not set(stale) & listed
+        assert live.spec.shm_name in listed and live.spec.shm_name not in removed
+        assert foreign in listed, "only cavewalk's own names are touched"
+    finally:
+        live.unlink()
+        from multiprocessing import shared_memory
+
+        shared_memory.SharedMemory(name=foreign).unlink()
