@@ -118,7 +118,7 @@ def test_both_feet_planted_with_upper_body_motion_is_still(
             51,
             marks=pytest.mark.xfail(
                 strict=True,
-                reason="known: this bout breaks twice for ~0.2 s in its 0.4-0.7 s pauses (MODEL_CARD.md, Limits)",  # noqa: E501
+                reason="known: this bout breaks 3 times for 0.2-0.4 s: the network calls its 0.4-0.7 s pauses after a step back a stop (MODEL_CARD.md, Limits)",  # noqa: E501
             ),
         ),
         ("right", 52),
