@@ -8,11 +8,10 @@ from pathlib import Path
 import pytest
 
 from tests.app.conftest import Served, make_settings
+from tests.browser import CHROMIUM, chromium
 
 pytestmark = [pytest.mark.e2e, pytest.mark.slow]
 
-CHROMIUM = "/usr/bin/chromium"
-ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"]
 
 CALL = """async () => {
   const m = await import('/js/api.js');
@@ -27,23 +26,23 @@ def test_a_non_json_error_answer_is_an_api_error(tmp_path: Path) -> None:
 
     if not Path(CHROMIUM).exists():
         pytest.fail(f"{CHROMIUM} missing: apt-get install -y chromium chromium-driver")
-    with Served(make_settings(tmp_path), autostart=None) as served, sync_playwright() as pw:
-        browser = pw.chromium.launch(executable_path=CHROMIUM, args=ARGS)
-        try:
-            page = browser.new_page()
-            page.goto(f"{served.base}/")
-            page.route(
-                "**/api/v1/participants",
-                lambda route: route.fulfill(
-                    status=502,
-                    content_type="text/html",
-                    body="<html><body><h1>502 Bad Gateway</h1></body></html>",
-                ),
-            )
-            got = page.evaluate(CALL)
-            assert got["thrown"] and got["apiError"], got
-            assert got["status"] == 502 and got["message"], got
-            page.unroute("**/api/v1/participants")
-            assert page.evaluate(CALL) == {"thrown": False}, "the real answer is JSON and passes"
-        finally:
-            browser.close()
+    with (
+        Served(make_settings(tmp_path), autostart=None) as served,
+        sync_playwright() as pw,
+        chromium(pw) as browser,
+    ):
+        page = browser.new_page()
+        page.goto(f"{served.base}/")
+        page.route(
+            "**/api/v1/participants",
+            lambda route: route.fulfill(
+                status=502,
+                content_type="text/html",
+                body="<html><body><h1>502 Bad Gateway</h1></body></html>",
+            ),
+        )
+        got = page.evaluate(CALL)
+        assert got["thrown"] and got["apiError"], got
+        assert got["status"] == 502 and got["message"], got
+        page.unroute("**/api/v1/participants")
+        assert page.evaluate(CALL) == {"thrown": False}, "the real answer is JSON and passes"

@@ -10,11 +10,9 @@ import pytest
 from tests.app.conftest import Served, make_settings
 from tests.app.models.onnx_files import three_class_model, with_metadata
 from tests.app.models.takes_data import index_takes, simulated_takes, teach_take
+from tests.browser import CHROMIUM, chromium, watched_page
 
 pytestmark = [pytest.mark.e2e, pytest.mark.slow]
-
-CHROMIUM = "/usr/bin/chromium"
-ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"]
 
 
 def test_models_panel_registers_activates_and_rolls_back(tmp_path: Path, artifacts_dir: Path) -> None:
@@ -26,11 +24,9 @@ def test_models_panel_registers_activates_and_rolls_back(tmp_path: Path, artifac
     bad = three_class_model(tmp_path / "three-classes.onnx")
     with Served(make_settings(tmp_path), autostart=None, pipeline_factory=None) as served, \
             sync_playwright() as pw:
-        browser = pw.chromium.launch(executable_path=CHROMIUM, args=ARGS)
-        page = browser.new_page(viewport={"width": 1400, "height": 1000})
-        errors: list[str] = []
-        page.on("pageerror", lambda exc: errors.append(str(exc)))
-        try:
+        with chromium(pw) as browser:
+            errors: list[str] = []
+            page = watched_page(browser, errors, viewport={"width": 1400, "height": 1000})
             page.goto(served.base)
             panel = page.locator("#models-panel")
             rows = panel.locator("#model-table tbody tr")
@@ -60,8 +56,6 @@ def test_models_panel_registers_activates_and_rolls_back(tmp_path: Path, artifac
             )
             expect(new).to_have_attribute("data-active", "false")
             panel.screenshot(path=str(artifacts_dir / "models-rolled-back.png"))
-        finally:
-            browser.close()
         assert not errors, f"page errors: {errors}"
 
 
@@ -74,11 +68,9 @@ def test_the_fine_tune_button_runs_a_job_with_progress_and_registers_the_model(
     with Served(settings, autostart=None, pipeline_factory=None) as served, sync_playwright() as pw:
         with served.app.state.session_factory() as db:
             index_takes(db, simulated_takes(tmp_path / "takes", duration_s=10.0))
-        browser = pw.chromium.launch(executable_path=CHROMIUM, args=ARGS)
-        page = browser.new_page(viewport={"width": 1400, "height": 1200})
-        errors: list[str] = []
-        page.on("pageerror", lambda exc: errors.append(str(exc)))
-        try:
+        with chromium(pw) as browser:
+            errors: list[str] = []
+            page = watched_page(browser, errors, viewport={"width": 1400, "height": 1200})
             page.goto(served.base)
             panel = page.locator("#models-panel")
             boxes = panel.locator("#train-takes input[type=checkbox]")
@@ -100,8 +92,6 @@ def test_the_fine_tune_button_runs_a_job_with_progress_and_registers_the_model(
             panel.screenshot(path=str(artifacts_dir / "models-fine-tuned.png"))
             row.locator("button.model-card-button").click()
             expect(panel.locator("#model-card")).to_contain_text("Leave-one-participant-out")
-        finally:
-            browser.close()
         assert not errors, f"page errors: {errors}"
 
 
@@ -114,11 +104,9 @@ def test_the_teach_button_adapts_to_a_participant_and_can_be_switched_off(
             sync_playwright() as pw:
         with served.app.state.session_factory() as db:
             index_takes(db, [teach_take(tmp_path, "T7")])
-        browser = pw.chromium.launch(executable_path=CHROMIUM, args=ARGS)
-        page = browser.new_page(viewport={"width": 1400, "height": 1200})
-        errors: list[str] = []
-        page.on("pageerror", lambda exc: errors.append(str(exc)))
-        try:
+        with chromium(pw) as browser:
+            errors: list[str] = []
+            page = watched_page(browser, errors, viewport={"width": 1400, "height": 1200})
             page.goto(served.base)
             panel = page.locator("#models-panel")
             expect(panel.locator("#teach-take option")).to_have_count(1, timeout=20_000)
@@ -131,6 +119,4 @@ def test_the_teach_button_adapts_to_a_participant_and_can_be_switched_off(
             panel.screenshot(path=str(artifacts_dir / "models-teach.png"))
             row.locator("button.adaptation-toggle").click()
             expect(row).to_have_attribute("data-enabled", "false" if was_on else "true", timeout=10_000)
-        finally:
-            browser.close()
         assert not errors, f"page errors: {errors}"

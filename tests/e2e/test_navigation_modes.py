@@ -13,11 +13,11 @@ import httpx
 import pytest
 
 from tests.app.conftest import Served, make_settings
+from tests.browser import CHROMIUM, chromium, watched_page
 from tests.waiting import HTTP_TIMEOUT_S
 
 pytestmark = [pytest.mark.e2e, pytest.mark.slow]
 
-CHROMIUM = "/usr/bin/chromium"
 ACTIONS = r"(still|forward|left|right) \d+ %"
 
 
@@ -31,14 +31,9 @@ def test_the_people_list_follows_the_navigation_mode(tmp_path: Path, artifacts_d
     settings = s.model_copy(update={"sim": replace(s.sim, people=3, bystanders=0)})
     with Served(settings) as served, sync_playwright() as pw:
         served.wait_status(lambda st: len(st["people"]) == 3)
-        browser = pw.chromium.launch(
-            executable_path=CHROMIUM,
-            args=["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"],
-        )
-        page = browser.new_page(viewport={"width": 1600, "height": 1000})
-        errors: list[str] = []
-        page.on("pageerror", lambda exc: errors.append(str(exc)))
-        try:
+        with chromium(pw) as browser:
+            errors: list[str] = []
+            page = watched_page(browser, errors, viewport={"width": 1600, "height": 1000})
             page.goto(served.base)
             panel = page.locator("#people-panel")
             rows = page.locator("#people-list li")
@@ -75,6 +70,4 @@ def test_the_people_list_follows_the_navigation_mode(tmp_path: Path, artifacts_d
             panel.locator(".mode[data-mode=single]").click()
             expect(panel.locator(".mode.active")).to_have_text("Single", timeout=30_000)
             expect(page.locator("#navigation-group")).to_have_text("")
-        finally:
-            browser.close()
         assert not errors, errors

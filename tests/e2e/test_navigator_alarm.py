@@ -16,10 +16,10 @@ import httpx
 import pytest
 
 from tests.app.conftest import Served, make_settings
+from tests.browser import chromium, watched_page
 
 pytestmark = [pytest.mark.e2e, pytest.mark.slow]
 
-CHROMIUM = "/usr/bin/chromium"
 # Still for 12 s (the pipeline starts, the navigator is chosen, the session starts), then 2 m/s
 # straight ahead through the front wall: out of every camera's view 6 m out, and far away.
 WALK_OUT = {
@@ -73,24 +73,16 @@ def test_navigator_walks_out_alarm_fallback_and_summary(tmp_path: Path, artifact
         r = httpx.put(f"{api}/navigator", json={"user_id": navigator})
         assert r.status_code == 200 and r.json()["mode"] == "manual", r.text
 
-        with sync_playwright() as pw:
-            browser = pw.chromium.launch(
-                executable_path=CHROMIUM,
-                args=["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"],
-            )
-            page = browser.new_page(viewport={"width": 1600, "height": 1000})
+        with sync_playwright() as pw, chromium(pw) as browser:
             errors: list[str] = []
-            page.on("pageerror", lambda exc: errors.append(str(exc)))
-            try:
-                page.goto(srv.base)
-                alarm = page.locator("#alarm")
-                # the walk starts 12 s into the simulation; out of view ~3 s later; + hold + grace + 2 s
-                expect(alarm).to_be_visible(timeout=60_000)
-                expect(alarm).to_contain_text("No locomotion command for")
-                expect(alarm).to_contain_text(f"session {sid}")
-                page.screenshot(path=str(artifacts_dir / "operator-alarm.png"))
-            finally:
-                browser.close()
+            page = watched_page(browser, errors, viewport={"width": 1600, "height": 1000})
+            page.goto(srv.base)
+            alarm = page.locator("#alarm")
+            # the walk starts 12 s into the simulation; out of view ~3 s later; + hold + grace + 2 s
+            expect(alarm).to_be_visible(timeout=60_000)
+            expect(alarm).to_contain_text("No locomotion command for")
+            expect(alarm).to_contain_text(f"session {sid}")
+            page.screenshot(path=str(artifacts_dir / "operator-alarm.png"))
         assert not errors, f"JavaScript errors on the page: {errors}"
 
         status = httpx.get(f"{api}/status").json()

@@ -15,15 +15,13 @@ import httpx
 import pytest
 
 from tests.app.conftest import Served, make_settings
+from tests.browser import CHROMIUM, chromium, watched_page
 from tests.waiting import free_udp_port
 
 pytestmark = [pytest.mark.e2e, pytest.mark.slow]
 
-CHROMIUM = "/usr/bin/chromium"
-ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"]
 ROOT = Path(__file__).resolve().parents[2]
 PROTOCOL = 'name = "prompt test"\nsteps = ["still 3 s", "forward 4 s", "crouch 3 s (label still)"]\n'
-
 
 
 def test_the_prompt_page_and_the_prompt_datagrams_follow_the_protocol(
@@ -60,11 +58,9 @@ def test_the_prompt_page_and_the_prompt_datagrams_follow_the_protocol(
         lines: list[str] = []
         reader = threading.Thread(target=lambda: lines.extend(receiver.stdout), daemon=True)  # type: ignore[arg-type]
         reader.start()
-        browser = pw.chromium.launch(executable_path=CHROMIUM, args=ARGS)
-        page = browser.new_page(viewport={"width": 1280, "height": 800})
-        errors: list[str] = []
-        page.on("pageerror", lambda exc: errors.append(str(exc)))
-        try:
+        with chromium(pw) as browser:
+            errors: list[str] = []
+            page = watched_page(browser, errors, viewport={"width": 1280, "height": 800})
             deadline = time.monotonic() + 120
             while not lines and time.monotonic() < deadline:  # the receiver is up: it has a heartbeat
                 time.sleep(0.2)
@@ -92,8 +88,6 @@ def test_the_prompt_page_and_the_prompt_datagrams_follow_the_protocol(
             page.screenshot(path=str(artifacts_dir / "prompt-page.png"))
             expect(page.locator("#prompt-text")).to_have_text("Crouch", timeout=10_000)
             expect(page.locator("#prompt-text")).to_contain_text("Waiting", timeout=20_000)
-        finally:
-            browser.close()
         row = httpx.get(f"{served.base}/api/v1/takes/{take_id}").json()
         receiver.terminate()
         receiver.wait(timeout=30)

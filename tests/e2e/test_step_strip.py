@@ -10,10 +10,9 @@ from pathlib import Path
 import pytest
 
 from tests.app.conftest import Served, make_settings
+from tests.browser import CHROMIUM, chromium, watched_page
 
 pytestmark = [pytest.mark.e2e, pytest.mark.slow]
-
-CHROMIUM = "/usr/bin/chromium"
 
 
 def test_the_step_strip_shows_feet_gate_and_the_newest_step(tmp_path: Path, artifacts_dir: Path) -> None:
@@ -27,14 +26,9 @@ def test_the_step_strip_shows_feet_gate_and_the_newest_step(tmp_path: Path, arti
         status = served.wait_status(lambda st: bool(st.get("action") and st["action"].get("steps")))
         steps = status["action"]["steps"]
         assert [f["foot"] for f in steps["feet"]] == ["left", "right"] and steps["gate"] is not None
-        browser = pw.chromium.launch(
-            executable_path=CHROMIUM,
-            args=["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"],
-        )
-        page = browser.new_page(viewport={"width": 1400, "height": 1000})
-        errors: list[str] = []
-        page.on("pageerror", lambda exc: errors.append(str(exc)))
-        try:
+        with chromium(pw) as browser:
+            errors: list[str] = []
+            page = watched_page(browser, errors, viewport={"width": 1400, "height": 1000})
             page.goto(served.base)
             strip = page.locator("#step-strip-slot")
             expect(strip.locator("#steps-left .tick.planted").first).to_be_attached(timeout=20_000)
@@ -52,6 +46,4 @@ def test_the_step_strip_shows_feet_gate_and_the_newest_step(tmp_path: Path, arti
             )
             assert len(set(counts)) == 1 and counts[0] > 20, f"the rows share one time axis: {counts}"
             page.locator("#action-panel").screenshot(path=str(artifacts_dir / "step-strip.png"))
-        finally:
-            browser.close()
         assert not errors, errors

@@ -11,12 +11,10 @@ import httpx
 import pytest
 
 from tests.app.conftest import Served, make_settings
+from tests.browser import CHROMIUM, chromium, watched_page
 from tests.waiting import wait_until
 
 pytestmark = [pytest.mark.e2e, pytest.mark.slow]
-
-CHROMIUM = "/usr/bin/chromium"
-ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"]
 
 
 def test_record_a_take_from_the_dashboard(tmp_path: Path, artifacts_dir: Path) -> None:
@@ -26,14 +24,12 @@ def test_record_a_take_from_the_dashboard(tmp_path: Path, artifacts_dir: Path) -
         pytest.fail(f"{CHROMIUM} missing: apt-get install -y chromium chromium-driver")
     with Served(make_settings(tmp_path, viser=True)) as served, sync_playwright() as pw:
         served.wait_status(lambda st: st["state"] == "running" and st["navigator"] is not None, 60)
-        browser = pw.chromium.launch(executable_path=CHROMIUM, args=ARGS)
-        page = browser.new_page(viewport={"width": 1400, "height": 1000})
-        errors: list[str] = []
-        page.on("pageerror", lambda exc: errors.append(str(exc)))
-        # the embedded 3D view's own page (WebGL in software, heavy on 2 cores) is not under test
-        # here: the replay's scene is read from the app's viser server below
-        page.route("**/viewer/**", lambda route: route.abort())
-        try:
+        with chromium(pw) as browser:
+            errors: list[str] = []
+            page = watched_page(browser, errors, viewport={"width": 1400, "height": 1000})
+            # the embedded 3D view's own page (WebGL in software, heavy on 2 cores) is not under test
+            # here: the replay's scene is read from the app's viser server below
+            page.route("**/viewer/**", lambda route: route.abort())
             page.goto(served.base)
             panel = page.locator("#recording-panel")
             expect(panel.locator("#take-protocol option[value='four-actions']")).to_be_attached(
@@ -122,8 +118,6 @@ def test_record_a_take_from_the_dashboard(tmp_path: Path, artifacts_dir: Path) -
             panel.locator("#take-margin").fill("9")
             panel.locator("#take-start").click()
             expect(page.locator("#toast")).to_contain_text("margin_s must be", timeout=10_000)
-        finally:
-            browser.close()
         saved = httpx.get(f"{served.base}/api/v1/takes/1/labels").json()["spans"]
         assert [x["label"] for x in saved] == ["still", "ignore", "right"], saved
         assert abs(saved[1]["t_end"] - target_t) < 0.3 and saved[2]["t_start"] == saved[1]["t_end"], saved

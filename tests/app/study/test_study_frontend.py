@@ -17,11 +17,11 @@ import httpx
 import pytest
 
 from app.study.questionnaires import DEFINITIONS, SSQ_KEYS, TLX_PAIRS
+from tests.browser import CHROMIUM, chromium, watched_page
 from tests.waiting import free_port
 
 pytestmark = [pytest.mark.e2e, pytest.mark.slow]
 
-CHROMIUM = "/usr/bin/chromium"
 TABLET = {"width": 820, "height": 1180}  # a 10.9" tablet, portrait
 OPERATOR = {"width": 1600, "height": 1000}
 TLX = {"mental": 70, "physical": 20, "temporal": 40, "performance": 30, "effort": 60, "frustration": 10}
@@ -71,113 +71,105 @@ def test_scripted_session_on_the_participant_page(server: str, artifacts_dir: Pa
     if not Path(CHROMIUM).exists():
         pytest.fail(f"{CHROMIUM} missing: apt-get install -y chromium")
     api = f"{server}/api/v1"
-    with sync_playwright() as pw:
-        browser = pw.chromium.launch(
-            executable_path=CHROMIUM, args=["--headless", "--no-sandbox", "--disable-gpu"]
-        )
+    with sync_playwright() as pw, chromium(pw) as browser:
         errors: list[str] = []
-        operator = browser.new_page(viewport=OPERATOR)
-        operator.on("pageerror", lambda exc: errors.append(f"operator: {exc}"))
-        tablet = browser.new_page(viewport=TABLET, is_mobile=True, has_touch=True)
-        tablet.on("pageerror", lambda exc: errors.append(f"tablet: {exc}"))
-        try:
-            # --- plan: 2 participants, both sessions each, from the Latin square; a 6 s run
-            operator.goto(server)
-            operator.fill("#plan-n", "2")
-            operator.fill("#plan-minutes", "0.1")
-            operator.click("#plan-create")
-            rows = operator.locator("#session-table tbody tr")
-            expect(rows).to_have_count(4)
-            expect(rows.first.locator(".run-time")).to_have_text("6 s planned")
-            expect(operator.locator("#participant-table tbody")).to_contain_text("CC first")
-            expect(operator.locator("#participant-table tbody")).to_contain_text("EC first")
-            first = rows.filter(has_text="P01").first
-            sid = int(first.locator("td").first.inner_text())
-            first.locator("button.session-select").click()
-            expect(operator.locator("#q-session")).to_contain_text(f"session {sid}")
-            operator.click("#participant-link")
-            url = operator.locator("#participant-url").get_attribute("href")
-            assert url is not None and "#t=" in url and "token" not in url, url
+        operator = watched_page(browser, errors, "operator", viewport=OPERATOR)
+        tablet = watched_page(browser, errors, "tablet", viewport=TABLET, is_mobile=True, has_touch=True)
+        # --- plan: 2 participants, both sessions each, from the Latin square; a 6 s run
+        operator.goto(server)
+        operator.fill("#plan-n", "2")
+        operator.fill("#plan-minutes", "0.1")
+        operator.click("#plan-create")
+        rows = operator.locator("#session-table tbody tr")
+        expect(rows).to_have_count(4)
+        expect(rows.first.locator(".run-time")).to_have_text("6 s planned")
+        expect(operator.locator("#participant-table tbody")).to_contain_text("CC first")
+        expect(operator.locator("#participant-table tbody")).to_contain_text("EC first")
+        first = rows.filter(has_text="P01").first
+        sid = int(first.locator("td").first.inner_text())
+        first.locator("button.session-select").click()
+        expect(operator.locator("#q-session")).to_contain_text(f"session {sid}")
+        operator.click("#participant-link")
+        url = operator.locator("#participant-url").get_attribute("href")
+        assert url is not None and "#t=" in url and "token" not in url, url
 
-            # --- the tablet: one instrument at a time, progress, no operator controls
-            tablet.goto(url)
-            expect(tablet.locator("#p-title")).to_contain_text("MSSQ")
-            expect(tablet.locator("#p-progress-text")).to_have_text("Questionnaire 1 of 5")
-            assert tablet.locator("#pipeline-start, #q-instrument, .topbar").count() == 0
-            assert "#t=" not in tablet.url, "the credential leaves the address bar"
-            fill_radios(tablet, {i.key: 1 for i in DEFINITIONS["mssq"].items})
-            tablet.click("#p-submit")
-            expect(tablet.locator("#p-title")).to_contain_text("Simulator Sickness")
-            # three symptoms left out: all three are named at once, in the instrument's wording
-            fill_radios(tablet, {k: 0 for k in SSQ_KEYS if k not in ("sweating", "vertigo", "burping")})
-            tablet.click("#p-submit")
-            problems = tablet.locator("#p-problems")
-            expect(problems).to_contain_text("Please answer these 3 questions")
-            for text in ("Sweating", "Vertigo", "Burping"):
-                expect(problems).to_contain_text(text)
-            expect(tablet.locator(".q-row.q-bad")).to_have_count(3)
-            tablet.screenshot(path=str(artifacts_dir / "participant-missing-items.png"), full_page=False)
-            fill_radios(tablet, {"sweating": 1, "vertigo": 0, "burping": 0})
-            tablet.click("#p-submit")
-            expect(tablet.locator("#p-ready")).to_contain_text("experimenter will start")
+        # --- the tablet: one instrument at a time, progress, no operator controls
+        tablet.goto(url)
+        expect(tablet.locator("#p-title")).to_contain_text("MSSQ")
+        expect(tablet.locator("#p-progress-text")).to_have_text("Questionnaire 1 of 5")
+        assert tablet.locator("#pipeline-start, #q-instrument, .topbar").count() == 0
+        assert "#t=" not in tablet.url, "the credential leaves the address bar"
+        fill_radios(tablet, {i.key: 1 for i in DEFINITIONS["mssq"].items})
+        tablet.click("#p-submit")
+        expect(tablet.locator("#p-title")).to_contain_text("Simulator Sickness")
+        # three symptoms left out: all three are named at once, in the instrument's wording
+        fill_radios(tablet, {k: 0 for k in SSQ_KEYS if k not in ("sweating", "vertigo", "burping")})
+        tablet.click("#p-submit")
+        problems = tablet.locator("#p-problems")
+        expect(problems).to_contain_text("Please answer these 3 questions")
+        for text in ("Sweating", "Vertigo", "Burping"):
+            expect(problems).to_contain_text(text)
+        expect(tablet.locator(".q-row.q-bad")).to_have_count(3)
+        tablet.screenshot(path=str(artifacts_dir / "participant-missing-items.png"), full_page=False)
+        fill_radios(tablet, {"sweating": 1, "vertigo": 0, "burping": 0})
+        tablet.click("#p-submit")
+        expect(tablet.locator("#p-ready")).to_contain_text("experimenter will start")
 
-            # --- the operator starts the run; the server stops it after 6 s
-            operator.locator(f'#session-table tbody tr[data-session-id="{sid}"] button.session-start').click()
-            expect(tablet.locator("#p-countdown")).to_be_visible(timeout=10_000)
-            expect(operator.locator("#run-countdown")).to_be_visible()
-            operator.screenshot(path=str(artifacts_dir / "operator-view.png"))
-            # the auto-stop: the tablet goes on by itself (deadline: the 6 s run + polling, generous)
-            expect(tablet.locator("#p-title")).to_contain_text("Simulator Sickness", timeout=30_000)
-            expect(tablet.locator("#p-progress-text")).to_have_text("Questionnaire 3 of 5")
-            # the sheet is empty: nothing carries over from the SSQ before the session
-            expect(tablet.locator('input[type="radio"]:checked')).to_have_count(0)
-            fill_radios(tablet, {k: 1 if k == "nausea" else 0 for k in SSQ_KEYS})
-            tablet.click("#p-submit")
-            expect(tablet.locator("#p-title")).to_contain_text("igroup presence")
-            fill_radios(tablet, {i.key: 4 for i in DEFINITIONS["ipq"].items})
-            tablet.click("#p-submit")
+        # --- the operator starts the run; the server stops it after 6 s
+        operator.locator(f'#session-table tbody tr[data-session-id="{sid}"] button.session-start').click()
+        expect(tablet.locator("#p-countdown")).to_be_visible(timeout=10_000)
+        expect(operator.locator("#run-countdown")).to_be_visible()
+        operator.screenshot(path=str(artifacts_dir / "operator-view.png"))
+        # the auto-stop: the tablet goes on by itself (deadline: the 6 s run + polling, generous)
+        expect(tablet.locator("#p-title")).to_contain_text("Simulator Sickness", timeout=30_000)
+        expect(tablet.locator("#p-progress-text")).to_have_text("Questionnaire 3 of 5")
+        # the sheet is empty: nothing carries over from the SSQ before the session
+        expect(tablet.locator('input[type="radio"]:checked')).to_have_count(0)
+        fill_radios(tablet, {k: 1 if k == "nausea" else 0 for k in SSQ_KEYS})
+        tablet.click("#p-submit")
+        expect(tablet.locator("#p-title")).to_contain_text("igroup presence")
+        fill_radios(tablet, {i.key: 4 for i in DEFINITIONS["ipq"].items})
+        tablet.click("#p-submit")
 
-            # --- NASA-TLX: one slider left untouched is unanswered, and refused
-            expect(tablet.locator("#p-title")).to_contain_text("NASA")
-            for key, value in TLX.items():
-                if key != "frustration":
-                    tablet.locator(f'input[type="range"][name="{key}"]').fill(str(value))
-            pairs = tablet.locator(".q-pair")
-            expect(pairs).to_have_count(15)
-            order = [pairs.nth(i).get_attribute("data-key") for i in range(15)]
-            assert order != [f"{a}_vs_{b}" for a, b in TLX_PAIRS], "the pairs come in a random order"
-            fill_radios(tablet, {f"{a}_vs_{b}": a for a, b in TLX_PAIRS})
-            tablet.click("#p-submit")
-            expect(problems).to_contain_text("Frustration")
-            expect(tablet.locator('.q-row.q-bad[data-key="frustration"]')).to_be_visible()
-            tablet.locator('input[type="range"][name="frustration"]').fill("10")
-            tablet.click("#p-submit")
-            expect(tablet.locator("#p-end")).to_contain_text("hand the tablet back")
-            expect(tablet.locator("#p-progress-text")).to_have_text("All done")
-            assert "score" not in tablet.locator("body").inner_text().lower(), "no scores on the tablet"
-            tablet.screenshot(path=str(artifacts_dir / "participant-end.png"))
+        # --- NASA-TLX: one slider left untouched is unanswered, and refused
+        expect(tablet.locator("#p-title")).to_contain_text("NASA")
+        for key, value in TLX.items():
+            if key != "frustration":
+                tablet.locator(f'input[type="range"][name="{key}"]').fill(str(value))
+        pairs = tablet.locator(".q-pair")
+        expect(pairs).to_have_count(15)
+        order = [pairs.nth(i).get_attribute("data-key") for i in range(15)]
+        assert order != [f"{a}_vs_{b}" for a, b in TLX_PAIRS], "the pairs come in a random order"
+        fill_radios(tablet, {f"{a}_vs_{b}": a for a, b in TLX_PAIRS})
+        tablet.click("#p-submit")
+        expect(problems).to_contain_text("Frustration")
+        expect(tablet.locator('.q-row.q-bad[data-key="frustration"]')).to_be_visible()
+        tablet.locator('input[type="range"][name="frustration"]').fill("10")
+        tablet.click("#p-submit")
+        expect(tablet.locator("#p-end")).to_contain_text("hand the tablet back")
+        expect(tablet.locator("#p-progress-text")).to_have_text("All done")
+        assert "score" not in tablet.locator("body").inner_text().lower(), "no scores on the tablet"
+        tablet.screenshot(path=str(artifacts_dir / "participant-end.png"))
 
-            # --- the operator's form: a duplicate is refused, then sent as a correction with a reason
-            form = operator.locator("#questionnaire-mount")
-            form.locator("#q-instrument").select_option("ipq")
-            expect(form.locator("#q-phase")).to_have_value("post")
-            fill_radios(operator, {i.key: 5 for i in DEFINITIONS["ipq"].items})
-            form.locator("#q-submit").click()
-            expect(form.locator("#q-error")).to_contain_text("already has IPQ post")
-            form.locator("#q-correct-reason").fill("participant asked to change item 3")
-            form.locator("#q-correct").click()
-            expect(form.locator("#q-scores")).to_contain_text("G1: 5")
-            operator.locator("#analysis-refresh").click()
-            expect(operator.locator("#analysis-table tbody tr")).to_have_count(17)
-            expect(operator.locator("#analysis-caption")).to_contain_text("Holm")
-            loaded = "[...document.querySelectorAll('#analysis-figures img')]"
-            ready = f"{loaded}.length === 3 && {loaded}.every(i => i.complete && i.naturalWidth > 0)"
-            operator.wait_for_function(ready)
-            operator.locator("#session-panel").scroll_into_view_if_needed()
-            expect(operator.locator("#summary-list")).to_contain_text("run time")
-            operator.screenshot(path=str(artifacts_dir / "operator-full.png"), full_page=True)
-        finally:
-            browser.close()
+        # --- the operator's form: a duplicate is refused, then sent as a correction with a reason
+        form = operator.locator("#questionnaire-mount")
+        form.locator("#q-instrument").select_option("ipq")
+        expect(form.locator("#q-phase")).to_have_value("post")
+        fill_radios(operator, {i.key: 5 for i in DEFINITIONS["ipq"].items})
+        form.locator("#q-submit").click()
+        expect(form.locator("#q-error")).to_contain_text("already has IPQ post")
+        form.locator("#q-correct-reason").fill("participant asked to change item 3")
+        form.locator("#q-correct").click()
+        expect(form.locator("#q-scores")).to_contain_text("G1: 5")
+        operator.locator("#analysis-refresh").click()
+        expect(operator.locator("#analysis-table tbody tr")).to_have_count(17)
+        expect(operator.locator("#analysis-caption")).to_contain_text("Holm")
+        loaded = "[...document.querySelectorAll('#analysis-figures img')]"
+        ready = f"{loaded}.length === 3 && {loaded}.every(i => i.complete && i.naturalWidth > 0)"
+        operator.wait_for_function(ready)
+        operator.locator("#session-panel").scroll_into_view_if_needed()
+        expect(operator.locator("#summary-list")).to_contain_text("run time")
+        operator.screenshot(path=str(artifacts_dir / "operator-full.png"), full_page=True)
     assert not errors, f"JavaScript errors on the pages: {errors}"
     session = httpx.get(f"{api}/sessions/{sid}").json()
     assert session["status"] == "stopped" and session["stopped_by"] == "timer"
@@ -204,20 +196,14 @@ def test_a_participant_code_is_corrected_on_the_dashboard_with_a_reason(server: 
     api = f"{server}/api/v1"
     pid = httpx.post(f"{api}/participants", json={"code": "Q017"}).json()["id"]
     answers = iter(["Q071", "typo at sign-up"])
-    with sync_playwright() as pw:
-        browser = pw.chromium.launch(
-            executable_path=CHROMIUM, args=["--headless", "--no-sandbox", "--disable-gpu"]
-        )
-        try:
-            page = browser.new_page(viewport=OPERATOR)
-            page.on("dialog", lambda d: d.accept(next(answers)))
-            page.goto(server)
-            row = page.locator("#participant-table tbody tr", has_text="Q017")
-            row.locator("button.participant-rename").click()
-            expect(page.locator("#participant-table tbody")).to_contain_text("Q071", timeout=20_000)
-            expect(page.locator("#participant-table tbody")).not_to_contain_text("Q017")
-        finally:
-            browser.close()
+    with sync_playwright() as pw, chromium(pw) as browser:
+        page = browser.new_page(viewport=OPERATOR)
+        page.on("dialog", lambda d: d.accept(next(answers)))
+        page.goto(server)
+        row = page.locator("#participant-table tbody tr", has_text="Q017")
+        row.locator("button.participant-rename").click()
+        expect(page.locator("#participant-table tbody")).to_contain_text("Q071", timeout=20_000)
+        expect(page.locator("#participant-table tbody")).not_to_contain_text("Q017")
     assert httpx.get(f"{api}/participants/{pid}").json()["code"] == "Q071"
     trail = httpx.get(f"{api}/audit", params={"entity": "participant", "entity_id": pid}).json()
     assert trail and trail[0]["reason"] == "typo at sign-up", trail
