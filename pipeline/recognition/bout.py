@@ -396,18 +396,19 @@ class BoutGate:
             k for k, f in enumerate(frame.feet)
             if not f.planted and f.known and not jump[k] and math.isfinite(self._swing_lift[k])
         ]  # fmt: skip
-        stepping = [
-            k for k in swings
-            if t - self._swing_lift[k] >= c.confirm_s and self._stance_ok(frame, k)
-            and abs(frame.feet[k].turn_deg) <= c.max_turn_deg
-        ]  # fmt: skip
         turn = [self._step_turn(frame, k) for k in (0, 1)]
         # a step that moved the foot forward or back without turning the body far walks (a curve)
         in_place = not any(
             f.known and abs(f.sagittal_m) >= c.turn_travel_m and abs(turn[k]) <= 2.0 * c.max_turn_deg
             for k, f in enumerate(frame.feet)
         )
-        pivot = any(abs(turn[k]) > c.max_turn_deg * (1.0 if in_place else 2.0) for k in swings)
+        max_turn = c.max_turn_deg * (1.0 if in_place else 2.0)
+        stepping = [
+            k for k in swings
+            if t - self._swing_lift[k] >= c.confirm_s and self._stance_ok(frame, k)
+            and abs(turn[k]) <= max_turn
+        ]  # fmt: skip
+        pivot = any(abs(turn[k]) > max_turn for k in swings)
         turned = self._turned(frame)
         if self._active:
             self._bout_steps += len(landed_steps)
