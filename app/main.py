@@ -164,16 +164,10 @@ def create_app(
         app.state.calibration = calibration
         app.state.planner = planner = PlannerService(settings)
         app.state.watch = watch
-        recorder = RecorderService(
-            settings,
-            factory,
-            events,
-            source=lambda: _recording_source(pipeline),
-            sim_calibration=lambda: _sim_calibration(settings),
-            send_prompt=pipeline.send_prompt,
-            video_controls=pipeline.video_controls,
-            model=lambda: models.running or models.active(),
-        )
+        recorder = RecorderService(settings, factory, events, source=lambda: _recording_source(pipeline),
+                                   sim_calibration=lambda: _sim_calibration(settings),
+                                   send_prompt=pipeline.send_prompt, video_controls=pipeline.video_controls,
+                                   model=lambda: models.running or models.active())
         recorder.recover()  # a take the last server left recording is kept as incomplete
         if built is not None:
             sweep_stale_segments()  # the shared memory of a run the last server left crashed
