@@ -155,14 +155,12 @@ def fill_unknown(joints: NDArray[np.floating]) -> tuple[NDArray[np.float64], NDA
     if known.all():
         return arr.copy(), known
     t = arr.shape[-3]
-    filled = np.where(known[..., None], arr, np.nan)
-    for i in range(1, t):  # forward: the last known value
-        prev = filled[..., i - 1, :, :]
-        filled[..., i, :, :] = np.where(known[..., i, :, None], filled[..., i, :, :], prev)
-    for i in range(t - 2, -1, -1):  # before the first known value: that value
-        cur = filled[..., i, :, :]
-        filled[..., i, :, :] = np.where(np.isnan(cur), filled[..., i + 1, :, :], cur)
-    filled = np.where(np.isnan(filled), 0.0, filled)
+    steps = np.arange(t).reshape(t, 1)
+    last = np.maximum.accumulate(np.where(known, steps, -1), axis=-2)  # (..., T, 17) newest known frame
+    first = np.where(known.any(axis=-2), known.argmax(axis=-2), -1)  # (..., 17) the first known frame
+    src = np.where(last >= 0, last, first[..., None, :])  # before the first known value: that value
+    gathered = np.take_along_axis(arr, np.maximum(src, 0)[..., None], axis=-3)
+    filled = np.where((src >= 0)[..., None], gathered, 0.0)  # never known: 0
     return filled, known
 
 

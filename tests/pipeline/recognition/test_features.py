@@ -88,6 +88,15 @@ def test_unknown_joints_take_the_last_known_value_and_are_flagged() -> None:
     feats = window_features(seq, 30.0)
     np.testing.assert_array_equal(feats[..., 6], known.astype(np.float32), err_msg="channel 7 is the mask")
     assert np.isfinite(feats).all()
+    other = seq.copy()
+    other[:, J["nose"]] = standing_pose()[J["nose"]]
+    other[4:, J["l_wrist"], 1] = np.nan  # one coordinate unknown: the joint is unknown
+    batch, batch_known = fill_unknown(np.stack([seq, other]))  # windows filled one by one, batched
+    for i, window in enumerate((seq, other)):
+        one, one_known = fill_unknown(window)
+        np.testing.assert_array_equal(batch[i], one)
+        np.testing.assert_array_equal(batch_known[i], one_known)
+    np.testing.assert_allclose(batch[1, 2:, J["l_wrist"]], other[[1, 1, 1, 1], J["l_wrist"]])
 
 
 def test_velocity_channels_are_per_second_and_zero_across_gaps() -> None:
