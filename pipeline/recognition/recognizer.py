@@ -312,8 +312,7 @@ class ActionRecognizer:
         # model frame n is taken at tick0 + n / fps; the tracker, filter and gate count time from
         # tick0 (n / fps exactly, as in the replay of a recorded sequence: no summed drift, and
         # durations that are whole frames compare the same way on any clock)
-        self._tick0, self._ticks = 0.0, 0
-        self._next_tick = 0.0
+        self._tick0, self._ticks = 0.0, 0  # model frames taken so far
         self._filter.reset()
         self._tracker.reset()
         self._gate.reset()
@@ -381,18 +380,15 @@ class ActionRecognizer:
 
         ticks = 0
         if self._last_t is None or self._last_j is None:
-            self._tick0, self._ticks = t, 0
+            self._tick0, self._ticks = t, 1
             self._add_frame(j, 0.0)
-            self._ticks = 1
-            self._next_tick = t + self._dt
             ticks = 1
         else:
             span = t - self._last_t
-            while self._next_tick <= t + 1e-9:
-                w = (self._next_tick - self._last_t) / span
+            while (tick := self._tick0 + self._ticks * self._dt) <= t + 1e-9:
+                w = (tick - self._last_t) / span
                 self._add_frame(_interpolate(self._last_j, j, min(max(w, 0.0), 1.0)), self._ticks * self._dt)
                 self._ticks += 1
-                self._next_tick = self._tick0 + self._ticks * self._dt
                 ticks += 1
         self._last_t, self._last_j = t, j
         self._yaw.update(raw_yaw_deg(j), t)
