@@ -94,6 +94,11 @@ class GateConfig:
     # high while the other rose slide_step_m is a step over a sliding stance (a treadmill's belt, a
     # march sliding back), not a jump (both feet sliding low, as in a dance, stay a jump: no step)
     jump_rise_s: float = 0.15
+    # a planted foot "rising" (half-way to a lift-off) may be the second foot of a jump taking off,
+    # but not once the other has been up rise_wait_s without it and rise_lead_m higher: a walker's
+    # stance foot rolling over (on tiptoes both feet rise together)
+    rise_wait_s: float = 0.2
+    rise_lead_m: float = 0.03
     jump_min_height_m: float = 0.03
     slide_step_m: float = 0.05
     side_switch_steps: int = 2  # opening steps to the other side in a row that turn a side-step bout
@@ -128,6 +133,7 @@ class GateConfig:
             "march_confirm_s",
             "jump_rise_s",
             "jump_min_height_m",
+            "rise_lead_m",
             "turn_window_s",
             "turn_travel_m",
             "swing_turn_deg",
@@ -144,6 +150,8 @@ class GateConfig:
             raise ValueError(f"slide_step_m must be >= 0 (inf: never), got {self.slide_step_m}")
         if not self.max_window_turn_deg > 0:
             raise ValueError(f"max_window_turn_deg must be > 0 (inf: never), got {self.max_window_turn_deg}")
+        if not self.rise_wait_s >= 0:
+            raise ValueError(f"rise_wait_s must be >= 0 (inf: never), got {self.rise_wait_s}")
         if not self.jump_air_s >= 0:
             raise ValueError(f"jump_air_s must be >= 0 (inf: never), got {self.jump_air_s}")
         if self.steer_steps < 0:
@@ -242,13 +250,19 @@ class BoutGate:
         self._slid = [False, False]  # the current (or last) swing of each foot was part of a slide
 
     def _stance_ok(self, frame: StepFrame, k: int) -> bool:
-        """The other foot carries the body (planted and not taking off too: no jump), or it has been
-        swinging since well before this one lifted (running)."""
-        other = frame.feet[1 - k]
+        """The other foot carries the body (planted and not taking off too: no jump, though a foot
+        still planted ``rise_wait_s`` after this one lifted and ``rise_lead_m`` below it is a stance
+        foot rolling over, not a jump's), or it has been swinging since well before this one lifted
+        (running)."""
+        c, other = self.config, frame.feet[1 - k]
         if not other.known:
             return False
         if other.planted:
-            return not other.rising
+            if not other.rising:
+                return True
+            # still planted rise_wait_s after this foot lifted and well below it: rolling over
+            lead = frame.feet[k].height_m - other.height_m  # NaN (unknown) compares False
+            return frame.t - self._swing_lift[k] >= c.rise_wait_s and lead >= c.rise_lead_m
         return self._swing_lift[1 - k] < self._swing_lift[k] - 0.1
 
     def _jump(self, frame: StepFrame, k: int) -> bool:

@@ -165,6 +165,10 @@ def test_choose_direction_and_config_checks() -> None:
         GateConfig(side_switch_steps=0)
     with pytest.raises(ValueError, match="travel_steps"):
         GateConfig(travel_steps=0)
+    with pytest.raises(ValueError, match="rise_wait_s"):
+        GateConfig(rise_wait_s=-0.1)
+    with pytest.raises(ValueError, match="rise_lead_m"):
+        GateConfig(rise_lead_m=float("nan"))
 
 
 def test_a_foot_still_up_long_after_the_other_landed_is_a_step_not_a_jump() -> None:
