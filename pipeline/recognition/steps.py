@@ -21,7 +21,9 @@ What a person can check on the dashboard's step strip, and what the recogniser's
   (lateral +right, sagittal +forward, vertical +up), and its kind: ``vertical`` (a march),
   ``forward`` or ``backward`` (a step along the facing), ``open`` / ``close`` (sideways away
   from / towards the other foot; an opening step's side is the side-step direction), ``small``.
-- **Crouch**: the pelvis is lower than ``crouch_ratio`` of its standing height above the feet.
+- **Crouch**: the pelvis is lower than ``crouch_ratio`` of its standing height above the feet with
+  both knees bent (a straight leg, hip to ankle ``crouch_straight`` of thigh + shank or more, is a
+  wide stance: the pelvis drops in a wide side step without any crouch).
 - **Upright**: the trunk (mid-hips to mid-shoulders) is within ``max_tilt_deg`` of vertical; a
   body bent far over, lying or crawling is not upright (an unfamiliar posture: no step counts).
 
@@ -77,7 +79,9 @@ class StepConfig:
     jump_sync_s: two lift-offs this close together are a jump, not a step.
     min_swing_s: shortest swing (a touch-down sooner is noise); max_swing_s: a longer one ends
         where the foot is (a leg held up).
-    crouch_ratio: pelvis height above the feet below this share of its standing height = crouched.
+    crouch_ratio: pelvis height above the feet below this share of its standing height = crouched,
+        unless a leg is straight: its hip-to-ankle distance at least ``crouch_straight`` of thigh +
+        shank (a wide stance; a crouch, squat or kneel bends both knees).
     outlier_legs: a frame-to-frame ankle jump larger than this is ignored (a triangulation outlier).
     lost_s: a foot unknown for longer is reported unknown.
     rate_hz: the frame rate the per-frame weights are given for.
@@ -98,6 +102,7 @@ class StepConfig:
     jump_sync_s: float = 0.15
     min_swing_s: float = 0.1
     crouch_ratio: float = 0.82
+    crouch_straight: float = 0.94
     max_tilt_deg: float = 50.0
     outlier_legs: float = 0.3
     lost_s: float = 0.3
@@ -122,6 +127,8 @@ class StepConfig:
                 raise ValueError(f"{name} must be a positive number, got {v}")
         if not 0 < self.crouch_ratio < 1:
             raise ValueError(f"crouch_ratio must be in (0, 1), got {self.crouch_ratio}")
+        if not 0 < self.crouch_straight <= 1:
+            raise ValueError(f"crouch_straight must be in (0, 1], got {self.crouch_straight}")
         if self.min_swing_s < 0:
             raise ValueError(f"min_swing_s must be >= 0, got {self.min_swing_s}")
 
@@ -324,6 +331,7 @@ class StepTracker:
         self._t: float | None = None
         self._standing: float | None = None
         self._pelvis_ratio = 1.0
+        self._straight = math.nan
         self._tilt = 0.0
         self._stepping = -1
         self._last_lift_t = math.nan
@@ -335,11 +343,15 @@ class StepTracker:
         return 1.0 - math.exp(-dt / tau_s)
 
     def _update_scale(self, j: NDArray[np.float64]) -> None:
-        vals = []
+        vals, straight = [], []
         for s in (0, 1):
             a = math.dist(j[_HIP[s]], j[_KNEE[s]]) + math.dist(j[_KNEE[s]], j[_ANKLE[s]])
             if math.isfinite(a):
                 vals.append(a)
+                if a > 0:
+                    straight.append(math.dist(j[_HIP[s]], j[_ANKLE[s]]) / a)
+        if straight:  # the straighter leg's hip-to-ankle distance / thigh + shank (held while unknown)
+            self._straight = max(straight)
         if not vals:
             return
         v = sum(vals) / len(vals)
@@ -662,7 +674,7 @@ class StepTracker:
             t=t,
             feet=(feet[0], feet[1]),
             leg_m=self._leg,
-            crouched=self._pelvis_ratio < c.crouch_ratio,
+            crouched=self._pelvis_ratio < c.crouch_ratio and not self._straight >= c.crouch_straight,
             pelvis_ratio=self._pelvis_ratio,
             stepping=self._stepping,
             last_lift_t=self._last_lift_t,

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from pipeline.recognition.steps import KINDS, StepConfig, StepTracker, step_evidence
+from pipeline.skeleton import J
 
 from .kinematic import Scene, Swing, march, noisy, render
 
@@ -200,3 +201,36 @@ def test_a_fast_foot_is_followed_not_taken_for_an_outlier() -> None:
             f"the right foot's step measured {ev.sagittal_m[i, 1]:.2f} m, it went {s.sagittal:.2f} m"
         )
     assert len(ev.lifts) == 2 and len(ev.lands) == 2, f"lifts {ev.lifts}, lands {ev.lands}"
+
+
+def _straddle(width_m: float) -> np.ndarray:
+    """Step each foot ``width_m`` out sideways, legs kept straight: the pelvis drops as the legs
+    spread (a wide side step or a straddle, no knee bent; the knees 1 cm in front of the
+    hip-ankle line)."""
+    out = (Swing(0, 1.0, 1.5, lateral=-width_m), Swing(1, 2.0, 2.5, lateral=width_m))
+    joints, _ = render(Scene(6.0, out))
+    j = joints.copy()
+    hips, knees, ankles = (J["l_hip"], J["r_hip"]), (J["l_knee"], J["r_knee"]), (J["l_ankle"], J["r_ankle"])
+    leg = np.linalg.norm(joints[0, hips[0]] - joints[0, ankles[0]])
+    for i in range(len(j)):
+        off = max(np.linalg.norm(j[i, hips[k], :2] - j[i, ankles[k], :2]) for k in (0, 1))
+        drop = (j[i, hips[0], 2] - j[i, ankles[0], 2]) - np.sqrt(max(leg**2 - off**2, 0.0))
+        upper = [n for n in range(j.shape[1]) if n not in (*knees, *ankles)]
+        j[i, upper, 2] -= max(drop, 0.0)
+        for k in (0, 1):
+            j[i, knees[k]] = 0.5 * (j[i, hips[k]] + j[i, ankles[k]]) + np.array([0.0, 0.01, 0.0])
+    return j
+
+
+def test_a_wide_stance_with_straight_legs_is_no_crouch() -> None:
+    """The pelvis drops below the crouch ratio when the feet are far apart, without any knee bent:
+    not a crouch. The same pelvis height with bent knees (the crouch test above) is one."""
+    j = _straddle(0.6)
+    t = np.arange(len(j)) / FPS
+    ev = step_evidence(noisy(j, 0.012, 0.02), FPS)
+    assert ev.pelvis_ratio[t > 3.0].max() < StepConfig().crouch_ratio, "the pelvis is that low"
+    assert not ev.crouched.any()
+    strict = step_evidence(noisy(j, 0.012, 0.02), FPS, StepConfig(crouch_straight=1.0))
+    assert strict.crouched[t > 3.0].all(), "by the pelvis alone it would be a crouch"
+    with pytest.raises(ValueError, match="crouch_straight"):
+        StepConfig(crouch_straight=0.0)
