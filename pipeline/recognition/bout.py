@@ -94,6 +94,8 @@ class GateConfig:
     # high while the other rose slide_step_m is a step over a sliding stance (a treadmill's belt, a
     # march sliding back), not a jump (both feet sliding low, as in a dance, stay a jump: no step)
     jump_rise_s: float = 0.15
+    jump_steps: int = 4  # a bout of this many landed steps is not ended by a jump (0: always ended) ...
+    # ... while the network's p(still) stays below hold_still_prob: a run's flight phase
     # a planted foot "rising" (half-way to a lift-off) may be the second foot of a jump taking off,
     # but not once the other has been up rise_wait_s without it and rise_lead_m higher: a walker's
     # stance foot rolling over (on tiptoes both feet rise together)
@@ -154,6 +156,8 @@ class GateConfig:
             raise ValueError(f"rise_wait_s must be >= 0 (inf: never), got {self.rise_wait_s}")
         if not self.jump_air_s >= 0:
             raise ValueError(f"jump_air_s must be >= 0 (inf: never), got {self.jump_air_s}")
+        if self.jump_steps < 0:
+            raise ValueError(f"jump_steps must be >= 0 (0: never), got {self.jump_steps}")
         if self.steer_steps < 0:
             raise ValueError(f"steer_steps must be >= 0 (0: never), got {self.steer_steps}")
         if self.side_switch_steps < 1 or self.travel_steps < 1:
@@ -441,7 +445,9 @@ class BoutGate:
             return self._end("crouched", ev_name)
         if not frame.upright:
             return self._end("not-upright", ev_name)
-        if jumping:
+        if jumping and not (
+            self._active and 0 < c.jump_steps <= self._bout_steps and p[_STILL] < c.hold_still_prob
+        ):  # an established bout the network is sure of goes on through a flight phase (running)
             return self._end("jump", ev_name)
         if pivot:
             return self._end("pivot", ev_name)

@@ -359,3 +359,25 @@ def test_a_step_over_a_sliding_stance_is_no_jump() -> None:
     assert (labels[walking] == F).mean() > 0.5
     assert (jump_only[walking] == F).mean() < 0.1, "without the rule the slides are jumps"
     assert "jump" in {v.reason for v in verdicts}
+
+
+def test_a_run_goes_on_through_a_flight_the_tracker_reads_as_a_jump() -> None:
+    """Running in place: swings of 0.45 s every 0.35 s, and once a foot lifts only 0.1 s after the
+    other (a skip): the tracker sees both feet take off together, a jump. An established bout (four
+    landed steps) that the network is sure of goes on; a jump from standing still ends nothing it
+    has not started (the jump scenes above)."""
+    swings, t = [], 1.0
+    for i in range(12):
+        swings.append(Swing(i % 2, t, t + 0.45, peak=0.15))
+        t += 0.1 if i == 6 else 0.35
+    scene = Scene(t + 1.5, tuple(swings))
+    sure = np.array([0.02, 0.94, 0.02, 0.02])
+    labels, _, _ = _gate(scene, sure)
+    always_ends, old, _ = _gate(scene, sure, config=GateConfig(jump_steps=0))
+    tt = np.arange(len(labels)) / FPS
+    inside = (tt > swings[0].t0 + 0.3) & (tt < swings[-1].t1)
+    assert (labels[inside] == F).all()
+    assert "jump" in {v.reason for v in old}, "the skip is a jump to the tracker"
+    assert (always_ends[inside] == F).mean() < 0.9
+    with pytest.raises(ValueError, match="jump_steps"):
+        GateConfig(jump_steps=-1)
