@@ -36,6 +36,7 @@ from numpy.typing import NDArray
 from pipeline.camera import Camera, look_at
 from pipeline.cave import CaveGeometry
 from pipeline.errors import InputError
+from pipeline.numbers import rounded
 from pipeline.planner.config import PlannerConfig, SearchConfig
 from pipeline.planner.coverage import CoverageMap, coverage_map, floor_grid, place, see, standing_poses
 from pipeline.planner.room import REGIONS, Room, floor_polygon
@@ -356,21 +357,17 @@ class LayoutResult:
             "name": self.name,
             "objective_mm": round(self.objective_mm, 3),
             "screen_objective_mm": round(self.screen_objective_mm, 3),
-            "mean_error_mm": _r(m.floor.error_mm),
+            "mean_error_mm": rounded(m.floor.error_mm),
             "worst_region": m.worst_region,
-            "worst_region_error_mm": _r(m.regions[m.worst_region].error_mm) if m.worst_region else None,
-            "corner_error_mm": _r(m.regions["corners"].error_mm) if "corners" in m.regions else None,
-            "centre_error_mm": _r(m.regions["centre"].error_mm) if "centre" in m.regions else None,
-            "covered2": _r(m.floor.covered2),
-            "valid": _r(m.floor.valid),
+            "worst_region_error_mm": rounded(m.regions[m.worst_region].error_mm) if m.worst_region else None,
+            "corner_error_mm": rounded(m.regions["corners"].error_mm) if "corners" in m.regions else None,
+            "centre_error_mm": rounded(m.regions["centre"].error_mm) if "centre" in m.regions else None,
+            "covered2": rounded(m.floor.covered2),
+            "valid": rounded(m.floor.valid),
             "mounts": [x.to_dict() for x in self.mounts] if self.mounts else None,
             "calibration": {"cameras": [c.to_dict() for c in self.cameras]},
             "map": m.to_dict(),
         }
-
-
-def _r(v: float) -> float | None:
-    return round(float(v), 3) if np.isfinite(v) else None
 
 
 @dataclass(frozen=True, slots=True)

@@ -58,6 +58,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from pipeline.numbers import rounded
 from pipeline.recognition.steps import StepFrame
 from pipeline.skeleton import ACTIONS
 
@@ -195,7 +196,7 @@ class GateVerdict:
             "reason": self.reason,
             "evidence": self.evidence,
             "allowance_s": round(float(self.allowance_s), 3),
-            "deadline_s": round(float(self.deadline_s), 3) if math.isfinite(self.deadline_s) else None,
+            "deadline_s": rounded(self.deadline_s),
         }
 
 

@@ -44,6 +44,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from pipeline.numbers import rounded
 from pipeline.skeleton import NUM_JOINTS, J
 
 FEET = ("left", "right")
@@ -198,11 +199,8 @@ class StepFrame:
     def to_dict(self) -> dict[str, object]:
         """JSON-ready (the live status and the step strip)."""
 
-        def r(v: float, n: int = 3) -> float | None:
-            return round(v, n) if math.isfinite(v) else None
-
         return {
-            "t": r(self.t),
+            "t": rounded(self.t),
             "feet": [
                 {
                     "foot": name,
@@ -211,23 +209,23 @@ class StepFrame:
                     "rising": bool(f.rising),
                     "lifted": bool(f.lifted),
                     "landed": bool(f.landed),
-                    "height_m": r(f.height_m),
-                    "swing_s": r(f.swing_s),
-                    "lateral_m": r(f.lateral_m),
-                    "sagittal_m": r(f.sagittal_m),
-                    "vertical_m": r(f.vertical_m),
+                    "height_m": rounded(f.height_m),
+                    "swing_s": rounded(f.swing_s),
+                    "lateral_m": rounded(f.lateral_m),
+                    "sagittal_m": rounded(f.sagittal_m),
+                    "vertical_m": rounded(f.vertical_m),
                     "kind": f.kind,
                     "jump": bool(f.jump),
-                    "turn_deg": r(f.turn_deg, 1),
+                    "turn_deg": rounded(f.turn_deg, 1),
                 }
                 for name, f in zip(FEET, self.feet, strict=True)
             ],
-            "leg_m": r(self.leg_m),
+            "leg_m": rounded(self.leg_m),
             "crouched": bool(self.crouched),
-            "pelvis_ratio": r(self.pelvis_ratio),
+            "pelvis_ratio": rounded(self.pelvis_ratio),
             "upright": bool(self.upright),
-            "tilt_deg": r(self.tilt_deg, 1),
-            "yaw_deg": r(self.yaw_deg, 1),
+            "tilt_deg": rounded(self.tilt_deg, 1),
+            "yaw_deg": rounded(self.yaw_deg, 1),
             "stepping": FEET[int(self.stepping)] if self.stepping >= 0 else None,
         }
 

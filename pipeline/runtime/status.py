@@ -20,6 +20,7 @@ from numpy.typing import NDArray
 
 from pipeline.navigation.config import NavigationConfig, NavigationMode
 from pipeline.navigation.navigators import NavigationFrame, PersonCommand
+from pipeline.numbers import rounded
 from pipeline.recognition.types import ActionEstimate
 from pipeline.results import FrameResult, action_record
 from pipeline.triangulation.types import Person3D
@@ -43,11 +44,6 @@ class PipelineEvent:
     kind: str
     message: str
     data: dict[str, Any] = field(default_factory=dict)
-
-
-def _num(x: float | None, nd: int) -> float | None:
-    """``x`` rounded to ``nd`` decimals; None when unknown or not finite (JSON has no NaN)."""
-    return None if x is None or not math.isfinite(float(x)) else round(float(x), nd)
 
 
 @dataclass(frozen=True, slots=True)
@@ -131,7 +127,7 @@ class Skeleton:
     def of(cls, p: Person3D) -> Skeleton:
         joints = np.array(p.joints_m, dtype=np.float64)
         joints[~np.asarray(p.joint_valid, dtype=bool)] = np.nan
-        return cls(int(p.user_id), joints, _num(p.reproj_px, 3))
+        return cls(int(p.user_id), joints, rounded(p.reproj_px, 3))
 
     def to_json(self) -> dict[str, Any]:
         """SPEC.md's ``people3d`` entry: ``joints`` as [x, y, z] or null, 17 of them."""
@@ -217,7 +213,7 @@ class PipelineStatus:
             "source": self.source,
             "fps": self.fps,
             "dropped": self.dropped,
-            "latency_ms": {stage: {k: _num(v, 3) for k, v in q.items()}
+            "latency_ms": {stage: {k: rounded(v, 3) for k, v in q.items()}
                            for stage, q in self.latency_ms.items()},
             "cameras": [c.to_json() for c in self.cameras],
             "people": [p.to_json() for p in self.people],
@@ -241,7 +237,7 @@ def frame_people(result: FrameResult) -> tuple[PersonStatus, ...]:
         finite = all(math.isfinite(v) for v in (x, y, z))
         command = commands.get(uid)
         out.append(PersonStatus(
-            uid, (round(x, 4), round(y, 4), round(z, 4)) if finite else None, _num(p.reproj_px, 4),
+            uid, (round(x, 4), round(y, 4), round(z, 4)) if finite else None, rounded(p.reproj_px, 4),
             result.navigator is not None and uid == result.navigator, command is not None,
             ActionStatus.of(command.action) if command is not None else None))
     return tuple(out)
