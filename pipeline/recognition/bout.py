@@ -115,6 +115,7 @@ class GateConfig:
     max_window_turn_deg: float = 10.0  # inf: never
     swing_turn_deg: float = 5.0
     turn_travel_m: float = 0.2
+    first_turn_deg: float = 7.0  # the body turned this far since a bout's lone first step in place: a pivot
     steer_steps: int = 2  # ... unless the bout has already landed this many steps: steering while marching
     # (0: a turning bout always ends)
 
@@ -151,6 +152,8 @@ class GateConfig:
             )
         if not self.slide_step_m >= 0:
             raise ValueError(f"slide_step_m must be >= 0 (inf: never), got {self.slide_step_m}")
+        if not self.first_turn_deg > 0:
+            raise ValueError(f"first_turn_deg must be > 0 (inf: never), got {self.first_turn_deg}")
         if not self.max_window_turn_deg > 0:
             raise ValueError(f"max_window_turn_deg must be > 0 (inf: never), got {self.max_window_turn_deg}")
         if not self.rise_wait_s >= 0:
@@ -253,6 +256,7 @@ class BoutGate:
         self._last_turn = [0.0, 0.0]  # the body's turn during each foot's current or last swing
         self._swing_top = [0.0, 0.0]  # each foot's highest point (above its standing level) this swing
         self._slid = [False, False]  # the current (or last) swing of each foot was part of a slide
+        self._first_foot = -1  # the foot of the bout's first landed step
 
     def _stance_ok(self, frame: StepFrame, k: int) -> bool:
         """The other foot carries the body (planted and not taking off too: no jump, though a foot
@@ -431,6 +435,16 @@ class BoutGate:
         turned = self._turned(frame)
         if self._active:
             self._bout_steps += len(landed_steps)
+        if self._active and self._bout_steps == len(landed_steps) == 1:
+            self._first_foot = next((k for k, f in enumerate(frame.feet) if f.landed), -1)
+        k0 = self._first_foot
+        # the bout's one landed step was in place and the body has turned since its lift-off (the
+        # smoothed facing follows the turn a little late): a pivot's first step, not a march's
+        first_turned = (
+            self._active and self._bout_steps == 1 and not swings and k0 >= 0
+            and abs(frame.feet[k0].sagittal_m) < c.turn_travel_m
+            and abs(frame.yaw_deg - self._lift_yaw[k0]) >= c.first_turn_deg
+        )  # fmt: skip
         steering = self._active and 0 < c.steer_steps <= self._bout_steps
         # a foot's current swing, or the other's last one, turned the body: the steps are turning it
         swing_turning = bool(swings) and any(
@@ -450,7 +464,7 @@ class BoutGate:
             self._active and 0 < c.jump_steps <= self._bout_steps and p[_STILL] < c.hold_still_prob
         ):  # an established bout the network is sure of goes on through a flight phase (running)
             return self._end("jump", ev_name)
-        if pivot:
+        if pivot or first_turned:
             return self._end("pivot", ev_name)
         if not self._active:
             if stepping and max(self._swing_maxp[k] for k in stepping) >= c.start_prob:

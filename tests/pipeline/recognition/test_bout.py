@@ -165,6 +165,8 @@ def test_choose_direction_and_config_checks() -> None:
         GateConfig(side_switch_steps=0)
     with pytest.raises(ValueError, match="travel_steps"):
         GateConfig(travel_steps=0)
+    with pytest.raises(ValueError, match="first_turn_deg"):
+        GateConfig(first_turn_deg=0.0)
     with pytest.raises(ValueError, match="rise_wait_s"):
         GateConfig(rise_wait_s=-0.1)
     with pytest.raises(ValueError, match="rise_lead_m"):
@@ -271,7 +273,7 @@ def _gate_joints(joints: np.ndarray, probs: np.ndarray, config: GateConfig | Non
     )
 
 
-NO_TURN_RULE = GateConfig(max_window_turn_deg=float("inf"))
+NO_TURN_RULE = GateConfig(max_window_turn_deg=float("inf"), first_turn_deg=float("inf"))  # no turning rule
 
 
 def test_rhythmic_pivot_steps_that_turn_the_body_are_still() -> None:
@@ -381,3 +383,23 @@ def test_a_run_goes_on_through_a_flight_the_tracker_reads_as_a_jump() -> None:
     assert (always_ends[inside] == F).mean() < 0.9
     with pytest.raises(ValueError, match="jump_steps"):
         GateConfig(jump_steps=-1)
+
+
+def test_a_lone_first_step_that_turned_the_body_is_no_bout() -> None:
+    """A slow turn on the spot: single pivot steps 1.2 s apart, each turning the body 8 degrees (too
+    little for the turning rule's 10 degrees in 0.7 s). Each step alone started a bout that the first
+    step's hold kept for 0.8 s; once the body has turned 7 degrees since a bout's lone first step
+    (in place), the bout ends. A march's first step (no turn) keeps its hold."""
+    swings = march(1.0, 5, 1.2, 0.4)
+    joints, _ = _turned(Scene(8.0, swings), 8.0)
+    t = np.arange(len(joints)) / FPS
+    after = np.zeros(len(t), dtype=bool)
+    for sw in swings:
+        after |= (t > sw.t1 + 0.5) & (t < sw.t0 + 1.2)  # from 0.5 s after each touch-down to the next lift
+    labels = _gate_joints(joints, FWD)
+    held = _gate_joints(joints, FWD, GateConfig(first_turn_deg=float("inf")))
+    assert (labels[after] == S).mean() > 0.9, f"{100 * (labels[after] != S).mean():.0f} % moving"
+    assert (held[after] == F).mean() > 0.5, "without the rule each step's hold is movement"
+    march_joints, _ = _turned(Scene(8.0, swings), 0.0)
+    straight = _gate_joints(march_joints, FWD)
+    assert (straight[after & (t < swings[1].t0)] == F).all(), "a march's first step holds"
