@@ -115,6 +115,11 @@ class GateConfig:
     max_window_turn_deg: float = 10.0  # inf: never
     swing_turn_deg: float = 5.0
     turn_travel_m: float = 0.2
+    # no bout starts on a swing in place (less than start_travel_m forward or back so far) while the
+    # body turned start_turn_deg within turn_window_s: a pivot of a turn on the spot (a walker's first
+    # steps on a curve travel; a march that starts to turn after its first steps is steering)
+    start_turn_deg: float = 10.0
+    start_travel_m: float = 0.1
     first_turn_deg: float = 7.0  # the body turned this far since a bout's lone first step in place: a pivot
     steer_steps: int = 2  # ... unless the bout has already landed this many steps: steering while marching
     # (0: a turning bout always ends)
@@ -152,6 +157,11 @@ class GateConfig:
             )
         if not self.slide_step_m >= 0:
             raise ValueError(f"slide_step_m must be >= 0 (inf: never), got {self.slide_step_m}")
+        if not (self.start_turn_deg > 0 and self.start_travel_m >= 0):
+            raise ValueError(
+                f"start_turn_deg must be > 0 (inf: never) and start_travel_m >= 0, got "
+                f"{self.start_turn_deg}, {self.start_travel_m}"
+            )
         if not self.first_turn_deg > 0:
             raise ValueError(f"first_turn_deg must be > 0 (inf: never), got {self.first_turn_deg}")
         if not self.max_window_turn_deg > 0:
@@ -467,7 +477,11 @@ class BoutGate:
         if pivot or first_turned:
             return self._end("pivot", ev_name)
         if not self._active:
-            if stepping and max(self._swing_maxp[k] for k in stepping) >= c.start_prob:
+            turning_in_place = turned >= c.start_turn_deg and all(
+                abs(frame.feet[k].sagittal_m) < c.start_travel_m for k in stepping
+            )
+            sure = bool(stepping) and max(self._swing_maxp[k] for k in stepping) >= c.start_prob
+            if sure and not turning_in_place:
                 self._active = True
                 self._side_t = max(self._swing_lift[k] for k in stepping)  # the bout's first step
                 self._label = self._start_direction(frame, ev, p)

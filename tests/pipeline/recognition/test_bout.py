@@ -273,7 +273,8 @@ def _gate_joints(joints: np.ndarray, probs: np.ndarray, config: GateConfig | Non
     )
 
 
-NO_TURN_RULE = GateConfig(max_window_turn_deg=float("inf"), first_turn_deg=float("inf"))  # no turning rule
+INF = float("inf")
+NO_TURN_RULE = GateConfig(max_window_turn_deg=INF, first_turn_deg=INF, start_turn_deg=INF)  # no turning rule
 
 
 def test_rhythmic_pivot_steps_that_turn_the_body_are_still() -> None:
@@ -403,3 +404,24 @@ def test_a_lone_first_step_that_turned_the_body_is_no_bout() -> None:
     march_joints, _ = _turned(Scene(8.0, swings), 0.0)
     straight = _gate_joints(march_joints, FWD)
     assert (straight[after & (t < swings[1].t0)] == F).all(), "a march's first step holds"
+
+
+def test_a_step_in_place_right_after_the_body_turned_starts_no_bout() -> None:
+    """Turning on the spot by twisting first and stepping after: the body turns 25 degrees in 0.5 s
+    with both feet down, then one foot steps in place (no turn during the swing, so the swing rules
+    do not see it). While the body turned 10 degrees or more within 0.7 s, a step in place starts no
+    bout, even with a network sure it is forward; without the rule it is a forward bout."""
+    swings = march(1.5, 1, 1.0, 0.4)
+    joints, _ = render(Scene(3.5, swings))
+    t = np.arange(len(joints)) / FPS
+    yaw = np.radians(25.0) * np.clip((t - 0.9) / 0.5, 0.0, 1.0)
+    centre = joints[0, list(ANKLES), :2].mean(axis=0)
+    for i in range(len(joints)):
+        c, s_ = np.cos(yaw[i]), np.sin(yaw[i])
+        joints[i, :, :2] = (joints[i, :, :2] - centre) @ np.array([[c, -s_], [s_, c]]).T + centre
+    labels = _gate_joints(joints, FWD)
+    without = _gate_joints(joints, FWD, GateConfig(start_turn_deg=INF))
+    assert (labels == S).all()
+    assert (without[(t > 1.7) & (t < 2.5)] == F).all(), "without the rule the step is a bout"
+    with pytest.raises(ValueError, match="start_turn_deg"):
+        GateConfig(start_turn_deg=0.0)
