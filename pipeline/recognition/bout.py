@@ -4,9 +4,11 @@ What a user expects (MODEL_CARD.md, "Behaviour"):
 
 - **No movement without a step.** A bout starts only on a step seen in the evidence
   (:mod:`pipeline.recognition.steps`): one foot lifting or sliding for ``confirm_s`` while the
-  other carries the body (planted and not rising with it: not a jump; or swinging since well
-  before: running),
-  while the body is not crouched, and the network agreeing that it is movement (its smoothed
+  other carries the body (planted and not rising with it: not a jump, unless it is still down
+  ``rise_wait_s`` after the lift and ``rise_lead_m`` lower: a walker's stance foot rolling over; or
+  swinging since well before: running), while the body is not crouched and not turning on the
+  spot (``start_turn_deg`` within ``turn_window_s`` while the foot has moved less than
+  ``start_travel_m`` forward or back), and the network agreeing that it is movement (its smoothed
   probability of moving at least ``start_prob`` at some moment of that swing). Both feet planted,
   whatever the knees, hips and upper body do, is ``still``.
 - **One command per bout.** Once started, the bout holds through the pauses between its steps:
@@ -27,7 +29,8 @@ What a user expects (MODEL_CARD.md, "Behaviour"):
   and so does a pause (``min_pause_s`` after a touch-down) in which the network is sure, with
   ``pause_still_prob``, that the person has stopped (it has learnt what a last step looks like);
   a crouch, a jump (both feet took off together; a foot still up ``jump_air_s`` after the other
-  one landed is a step, not a jump: running) or a body that is not upright (bent far over,
+  one landed is a step, not a jump: running; a bout of ``jump_steps`` landed steps the network is
+  sure of goes on through it: a run's flight) or a body that is not upright (bent far over,
   lying, crawling: an unfamiliar posture) ends it at once, and so does a pivot (the body turning
   more than ``max_turn_deg`` during one swing in place, twice that for a step that moves the foot
   ``turn_travel_m`` forward or back: walking a curve). Rhythmic pivot steps turn the body less per
@@ -35,7 +38,8 @@ What a user expects (MODEL_CARD.md, "Behaviour"):
   the other foot's last one) and the body turned more than ``max_window_turn_deg`` within
   ``turn_window_s``, the feet stepping in place, is a turn on the spot too: no bout starts, and a
   bout of fewer than ``steer_steps`` landed steps ends (an established march that starts to turn
-  is steering and goes on).
+  is steering and goes on); a bout whose only step (in place) has landed ends once the body has
+  turned ``first_turn_deg`` since that step's lift-off (a slow turn in single pivot steps).
 - **Direction** (forward / left / right): the network's smoothed probabilities among the moving
   classes, weighted by the evidence of the newest step (``evidence_weight``): a foot opening
   sideways away from the other foot is a side step to that foot's side; a vertical (march) or
@@ -95,6 +99,8 @@ class GateConfig:
     # high while the other rose slide_step_m is a step over a sliding stance (a treadmill's belt, a
     # march sliding back), not a jump (both feet sliding low, as in a dance, stay a jump: no step)
     jump_rise_s: float = 0.15
+    jump_min_height_m: float = 0.03
+    slide_step_m: float = 0.05
     jump_steps: int = 4  # a bout of this many landed steps is not ended by a jump (0: always ended) ...
     # ... while the network's p(still) stays below hold_still_prob: a run's flight phase
     # a planted foot "rising" (half-way to a lift-off) may be the second foot of a jump taking off,
@@ -102,8 +108,6 @@ class GateConfig:
     # stance foot rolling over (on tiptoes both feet rise together)
     rise_wait_s: float = 0.2
     rise_lead_m: float = 0.03
-    jump_min_height_m: float = 0.03
-    slide_step_m: float = 0.05
     side_switch_steps: int = 2  # opening steps to the other side in a row that turn a side-step bout
     travel_steps: int = 2  # ... or one, after this many opening steps the same way in a row (travel)
     march_confirm_s: float = 0.2  # a side-step bout turns forward once a foot has risen this long without
