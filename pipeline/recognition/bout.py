@@ -24,21 +24,23 @@ What a user expects (MODEL_CARD.md, "Behaviour"):
 - **Stops stay fast**: past the pause the person's *median* rhythm allows, a smoothed p(still) of
   ``late_still_prob`` already ends the bout (the longest-interval deadline is only for pauses the
   network does not call a stop).
-- **The network can stop a bout**: a whole swing during which the network's probability of
-  moving never reached ``stop_prob`` (a pivot step while turning on the spot, a kick) ends it,
-  and so does a pause (``min_pause_s`` after a touch-down) in which the network is sure, with
-  ``pause_still_prob``, that the person has stopped (it has learnt what a last step looks like);
-  a crouch, a jump (both feet took off together; a foot still up ``jump_air_s`` after the other
-  one landed is a step, not a jump: running; a bout of ``jump_steps`` landed steps the network is
-  sure of goes on through it: a run's flight) or a body that is not upright (bent far over,
-  lying, crawling: an unfamiliar posture) ends it at once, and so does a pivot (the body turning
-  more than ``max_turn_deg`` during one swing in place, twice that for a step that moves the foot
-  ``turn_travel_m`` forward or back: walking a curve). Rhythmic pivot steps turn the body less per
-  swing but keep turning: a swing while the steps turn the body (``swing_turn_deg``, this swing or
-  the other foot's last one) and the body turned more than ``max_window_turn_deg`` within
-  ``turn_window_s``, the feet stepping in place, is a turn on the spot too: no bout starts, and a
-  bout of fewer than ``steer_steps`` landed steps ends (an established march that starts to turn
-  is steering and goes on); a bout whose only step (in place) has landed ends once the body has
+- **The network can stop a bout**: a whole swing during which the network's probability of moving
+  never reached ``stop_prob`` (a pivot step while turning on the spot, a kick) ends it, and so does
+  a pause (``min_pause_s`` after a touch-down) in which the network is sure, with
+  ``pause_still_prob``, that the person has stopped (it has learnt what a last step looks like); a
+  crouch, a jump (both feet took off together; a foot still up ``jump_air_s`` after the other one
+  landed is a step, not a jump: running; a bout of ``jump_steps`` landed steps the network is sure
+  of goes on through it: a run's flight) or a body that is not upright (bent far over, lying,
+  crawling: an unfamiliar posture) ends it at once, and so does a kick (a swing that raises the leg
+  ``kick_deg`` from straight down, forward or to a side; no march step or stride does: its ankle
+  stays under the knee; the kick's landing is no step, so no pause is held after it), and a pivot
+  (the body turning more than ``max_turn_deg`` during one swing in place, twice that for a step that
+  moves the foot ``turn_travel_m`` forward or back: walking a curve). Rhythmic pivot steps turn the
+  body less per swing but keep turning: a swing while the steps turn the body (``swing_turn_deg``,
+  this swing or the other foot's last one) and the body turned more than ``max_window_turn_deg``
+  within ``turn_window_s``, the feet stepping in place, is a turn on the spot too: no bout starts,
+  and a bout of fewer than ``steer_steps`` landed steps ends (an established march that starts to
+  turn is steering and goes on); a bout whose only step (in place) has landed ends once the body has
   turned ``first_turn_deg`` since that step's lift-off (a slow turn in single pivot steps).
 - **Direction** (forward / left / right): the network's smoothed probabilities among the moving
   classes, weighted by the evidence of the newest step (``evidence_weight``): a foot opening
@@ -69,7 +71,7 @@ from pipeline.skeleton import ACTIONS
 _STILL, _FORWARD, _LEFT, _RIGHT = (ACTIONS.index(a) for a in ("still", "forward", "left", "right"))
 RHYTHMS = ("max", "median")
 REASONS = ("planted", "lifting", "stepping", "pause", "rhythm-broke", "jump", "crouched", "pivot",
-           "network-still", "feet-unknown", "not-upright")  # fmt: skip
+           "network-still", "feet-unknown", "not-upright", "kick")  # fmt: skip
 
 
 @dataclass(frozen=True, slots=True)
@@ -127,6 +129,7 @@ class GateConfig:
     first_turn_deg: float = 7.0  # the body turned this far since a bout's lone first step in place: a pivot
     steer_steps: int = 2  # ... unless the bout has already landed this many steps: steering while marching
     # (0: a turning bout always ends)
+    kick_deg: float = 55.0  # a swing raising the leg this far (hip to ankle, from straight down) is a kick
 
     def __post_init__(self) -> None:
         if self.rhythm not in RHYTHMS:
@@ -166,6 +169,8 @@ class GateConfig:
                 f"start_turn_deg must be > 0 (inf: never) and start_travel_m >= 0, got "
                 f"{self.start_turn_deg}, {self.start_travel_m}"
             )
+        if not self.kick_deg > 0:
+            raise ValueError(f"kick_deg must be > 0 (inf: never), got {self.kick_deg}")
         if not self.first_turn_deg > 0:
             raise ValueError(f"first_turn_deg must be > 0 (inf: never), got {self.first_turn_deg}")
         if not self.max_window_turn_deg > 0:
@@ -271,6 +276,7 @@ class BoutGate:
         self._swing_top = [0.0, 0.0]  # each foot's highest point (above its standing level) this swing
         self._slid = [False, False]  # the current (or last) swing of each foot was part of a slide
         self._first_foot = -1  # the foot of the bout's first landed step
+        self._kicked = [False, False]  # the current (or last) swing of each foot raised the leg kick_deg
 
     def _stance_ok(self, frame: StepFrame, k: int) -> bool:
         """The other foot carries the body (planted and not taking off too: no jump, though a foot
@@ -403,7 +409,13 @@ class BoutGate:
             if f.landed:
                 self._land_seen[k] = t
         self._track_slides(frame)
+        for k, f in enumerate(frame.feet):
+            if f.lifted:
+                self._kicked[k] = False
+            if not f.planted and f.raise_deg >= c.kick_deg:  # NaN (unknown) compares False
+                self._kicked[k] = True
         jump = [self._jump(frame, k) for k in (0, 1)]
+        no_step = [jump[k] or self._kicked[k] for k in (0, 1)]  # swings that are not steps
         landed_steps: list[float] = []  # max p(moving) of bout swings that ended now
         for k, f in enumerate(frame.feet):
             if f.lifted:
@@ -423,7 +435,7 @@ class BoutGate:
             elif not f.planted and math.isfinite(self._swing_lift[k]):
                 self._swing_maxp[k] = max(self._swing_maxp[k], p_move)
             if f.landed and math.isfinite(self._swing_lift[k]):
-                if not jump[k]:
+                if not no_step[k]:
                     if self._active:
                         landed_steps.append(self._swing_maxp[k])
                     if self._active or self._swing_maxp[k] >= c.start_prob:  # a step of this person's
@@ -431,7 +443,7 @@ class BoutGate:
                 self._swing_lift[k] = math.nan
         swings = [
             k for k, f in enumerate(frame.feet)
-            if not f.planted and f.known and not jump[k] and math.isfinite(self._swing_lift[k])
+            if not f.planted and f.known and not no_step[k] and math.isfinite(self._swing_lift[k])
         ]  # fmt: skip
         turn = [self._step_turn(frame, k) for k in (0, 1)]
         # a step that moved the foot forward or back without turning the body far walks (a curve)
@@ -469,11 +481,14 @@ class BoutGate:
             # the feet forward; an established bout that starts to turn is steering)
             pivot = pivot or in_place
         jumping = any(not f.planted and jump[k] for k, f in enumerate(frame.feet))
+        kicking = any(not f.planted and self._kicked[k] for k, f in enumerate(frame.feet))
 
         if frame.crouched:
             return self._end("crouched", ev_name)
         if not frame.upright:
             return self._end("not-upright", ev_name)
+        if kicking:
+            return self._end("kick", ev_name)
         if jumping and not (
             self._active and 0 < c.jump_steps <= self._bout_steps and p[_STILL] < c.hold_still_prob
         ):  # an established bout the network is sure of goes on through a flight phase (running)

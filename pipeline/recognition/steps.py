@@ -150,6 +150,10 @@ class FootState:
     jump: the current (or last) swing was part of a jump (both feet together).
     turn_deg: how far the body turned (yaw, counter-clockwise +) since lift-off: a pivot step of
         a turn on the spot turns the body, a step of walking or marching hardly does.
+    raise_deg: how far the leg is raised from straight down (hip to ankle, forward or to a side;
+        a leg behind the hip counts only sideways): a kick raises it 60-90 degrees, a march step
+        with a high knee or a walking stride about 25-40 (the ankle stays under the knee). NaN
+        unknown.
     """
 
     known: bool
@@ -166,6 +170,7 @@ class FootState:
     kind: str
     jump: bool
     turn_deg: float = 0.0
+    raise_deg: float = math.nan
 
 
 @dataclass(frozen=True, slots=True)
@@ -217,6 +222,7 @@ class StepFrame:
                     "kind": f.kind,
                     "jump": bool(f.jump),
                     "turn_deg": rounded(f.turn_deg, 1),
+                    "raise_deg": rounded(f.raise_deg, 1),
                 }
                 for name, f in zip(FEET, self.feet, strict=True)
             ],
@@ -613,6 +619,16 @@ class StepTracker:
         tilt = math.degrees(math.acos(max(-1.0, min(1.0, float(d[2]) / norm))))
         self._tilt += self.config.yaw_alpha * (tilt - self._tilt)
 
+    def _raise_deg(self, j: NDArray[np.float64], k: int) -> float:
+        """How far leg ``k`` is raised from straight down, forward or sideways (degrees; NaN unknown)."""
+        d = j[_ANKLE[k]] - j[_HIP[k]]
+        if self._yaw is None or not np.isfinite(d).all():
+            return math.nan
+        (rx, ry), (fx, fy) = body_axes(self._yaw)
+        forward = max(float(d[0] * fx + d[1] * fy), 0.0)  # a leg behind the hip: only its side
+        lateral = float(d[0] * rx + d[1] * ry)
+        return math.degrees(math.atan2(math.hypot(forward, lateral), -float(d[2])))
+
     # -- the frame
 
     def update(self, joints_m: NDArray[np.floating], timestamp_s: float) -> StepFrame:
@@ -639,6 +655,7 @@ class StepTracker:
             events.append((lifted, landed, f.lift_t if lifted else (f.land_t if landed else math.nan)))
         self._update_pelvis(j, dt)
         self._update_tilt(j)
+        raised = [self._raise_deg(j, k) for k in (0, 1)]
         feet = []
         for k in (0, 1):
             f = self._feet[k]
@@ -666,6 +683,7 @@ class StepTracker:
                     kind=f.kind,
                     jump=f.jump,
                     turn_deg=math.degrees(f.turn),
+                    raise_deg=raised[k],
                 )
             )
         return StepFrame(

@@ -133,3 +133,23 @@ def noisy(
 def march(t0: float, steps: int, period: float, swing: float, peak: float = 0.1) -> tuple[Swing, ...]:
     """Alternating steps in place (left first) every ``period`` seconds, each swing ``swing`` long."""
     return tuple(Swing(i % 2, t0 + i * period, t0 + i * period + swing, peak=peak) for i in range(steps))
+
+
+def kick(
+    joints: NDArray[np.float64], swing: Swing, raise_deg: float, sideways: bool = False, fps: float = 30.0
+) -> NDArray[np.float64]:
+    """``joints`` with the swing's leg raised straight about its hip during the swing, up to
+    ``raise_deg`` from where it hangs in the middle (a front kick; ``sideways``: out to the foot's
+    side). For a scene rendered facing +Y (yaw 0)."""
+    out = joints.copy()
+    t = np.arange(len(joints)) / fps
+    a = np.radians(raise_deg) * np.sin(np.pi * np.clip((t - swing.t0) / (swing.t1 - swing.t0), 0.0, 1.0))
+    axis = 0 if sideways else 1  # the horizontal axis the ankle moves along: x (right) or y (forward)
+    sign = (1.0 if swing.foot == 1 else -1.0) if sideways else 1.0
+    hip = out[:, HIPS[swing.foot]]
+    for j in (KNEES[swing.foot], ANKLES[swing.foot]):
+        v = out[:, j] - hip
+        h, z = v[:, axis], v[:, 2]
+        out[:, j, axis] = hip[:, axis] + h * np.cos(a) - sign * z * np.sin(a)
+        out[:, j, 2] = hip[:, 2] + sign * h * np.sin(a) + z * np.cos(a)
+    return out

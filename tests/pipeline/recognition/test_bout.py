@@ -11,7 +11,7 @@ from pipeline.recognition.bout import BoutGate, GateConfig, choose_direction
 from pipeline.recognition.steps import StepTracker
 from pipeline.skeleton import ACTIONS
 
-from .kinematic import ANKLES, Scene, Swing, march, noisy, render
+from .kinematic import ANKLES, Scene, Swing, kick, march, noisy, render
 
 FPS = 30.0
 S, F, L, R = 0, 1, 2, 3
@@ -425,3 +425,36 @@ def test_a_step_in_place_right_after_the_body_turned_starts_no_bout() -> None:
     assert (without[(t > 1.7) & (t < 2.5)] == F).all(), "without the rule the step is a bout"
     with pytest.raises(ValueError, match="start_turn_deg"):
         GateConfig(start_turn_deg=0.0)
+
+
+def test_a_kick_is_no_step_and_holds_no_pause() -> None:
+    """Kicks from standing (front, then to the side; the leg raised 80 degrees), with a network sure
+    it is forward: a kick's first frames may start a bout, but once the leg is up kick_deg the bout
+    ends, and its landing is no step: nothing is held after it (without the rule, the first step's
+    hold kept each kick moving for most of a second after it landed). A swing that raises the leg
+    40 degrees (more than any march step or stride measured: real walks 25, running 29, our second
+    motion model's high-knee marches 44) is still a step."""
+    kicks = (Swing(1, 1.0, 1.9, peak=0.05), Swing(0, 4.0, 4.9, peak=0.05), Swing(1, 7.0, 7.9, peak=0.05))
+    joints, _ = render(Scene(10.0, kicks))
+    for i, sw in enumerate(kicks):
+        joints = kick(joints, sw, 80.0, sideways=i == 2)
+    t = np.arange(len(joints)) / FPS
+    after = np.zeros(len(t), dtype=bool)
+    up = np.zeros(len(t), dtype=bool)
+    for sw in kicks:
+        after |= (t > sw.t1 + 0.1) & (t < sw.t1 + 1.5)
+        up |= (t > sw.t0 + 0.35) & (t < sw.t1 - 0.35)  # the leg is raised more than 55 degrees
+    labels = _gate_joints(joints, FWD)
+    assert (labels[after] == S).all(), f"{(labels[after] != S).sum()} frames moving after the kicks"
+    assert (labels[up] == S).all()
+    without = _gate_joints(joints, FWD, GateConfig(kick_deg=INF))
+    assert (without[after] == F).mean() > 0.3, "without the rule each kick holds a pause"
+    march_ = march(1.0, 8, 0.8, 0.45)
+    raised, _ = render(Scene(8.0, march_))
+    for sw in march_:
+        raised = kick(raised, sw, 40.0)
+    labels = _gate_joints(raised, FWD)
+    inside = (t[: len(labels)] > march_[1].t0) & (t[: len(labels)] < march_[-1].t1)
+    assert (labels[inside] == F).all(), "a leg raised 40 degrees steps"
+    with pytest.raises(ValueError, match="kick_deg"):
+        GateConfig(kick_deg=0.0)

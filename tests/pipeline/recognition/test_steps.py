@@ -10,7 +10,7 @@ import pytest
 from pipeline.recognition.steps import KINDS, StepConfig, StepTracker, step_evidence
 from pipeline.skeleton import J
 
-from .kinematic import Scene, Swing, march, noisy, render
+from .kinematic import Scene, Swing, kick, march, noisy, render
 
 FPS = 30.0
 
@@ -234,3 +234,20 @@ def test_a_wide_stance_with_straight_legs_is_no_crouch() -> None:
     assert strict.crouched[t > 3.0].all(), "by the pelvis alone it would be a crouch"
     with pytest.raises(ValueError, match="crouch_straight"):
         StepConfig(crouch_straight=0.0)
+
+
+@pytest.mark.parametrize("sideways", [False, True])
+def test_a_kick_raises_the_leg_a_march_step_does_not(sideways: bool) -> None:
+    """The leg's raise (hip to ankle, from straight down, forward or to the side): a kick's reaches
+    its height; standing legs hang (the gate's kick rule, ``test_bout.py``, rests on this)."""
+    swing = Swing(1, 1.0, 1.9, peak=0.05)
+    joints, _ = render(Scene(3.0, (swing,)))
+    kicked = kick(joints, swing, 80.0, sideways)
+    tr = StepTracker()
+    frames = [tr.update(f, i / FPS) for i, f in enumerate(noisy(kicked, 0.012))]
+    raise_r = np.array([f.feet[1].raise_deg for f in frames])
+    raise_l = np.array([f.feet[0].raise_deg for f in frames])
+    t = np.arange(len(frames)) / FPS
+    assert 72.0 < raise_r.max() < 88.0, raise_r.max()
+    assert raise_r[t < 0.9].max() < 12.0 and raise_l.max() < 12.0, "standing legs hang"
+    assert frames[45].to_dict()["feet"][1]["raise_deg"] == pytest.approx(raise_r[45], abs=0.06)
