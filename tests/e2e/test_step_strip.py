@@ -39,6 +39,7 @@ def test_the_step_strip_shows_feet_gate_and_the_newest_step(tmp_path: Path, arti
             expect(strip.locator("#steps-gate .tick.stepping").first).to_be_attached(timeout=40_000)
             expect(strip.locator("#steps-detail")).to_contain_text("gate:")
             expect(strip.locator("#steps-detail")).to_contain_text("newest step:")
+            expect(strip.locator("#steps-detail")).to_contain_text("leg raised")  # the kick rule's measure
             page.wait_for_timeout(3000)  # a few seconds of strip for the screenshot
             counts = page.evaluate(
                 "() => ['steps-left', 'steps-right', 'steps-gate']"

@@ -21,10 +21,15 @@ const REASON_TEXT = {
   "network-still": "the network does not call this step movement",
   "feet-unknown": "a foot is not seen",
   "not-upright": "the body is not upright (bent over, lying): no movement",
+  kick: "the leg was raised far (a kick): no step, no movement",
 };
 
 function cm(v) {
   return v == null ? "–" : `${(100 * v).toFixed(0)}`;
+}
+
+function raised(foot) {
+  return foot.raise_deg == null ? "" : `, leg raised ${foot.raise_deg.toFixed(0)}°`;
 }
 
 export function footTick(foot) {
@@ -34,7 +39,7 @@ export function footTick(foot) {
   return el("span", {
     class: `tick swing ${cls}`,
     title: `swinging: ${foot.jump ? "jump" : foot.kind}, lateral ${cm(foot.lateral_m)} cm, ` +
-      `sagittal ${cm(foot.sagittal_m)} cm, up ${cm(foot.vertical_m)} cm`,
+      `sagittal ${cm(foot.sagittal_m)} cm, up ${cm(foot.vertical_m)} cm${raised(foot)}`,
   });
 }
 
@@ -73,7 +78,7 @@ export function mountSteps(container) {
     const f = k >= 0 ? ev.feet[k] : null;
     const step = f
       ? `newest step: ${ev.stepping} foot, ${f.kind}${f.jump ? " (jump)" : ""}; lateral ${cm(f.lateral_m)} cm, ` +
-        `sagittal ${cm(f.sagittal_m)} cm, up ${cm(f.vertical_m)} cm`
+        `sagittal ${cm(f.sagittal_m)} cm, up ${cm(f.vertical_m)} cm${raised(f)}`
       : "no step yet";
     const why = g
       ? `gate: ${g.command} (${REASON_TEXT[g.reason] || g.reason}` +
