@@ -72,11 +72,13 @@ def facing_vectors(joints: NDArray[np.floating]) -> NDArray[np.float64]:
     total = np.zeros((*arr.shape[:-2], 2))
     count = np.zeros(arr.shape[:-2])
     for left, right in ((_L_HIP, _R_HIP), (_L_SH, _R_SH)):
-        v = arr[..., left, :2] - arr[..., right, :2]
-        norm = np.linalg.norm(v, axis=-1)
+        vx = arr[..., left, 0] - arr[..., right, 0]
+        vy = arr[..., left, 1] - arr[..., right, 1]
+        norm = np.sqrt(vx * vx + vy * vy)  # np.linalg.norm's sum, without its overhead (streaming)
         ok = np.isfinite(norm) & (norm > 1e-6)
-        unit = np.where(ok[..., None], v / np.where(ok, norm, 1.0)[..., None], 0.0)
-        total += np.stack([unit[..., 1], -unit[..., 0]], axis=-1)
+        safe = np.where(ok, norm, 1.0)
+        total[..., 0] += np.where(ok, vy / safe, 0.0)
+        total[..., 1] += -np.where(ok, vx / safe, 0.0)
         count += ok
     return np.where((count > 0)[..., None], total, np.nan)
 
@@ -104,10 +106,9 @@ def rotation_z(yaw_deg: NDArray[np.floating] | float) -> NDArray[np.float64]:
     """Rotation matrices (..., 3, 3) about +Z by ``yaw_deg`` (counter-clockwise seen from above)."""
     a = np.radians(np.asarray(yaw_deg, dtype=np.float64))
     c, s = np.cos(a), np.sin(a)
-    zero, one = np.zeros_like(a), np.ones_like(a)
-    return np.stack(
-        [np.stack([c, -s, zero], -1), np.stack([s, c, zero], -1), np.stack([zero, zero, one], -1)], -2
-    )
+    out = np.zeros((*a.shape, 3, 3))
+    out[..., 0, 0], out[..., 0, 1], out[..., 1, 0], out[..., 1, 1], out[..., 2, 2] = c, -s, s, c, 1.0
+    return out
 
 
 def torso_length(joints: NDArray[np.floating]) -> NDArray[np.float64]:
