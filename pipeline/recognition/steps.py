@@ -621,13 +621,14 @@ class StepTracker:
 
     def _raise_deg(self, j: NDArray[np.float64], k: int) -> float:
         """How far leg ``k`` is raised from straight down, forward or sideways (degrees; NaN unknown)."""
-        d = j[_ANKLE[k]] - j[_HIP[k]]
-        if self._yaw is None or not np.isfinite(d).all():
+        ax, ay, az = j[_ANKLE[k]].tolist()
+        hx, hy, hz = j[_HIP[k]].tolist()
+        dx, dy, dz = ax - hx, ay - hy, az - hz
+        if self._yaw is None or not (math.isfinite(dx) and math.isfinite(dy) and math.isfinite(dz)):
             return math.nan
         (rx, ry), (fx, fy) = body_axes(self._yaw)
-        forward = max(float(d[0] * fx + d[1] * fy), 0.0)  # a leg behind the hip: only its side
-        lateral = float(d[0] * rx + d[1] * ry)
-        return math.degrees(math.atan2(math.hypot(forward, lateral), -float(d[2])))
+        forward = max(dx * fx + dy * fy, 0.0)  # a leg behind the hip: only its side
+        return math.degrees(math.atan2(math.hypot(forward, dx * rx + dy * ry), -dz))
 
     # -- the frame
 
