@@ -277,6 +277,7 @@ class BoutGate:
         self._slid = [False, False]  # the current (or last) swing of each foot was part of a slide
         self._first_foot = -1  # the foot of the bout's first landed step
         self._kicked = [False, False]  # the current (or last) swing of each foot raised the leg kick_deg
+        self._raised = [0, 0]  # frames in a row each swinging leg has been raised kick_deg
 
     def _stance_ok(self, frame: StepFrame, k: int) -> bool:
         """The other foot carries the body (planted and not taking off too: no jump, though a foot
@@ -412,7 +413,9 @@ class BoutGate:
         for k, f in enumerate(frame.feet):
             if f.lifted:
                 self._kicked[k] = False
-            if not f.planted and f.raise_deg >= c.kick_deg:  # NaN (unknown) compares False
+            up = not f.planted and f.raise_deg >= c.kick_deg  # NaN (unknown) compares False
+            self._raised[k] = self._raised[k] + 1 if up else 0
+            if self._raised[k] >= 2:  # two frames in a row: one ankle misplaced by the cameras is no kick
                 self._kicked[k] = True
         jump = [self._jump(frame, k) for k in (0, 1)]
         no_step = [jump[k] or self._kicked[k] for k in (0, 1)]  # swings that are not steps

@@ -458,3 +458,17 @@ def test_a_kick_is_no_step_and_holds_no_pause() -> None:
     assert (labels[inside] == F).all(), "a leg raised 40 degrees steps"
     with pytest.raises(ValueError, match="kick_deg"):
         GateConfig(kick_deg=0.0)
+
+
+def test_one_misplaced_ankle_is_no_kick() -> None:
+    """A march whose swinging ankle the cameras misplace for one frame in every swing (1.5 m
+    forward, as if the leg were raised 60 degrees): still one bout."""
+    swings = march(1.0, 8, 0.8, 0.45)
+    joints, _ = render(Scene(8.0, swings))
+    t = np.arange(len(joints)) / FPS
+    for sw in swings:
+        i = int(round((sw.t0 + 0.2) * FPS))
+        joints[i, ANKLES[sw.foot], 1] += 1.5
+    labels = _gate_joints(joints, FWD)
+    inside = (t > swings[1].t0) & (t < swings[-1].t1)
+    assert (labels[inside] == F).all(), f"{(labels[inside] != F).sum()} frames not forward"
