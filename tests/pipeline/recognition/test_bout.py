@@ -467,7 +467,7 @@ def test_one_misplaced_ankle_is_no_kick() -> None:
     joints, _ = render(Scene(8.0, swings))
     t = np.arange(len(joints)) / FPS
     for sw in swings:
-        i = int(round((sw.t0 + 0.2) * FPS))
+        i = round((sw.t0 + 0.2) * FPS)
         joints[i, ANKLES[sw.foot], 1] += 1.5
     labels = _gate_joints(joints, FWD)
     inside = (t > swings[1].t0) & (t < swings[-1].t1)
