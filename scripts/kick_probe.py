@@ -73,6 +73,9 @@ def main() -> int:
     ap.add_argument("--raise", dest="raise_deg", type=float, default=80.0, help="the thighs' raise (deg)")
     ap.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
     args = ap.parse_args()
+    if not 0.0 < args.raise_deg <= 120.0:  # NaN fails too
+        print(f"error: --raise must be in (0, 120] degrees, got {args.raise_deg}", file=sys.stderr)
+        return 2
     try:
         pose = np.load(args.pose)["joints"][0]
     except (OSError, KeyError, IndexError, ValueError) as exc:
@@ -81,7 +84,11 @@ def main() -> int:
     if pose.shape != (len(J), 3) or not np.isfinite(pose).all():
         print(f"error: {args.pose}: its first frame is not a whole skeleton ({pose.shape})", file=sys.stderr)
         return 2
-    args.out.mkdir(parents=True, exist_ok=True)
+    try:
+        args.out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        print(f"error: --out {args.out}: cannot be a folder ({exc})", file=sys.stderr)
+        return 2
     for seed in args.seeds:
         path = args.out / f"kick_probe_{seed}.npz"
         np.savez(path, **probe(pose, args.raise_deg, seed))

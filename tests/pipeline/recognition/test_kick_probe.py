@@ -48,9 +48,22 @@ def test_standing_after_a_kick_is_still(tmp_path: Path) -> None:
     assert _false_movement(evaluate_recognizer(old, seqs), "(untagged)") > 0.05, "the rule is what stops it"
 
 
-def test_a_pose_that_is_no_skeleton_is_one_error(tmp_path: Path) -> None:
+def test_bad_input_is_one_error_and_writes_nothing(tmp_path: Path) -> None:
     bad = tmp_path / "bad.npz"
     np.savez(bad, joints=np.zeros((1, 5, 3), np.float32))
-    done = _probe("--pose", str(bad), "--out", str(tmp_path / "out"))
-    assert done.returncode == 2 and done.stderr.startswith("error: ") and done.stderr.count("\n") == 1
-    assert not (tmp_path / "out").exists()
+    pose = tmp_path / "pose.npz"
+    np.savez(pose, joints=standing_pose()[None].astype(np.float32))
+    a_file = tmp_path / "a-file"
+    a_file.write_text("x")
+    for args, words in (
+        (("--pose", str(bad), "--out", str(tmp_path / "out")), "not a whole skeleton"),
+        (("--pose", str(tmp_path / "missing.npz"), "--out", str(tmp_path / "out")), "not a SPEC skeleton"),
+        (("--pose", str(pose), "--out", str(tmp_path / "out"), "--raise", "nan"), "--raise"),
+        (("--pose", str(pose), "--out", str(tmp_path / "out"), "--raise", "0"), "--raise"),
+        (("--pose", str(pose), "--out", str(a_file)), "cannot be a folder"),
+    ):
+        done = _probe(*args)
+        assert done.returncode == 2, (args, done.stderr)
+        assert done.stderr.startswith("error: ") and done.stderr.count("\n") == 1, done.stderr
+        assert words in done.stderr, done.stderr
+    assert not (tmp_path / "out").exists() and a_file.read_text() == "x"
