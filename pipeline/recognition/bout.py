@@ -322,6 +322,17 @@ class BoutGate:
             if f.jump and not f.planted and low and self._swing_top[1 - k] >= c.slide_step_m:
                 self._slid[k] = self._slid[1 - k] = True
 
+    def _track_kicks(self, frame: StepFrame) -> None:
+        """Each foot's current (or last) swing is a kick once it has raised the leg ``kick_deg`` two
+        frames in a row (one ankle misplaced by the cameras is no kick)."""
+        for k, f in enumerate(frame.feet):
+            if f.lifted:
+                self._kicked[k] = False
+            up = not f.planted and f.raise_deg >= self.config.kick_deg  # NaN (unknown) compares False
+            self._raised[k] = self._raised[k] + 1 if up else 0
+            if self._raised[k] >= 2:
+                self._kicked[k] = True
+
     def _allowance(self, rhythm: str | None = None) -> float:
         """How long after the newest touch-down the next lift-off may come: when the person's rhythm
         says it is due (``pause_gain`` x the longest of their last three step intervals after the
@@ -410,13 +421,7 @@ class BoutGate:
             if f.landed:
                 self._land_seen[k] = t
         self._track_slides(frame)
-        for k, f in enumerate(frame.feet):
-            if f.lifted:
-                self._kicked[k] = False
-            up = not f.planted and f.raise_deg >= c.kick_deg  # NaN (unknown) compares False
-            self._raised[k] = self._raised[k] + 1 if up else 0
-            if self._raised[k] >= 2:  # two frames in a row: one ankle misplaced by the cameras is no kick
-                self._kicked[k] = True
+        self._track_kicks(frame)
         jump = [self._jump(frame, k) for k in (0, 1)]
         no_step = [jump[k] or self._kicked[k] for k in (0, 1)]  # swings that are not steps
         landed_steps: list[float] = []  # max p(moving) of bout swings that ended now
