@@ -47,10 +47,13 @@ What a user expects (MODEL_CARD.md, "Behaviour"):
   sideways away from the other foot is a side step to that foot's side; a vertical (march) or
   forward step is forward; a closing step (the trailing foot following, or the foot coming back)
   keeps the bout's direction, and so does a single opening step to the other side (the way back
-  of a step-touch); ``side_switch_steps`` of them in a row turn the bout to that side, and so does
-  one after ``travel_steps`` opening steps the same way in a row (travelling sideways); a march step
-  (a foot up ``march_confirm_s`` without moving sideways, or landed so) turns a side-step bout
-  forward if the network agrees and no foot steps sideways.
+  of a step-touch; a bout that starts on such a step keeps the side of the steps just before, also
+  when it started sideways on the network's word before the foot moved sideways: the start's
+  direction is read again once the first step shows its side); ``side_switch_steps`` of them in a
+  row turn the bout to that side, and so does one after ``travel_steps`` opening steps the same way
+  in a row (travelling sideways); a march step (a foot up ``march_confirm_s`` without moving
+  sideways, or landed so) turns a side-step bout forward if the network agrees and no foot steps
+  sideways.
 
 :class:`BoutGate` is streaming; it holds only what it needs (times of the bout's steps).
 """
@@ -278,6 +281,8 @@ class BoutGate:
         self._first_foot = -1  # the foot of the bout's first landed step
         self._kicked = [False, False]  # the current (or last) swing of each foot raised the leg kick_deg
         self._raised = [0, 0]  # frames in a row each swinging leg has been raised kick_deg
+        self._unsure_start = math.nan  # lift-off of a bout's first step, started sideways on the network's
+        # word before the step showed which way it goes
 
     def _stance_ok(self, frame: StepFrame, k: int) -> bool:
         """The other foot carries the body (planted and not taking off too: no jump, though a foot
@@ -512,6 +517,8 @@ class BoutGate:
                 self._active = True
                 self._side_t = max(self._swing_lift[k] for k in stepping)  # the bout's first step
                 self._label = self._start_direction(frame, ev, p)
+                sided = ev in (_LEFT, _RIGHT) or self._label not in (_LEFT, _RIGHT)
+                self._unsure_start = math.nan if sided else self._side_t
                 self._bout_steps = 0  # landed steps of the bout
                 return GateVerdict(True, self._label, "stepping", ev_name, self._allowance(), math.nan)
             if not all(f.known for f in frame.feet):
@@ -538,6 +545,14 @@ class BoutGate:
                 # a foot up this long without moving sideways is a march step, not a side step's rise
                 if choose_direction(p, _FORWARD, c) == _FORWARD:
                     self._label = _FORWARD
+            elif (
+                stepping and k >= 0 and self._swing_lift[k] == self._unsure_start
+                and frame.feet[k].kind in ("open", "close")
+            ):  # fmt: skip
+                # the bout's first step shows its side only now: read it as a start would have (the
+                # way back of the side steps just before keeps their side)
+                self._unsure_start = math.nan
+                self._label = self._start_direction(frame, ev, p)
             elif stepping and ev is not None and not (sideways and ev == _FORWARD):
                 side = self._side_evidence(frame, ev)
                 if side == ev or self._label not in (_LEFT, _RIGHT):

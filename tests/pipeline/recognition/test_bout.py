@@ -472,3 +472,24 @@ def test_one_misplaced_ankle_is_no_kick() -> None:
     labels = _gate_joints(joints, FWD)
     inside = (t > swings[1].t0) & (t < swings[-1].t1)
     assert (labels[inside] == F).all(), f"{(labels[inside] != F).sum()} frames not forward"
+
+
+def test_a_restart_whose_first_step_shows_its_side_late_keeps_the_side_before() -> None:
+    """A step-touch to the right (the right foot out, the left foot follows), a pause that breaks
+    the rhythm, then the left foot steps out to the left: the way back, a new bout to the right. That
+    foot rises before it moves sideways, so the bout starts on the network's word (here: left) while
+    the step still looks like a march step; once it shows its side, the start rule reads it as the
+    way back, as for a way back that shows its side at once."""
+    out = Swing(1, 1.0, 1.4, lateral=0.3, peak=0.05)
+    touch = Swing(0, 1.6, 2.0, lateral=0.3, peak=0.04)
+    back = Swing(0, 3.4, 3.9, lateral=-0.2, peak=0.12)  # up first, sideways later
+    n = round(5.5 * FPS)
+    t = np.arange(n) / FPS
+    lead, wrong = np.array([0.1, 0.05, 0.05, 0.8]), np.array([0.1, 0.1, 0.7, 0.1])
+    probs = [wrong if t[i] > 3.2 else lead for i in range(n)]
+    labels, verdicts, _ = _gate(Scene(5.5, (out, touch, back)), probs)
+    assert "rhythm-broke" in {v.reason for v in verdicts[round(2.0 * FPS) : round(3.4 * FPS)]}
+    first = next(v for v in verdicts[round(3.4 * FPS) :] if v.active)
+    assert (first.evidence, first.label) == ("forward", L), "the scene starts the bout before the side shows"
+    way_back = labels[(t > back.t0 + 0.25) & (t < back.t1 + 0.3)]
+    assert (way_back == R).mean() > 0.9, f"way back: {np.bincount(way_back, minlength=4)}"
