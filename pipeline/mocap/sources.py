@@ -102,25 +102,46 @@ SIM_SETS = {
 SIM_USE = {"still": "train", "still-heldout": "eval"}
 
 
+BLIND_MODELS = ("blind", "blind2")
+
+
 @dataclass(frozen=True, slots=True)
 class BlindSet:
-    """A set of the third motion model's sequences (pipeline.sim.blind): how many, how long, seed,
-    noise and dropped joints."""
+    """A set of an independent motion model's sequences: ``model`` ``blind`` (the third motion model,
+    pipeline.sim.blind) or ``blind2`` (the fourth, pipeline.sim.blind2, whose capture noise is its
+    own: 1.2 cm and 2 % of the joints, so ``noise_m`` and ``dropout`` must stay at those values);
+    how many, how long, seed, noise and dropped joints."""
 
     count: int
     duration_s: float
     seed: int
     noise_m: float = 0.012
     dropout: float = 0.02
+    model: str = "blind"
 
     def __post_init__(self) -> None:
         if self.count < 1 or not self.duration_s > 0:
             raise InputError(
                 f"a blind set needs count >= 1 and a positive duration, got {self.count}, {self.duration_s}"
             )
+        if self.model not in BLIND_MODELS:
+            raise InputError(f"a blind set's model is one of {BLIND_MODELS}, got {self.model!r}")
+        if self.model == "blind2" and (self.noise_m, self.dropout) != (0.012, 0.02):
+            raise InputError(
+                "blind2 sets have their own capture noise (noise_m 0.012, dropout 0.02), "
+                f"got {self.noise_m}, {self.dropout}"
+            )
 
 
-BLIND_SETS = {"blind-heldout": BlindSet(count=12, duration_s=60.0, seed=4242)}
+# held-out evaluation only: never trained on
+BLIND_SETS = {
+    "blind-heldout": BlindSet(count=12, duration_s=60.0, seed=4242),
+    "blind2-heldout": BlindSet(count=12, duration_s=60.0, seed=2026, model="blind2"),
+}
+BLIND_ORIGINS = {
+    "blind": "pipeline.sim.blind: a third motion model, written without reading the others",
+    "blind2": "pipeline.sim.blind2: a fourth motion model, written without reading the product's code",
+}
 
 
 def _cached_or_emptied(folder: Path, stamp: dict[str, Any]) -> dict[str, Any] | None:
@@ -228,15 +249,22 @@ def write_gait_set(folder: Path, spec: GaitSet, progress: Callable[[str], None])
 
 def write_blind_set(folder: Path, spec: BlindSet, progress: Callable[[str], None]) -> dict[str, Any]:
     """The set's NPZs in ``folder`` (made again only when the set's settings changed)."""
-    from pipeline.sim.blind import write_set
+    from pipeline.sim import blind, blind2
 
-    stamp = {"count": spec.count, "duration_s": spec.duration_s, "seed": spec.seed,
-             "noise_m": spec.noise_m, "dropout": spec.dropout, "v": 1}  # fmt: skip
+    stamp: dict[str, Any] = {"count": spec.count, "duration_s": spec.duration_s, "seed": spec.seed,
+                             "noise_m": spec.noise_m, "dropout": spec.dropout, "v": 1}  # fmt: skip
+    if spec.model != "blind":
+        stamp["model"] = spec.model  # (the blind sets' stamps stay as they were: no remake)
     cached = _cached_or_emptied(folder, stamp)
     if cached is not None:
         return cached
     files = []
-    for path in write_set(folder, spec.count, spec.duration_s, spec.seed, spec.noise_m, spec.dropout):
+    if spec.model == "blind2":
+        config = blind2.SetConfig(count=spec.count, seed=spec.seed, duration_s=spec.duration_s)
+        paths = blind2.write_set(folder, config)
+    else:
+        paths = blind.write_set(folder, spec.count, spec.duration_s, spec.seed, spec.noise_m, spec.dropout)
+    for path in paths:
         seq = load_npz(path)
         labels = list(seq.labels or ())
         files.append({"file": path.name, "frames_per_label": _frames_per_label(labels),
@@ -322,12 +350,14 @@ def write_sources(
             f"pipeline.sim.routines kind {sim.kind} (pipeline.sim.behaviours)",
         )  # fmt: skip
     for name, blind in (blind_sets if blind_sets is not None else BLIND_SETS).items():
-        progress(f"third motion model set {name}: {blind.count} x {blind.duration_s:g} s (seed {blind.seed})")
+        progress(
+            f"independent motion model ({blind.model}) set {name}: "
+            f"{blind.count} x {blind.duration_s:g} s (seed {blind.seed})"
+        )
         bi = write_blind_set(root / name, blind, progress)
         manifest[name] = _generated_entry(
-            root / name, bi, "eval", "blind-model", "pipeline.sim.blind",
-            "pipeline.sim.blind: a third motion model, written without reading the others",
-        )  # fmt: skip
+            root / name, bi, "eval", "blind-model", f"pipeline.sim.{blind.model}", BLIND_ORIGINS[blind.model]
+        )
     (root / MANIFEST).write_text(json.dumps(manifest, indent=1))
     return manifest
 

@@ -60,6 +60,7 @@ def test_data_sources_writes_one_folder_per_named_source(
         "still",
         "still-heldout",
         "blind-heldout",
+        "blind2-heldout",
     }
     for name, m in manifest.items():
         assert f"{name}={m['dir']}  [{m['use']}]" in res.output
@@ -96,6 +97,11 @@ def test_data_sources_writes_one_folder_per_named_source(
     assert manifest["blind-heldout"]["use"] == "eval" and len(blind) == 2
     assert all(len(s) == 360 and s.contacts is not None for s in blind)  # 12 s at 30 fps, with contacts
     assert manifest["blind-heldout"]["settings"]["noise_m"] == 0.012
+    blind2 = from_folder(manifest["blind2-heldout"]["dir"], source="blind2-heldout")
+    assert manifest["blind2-heldout"]["use"] == "eval" and len(blind2) == 2
+    assert all(len(s) == 360 and s.contacts is not None for s in blind2)  # the fourth motion model
+    assert manifest["blind2-heldout"]["settings"]["model"] == "blind2"
+    assert "pipeline.sim.blind2" in manifest["blind2-heldout"]["licences"][0]
     still = from_folder(manifest["still"]["dir"], source="still")
     assert len(still) == 2 and all((s.labels == ACTIONS.index("still")).all() for s in still)
     assert manifest["still"]["frames_per_label"]["still"] == sum(len(s.labels) for s in still)
