@@ -1,7 +1,7 @@
 #!/usr/bin/env python
 """What a causal recogniser could reach at best on a labelled set, given its labelling rule.
 
-    .venv/bin/python scripts/label_bound.py DIR [DIR ...] [--hold 0.2 0.3 ... ]
+    .venv/bin/python scripts/label_bound.py DIR [DIR ...] [--hold 0.2 0.3 ... ] [--lag 0 0.1 ...]
 
 An oracle that knows every ground-truth foot contact, which swings are steps of a bout (the label at
 the lift-off) and each bout's direction starts moving at the first lift-off (no latency) and stops
@@ -11,6 +11,12 @@ Scored with :func:`pipeline.recognition.metrics.evaluate` (``cavewalk evaluate``
 accuracy is a ceiling for any recogniser that holds a fixed pause on a set whose labels keep
 pauses of up to 1 s inside a bout (our generators' rule): a longer hold wins the pauses and loses
 the stops, a shorter one the reverse.
+
+``--lag``: the same oracle seeing each lift-off ``lag`` seconds late (a step tracker must wait
+until the foot has risen clear of the capture noise): its command starts that much later and a
+pause ends the bout unless the next lift-off is seen within the hold, so a pause of P needs a hold
+of P + lag. The distance between ``--lag 0`` and the tracker's real delay is what faster lift-off
+detection could win.
 """
 
 from __future__ import annotations
@@ -32,18 +38,33 @@ from pipeline.recognition.dataset import LabelledSequence  # noqa: E402
 from pipeline.recognition.metrics import ScoredSequence, evaluate  # noqa: E402
 
 
-def oracle(seq: LabelledSequence, hold_s: float) -> np.ndarray:
-    """The oracle's command per frame (class index) for one sequence with ground-truth contacts."""
+def seen_swings(contacts: np.ndarray, lag_frames: int) -> np.ndarray:
+    """(T, 2) True where a foot is up and its swing has been seen: from ``lag_frames`` after each
+    lift-off to its touch-down (a swing shorter than the lag is never seen)."""
+    up = ~np.asarray(contacts, dtype=bool)
+    seen = up.copy()
+    for k in (0, 1):
+        starts = np.flatnonzero(up[:, k] & ~np.r_[False, up[:-1, k]])
+        for a in starts.tolist():
+            seen[a : a + lag_frames, k] = False
+    return seen
+
+
+def oracle(seq: LabelledSequence, hold_s: float, lag_s: float = 0.0) -> np.ndarray:
+    """The oracle's command per frame (class index) for one sequence with ground-truth contacts,
+    seeing each lift-off ``lag_s`` late."""
     if seq.contacts is None:
         raise SystemExit(f"error: {seq.name} has no ground-truth contacts")
-    c, lab = np.asarray(seq.contacts, dtype=bool), seq.labels
+    lab = seq.labels
+    lag = round(lag_s * seq.fps)
+    up = seen_swings(seq.contacts, lag)
     pred = np.zeros(len(lab), dtype=np.int64)
     active, last_down, current = False, -np.inf, 0
     for i in range(1, len(lab)):
         t = i / seq.fps
-        if any(c[i - 1, k] and not c[i, k] for k in (0, 1)) and lab[i] > 0:
-            active, current = True, int(lab[i])  # a lift-off inside a bout: a step of it
-        if not c[i].all():
+        if any(up[i, k] and not up[i - 1, k] for k in (0, 1)) and lab[i - lag] > 0:
+            active, current = True, int(lab[i - lag])  # a lift-off inside a bout: a step of it
+        if up[i].any():
             last_down = t  # a foot is up: the pause has not begun
         elif active and t - last_down > hold_s:
             active = False
@@ -55,17 +76,28 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("folders", nargs="+", type=Path)
     ap.add_argument("--hold", nargs="+", type=float, default=[0.2, 0.3, 0.4, 0.5, 0.6, 0.8, 1.0, 1.2])
+    ap.add_argument("--lag", nargs="+", type=float, default=[0.0], help="lift-off seen this late (s)")
     args = ap.parse_args()
+    bad = [v for v in [*args.hold, *args.lag] if not (np.isfinite(v) and 0.0 <= v <= 5.0)]
+    if bad:
+        print(f"error: --hold and --lag are seconds in [0, 5], got {bad}", file=sys.stderr)
+        return 2
+    for folder in args.folders:
+        if not folder.is_dir():
+            print(f"error: {folder} is not a folder", file=sys.stderr)
+            return 2
     for folder in args.folders:
         seqs = [corpus.resample(s, 30.0) for s in corpus.from_folder(folder)]
-        for hold in args.hold:
+        for lag, hold in ((lag, hold) for lag in args.lag for hold in args.hold):
             scored = [
-                ScoredSequence(s.name, s.source, s.labels, oracle(s, hold), s.tags, s.fps, s.contacts)
+                ScoredSequence(s.name, s.source, s.labels, oracle(s, hold, lag), s.tags, s.fps, s.contacts)
                 for s in seqs
             ]
             m = summary(evaluate(scored))
+            seen = f" lag {lag:.2f} s" if lag else ""
             print(
-                f"{folder.name:>16} hold {hold:.1f} s: accuracy {m['accuracy']} macro-F1 {m['macro_f1']} "
+                f"{folder.name:>16}{seen} hold {hold:.1f} s: "
+                f"accuracy {m['accuracy']} macro-F1 {m['macro_f1']} "
                 f"false movement {m['false_movement']} detected {m['movement_detected']} "
                 f"stop beyond rhythm {m['stop_beyond_rhythm_median_s']}/{m['stop_beyond_rhythm_p95_s']} s"
             )
