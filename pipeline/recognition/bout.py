@@ -68,7 +68,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.numbers import rounded
-from pipeline.recognition.steps import StepFrame
+from pipeline.recognition.steps import SIDEWAYS_KINDS, StepFrame
 from pipeline.skeleton import ACTIONS
 
 _STILL, _FORWARD, _LEFT, _RIGHT = (ACTIONS.index(a) for a in ("still", "forward", "left", "right"))
@@ -535,7 +535,7 @@ class BoutGate:
         # a side-step bout turns forward on a landed march step (if the network agrees), not on the
         # rising start of a side step, nor while the other foot steps sideways
         landed = [f.kind for f in frame.feet if f.landed]
-        sideways_swing = any(not f.planted and f.kind in ("open", "close") for f in frame.feet)
+        sideways_swing = any(not f.planted and f.kind in SIDEWAYS_KINDS for f in frame.feet)
         march_landed = bool(landed) and all(k in ("vertical", "forward") for k in landed)
         if sideways and march_landed and not sideways_swing and choose_direction(p, _FORWARD, c) == _FORWARD:
             self._label = _FORWARD
@@ -547,7 +547,7 @@ class BoutGate:
                     self._label = _FORWARD
             elif (
                 stepping and k >= 0 and self._swing_lift[k] == self._unsure_start
-                and frame.feet[k].kind in ("open", "close")
+                and frame.feet[k].kind in SIDEWAYS_KINDS
             ):  # fmt: skip
                 # the bout's first step shows its side only now: read it as a start would have (the
                 # way back of the side steps just before keeps their side)

@@ -49,6 +49,7 @@ from pipeline.skeleton import NUM_JOINTS, J
 
 FEET = ("left", "right")
 KINDS = ("none", "small", "vertical", "forward", "backward", "open", "close")
+SIDEWAYS_KINDS = ("open", "close")  # a foot moving away from or towards the other one
 _ANKLE = (J["l_ankle"], J["r_ankle"])
 _KNEE = (J["l_knee"], J["r_knee"])
 _HIP = (J["l_hip"], J["r_hip"])
