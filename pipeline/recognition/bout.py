@@ -20,7 +20,10 @@ What a user expects (MODEL_CARD.md, "Behaviour"):
   ``max_interval_s``, still counts as the person's rhythm when the stepping resumes. If the next
   lift-off does not come by then, the rhythm has broken and the bout ends (``still``) there, unless
   the network is sure the bout goes on (smoothed p(still) below ``hold_still_prob``): then the pause
-  may last up to ``max_allowance_s`` (a longer pause than the person has shown yet).
+  may last up to ``max_allowance_s`` (a longer pause than the person has shown yet). With the feet
+  apart after an opening step (a foot out to the side, ``split_hold``) the way back is still to come:
+  the pause holds up to ``max_allowance_s`` whatever the rhythm says, unless the network is sure the
+  bout has ended (``pause_still_prob``, as below).
 - **Stops stay fast**: past the pause the person's *median* rhythm allows, a smoothed p(still) of
   ``late_still_prob`` already ends the bout (the longest-interval deadline is only for pauses the
   network does not call a stop).
@@ -40,8 +43,9 @@ What a user expects (MODEL_CARD.md, "Behaviour"):
   this swing or the other foot's last one) and the body turned more than ``max_window_turn_deg``
   within ``turn_window_s``, the feet stepping in place, is a turn on the spot too: no bout starts,
   and a bout of fewer than ``steer_steps`` landed steps ends (an established march that starts to
-  turn is steering and goes on); a bout whose only step (in place) has landed ends once the body has
-  turned ``first_turn_deg`` since that step's lift-off (a slow turn in single pivot steps).
+  turn is steering and goes on; a side-step bout that turns the body is turning on the spot); a bout
+  whose only step (in place) has landed ends once the body has turned ``first_turn_deg`` since that
+  step's lift-off (a slow turn in single pivot steps).
 - **Direction** (forward / left / right): the network's smoothed probabilities among the moving
   classes, weighted by the evidence of the newest step (``evidence_weight``): a foot opening
   sideways away from the other foot is a side step to that foot's side; a vertical (march) or
@@ -133,6 +137,10 @@ class GateConfig:
     steer_steps: int = 2  # ... unless the bout has already landed this many steps: steering while marching
     # (0: a turning bout always ends)
     kick_deg: float = 55.0  # a swing raising the leg this far (hip to ankle, from straight down) is a kick
+    # the feet apart after an opening step (a foot out to the side): the way back is still to come, so
+    # the pause holds up to max_allowance_s after that landing, whatever the rhythm, unless the network
+    # is sure the bout has ended (pause_still_prob)
+    split_hold: bool = True
 
     def __post_init__(self) -> None:
         if self.rhythm not in RHYTHMS:
@@ -484,7 +492,9 @@ class BoutGate:
             and abs(frame.feet[k0].sagittal_m) < c.turn_travel_m
             and abs(frame.yaw_deg - self._lift_yaw[k0]) >= c.first_turn_deg
         )  # fmt: skip
-        steering = self._active and 0 < c.steer_steps <= self._bout_steps
+        # a march (a forward bout) that starts to turn is steering; side steps that turn the body are
+        # turning on the spot
+        steering = self._active and self._label == _FORWARD and 0 < c.steer_steps <= self._bout_steps
         # a foot's current swing, or the other's last one, turned the body: the steps are turning it
         swing_turning = bool(swings) and any(
             abs(turn[k]) >= c.swing_turn_deg for k, f in enumerate(frame.feet) if f.known
@@ -561,6 +571,15 @@ class BoutGate:
             return GateVerdict(True, self._label, "stepping", ev_name, self._allowance(), math.nan)
         if math.isnan(self._bout_land_t):
             self._bout_land_t = t
+        k = frame.stepping
+        split = (
+            c.split_hold and k >= 0 and frame.both_planted and frame.feet[k].kind == "open" and not no_step[k]
+        )
+        if split and p[_STILL] < c.pause_still_prob:
+            # a foot out to the side: the way back is due, however long the person pauses before it
+            deadline = self._bout_land_t + c.max_allowance_s
+            if t <= deadline + 1e-9:
+                return GateVerdict(True, self._label, "pause", ev_name, self._allowance(), deadline)
         deadline = self._bout_land_t + self._allowance()
         if t > deadline + 1e-9:
             if p[_STILL] < c.hold_still_prob and t <= self._bout_land_t + c.max_allowance_s + 1e-9:

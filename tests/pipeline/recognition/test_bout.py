@@ -493,3 +493,76 @@ def test_a_restart_whose_first_step_shows_its_side_late_keeps_the_side_before() 
     assert (first.evidence, first.label) == ("forward", L), "the scene starts the bout before the side shows"
     way_back = labels[(t > back.t0 + 0.25) & (t < back.t1 + 0.3)]
     assert (way_back == R).mean() > 0.9, f"way back: {np.bincount(way_back, minlength=4)}"
+
+
+def _out_and_back(t_outs: tuple[float, ...], last_back: bool = True) -> tuple[Swing, ...]:
+    """Out-and-back side steps of the right foot: out (0.25 m to the right) at each of ``t_outs`` and
+    back 0.6 s later (``last_back=False``: the last one stays out); 0.4 s swings."""
+    swings: list[Swing] = []
+    for i, t0 in enumerate(t_outs):
+        swings.append(Swing(1, t0, t0 + 0.4, lateral=0.25, peak=0.06))
+        if last_back or i < len(t_outs) - 1:
+            swings.append(Swing(1, t0 + 0.6, t0 + 1.0, lateral=-0.25, peak=0.06))
+    return tuple(swings)
+
+
+RIGHT = np.array([0.1, 0.05, 0.05, 0.8])  # a network sure of a step to the right
+UNSURE = np.array([0.5, 0.05, 0.05, 0.4])  # ... and one that is not sure the bout goes on
+
+
+def test_a_pause_with_a_foot_out_holds_until_the_way_back() -> None:
+    """Out-and-back steps every 0.6 s, then a 0.9 s pause with the foot out (longer than the rhythm
+    allows) while the network is unsure: the feet apart say the way back is still to come, so the
+    bout is one command; without that rule the rhythm breaks in the pause."""
+    out, back = 0.25, -0.25
+    swings = tuple(
+        Swing(1, t0, t0 + 0.4, lateral=d, peak=0.06)
+        for t0, d in ((1.0, out), (1.6, back), (2.2, out), (3.5, back), (4.1, out), (4.7, back))
+    )  # the foot out from 2.6 s to 3.5 s
+    n = round(6.0 * FPS)
+    t = np.arange(n) / FPS
+    probs = [UNSURE if 2.7 <= t[i] < 3.5 else RIGHT for i in range(n)]
+    labels, verdicts, _ = _gate(Scene(6.0, swings), probs)
+    bout = (t > 1.3) & (t < 5.1)
+    assert (labels[bout] == R).all(), f"{np.bincount(labels[bout], minlength=4)}"
+    held = [v for v, ti in zip(verdicts, t, strict=True) if 3.0 < ti < 3.4]
+    assert all(v.reason == "pause" and v.deadline_s > 3.7 for v in held), "held to max_allowance_s"
+    plain, verdicts, _ = _gate(Scene(6.0, swings), probs, config=GateConfig(split_hold=False))
+    assert (plain[bout] == S).any(), "without the rule the bout breaks in the pause"
+    assert {"rhythm-broke", "network-still"} & {
+        v.reason for v in verdicts[round(2.6 * FPS) : round(3.5 * FPS)]
+    }
+
+
+@pytest.mark.parametrize(
+    ("after", "latest_s"), [(UNSURE, 1.2 + 0.1), (np.array([0.9, 0.03, 0.03, 0.04]), 0.35)]
+)
+def test_a_foot_left_out_ends_the_bout_at_the_longest_pause_or_when_the_network_is_sure(
+    after: np.ndarray, latest_s: float
+) -> None:
+    """The last step out stays out: the bout ends at most ``max_allowance_s`` after it landed, and
+    as soon as a network sure that the person has stopped says so."""
+    swings = _out_and_back((1.0, 2.2), last_back=False)
+    n = round(5.0 * FPS)
+    t = np.arange(n) / FPS
+    land = swings[-1].t1
+    probs = [after if t[i] >= land + 0.05 else RIGHT for i in range(n)]
+    labels, _, _ = _gate(Scene(5.0, swings), probs)
+    assert (labels[(t > 1.3) & (t < land)] == R).all()
+    stop = t[(t > land) & (labels == S)][0] - land
+    assert stop <= latest_s, f"stopped {stop:.2f} s after the foot landed out"
+    if after is UNSURE:
+        assert stop >= 0.9, f"stopped {stop:.2f} s after the foot landed out: the split stance did not hold"
+
+
+def test_side_steps_that_turn_the_body_are_a_turn_not_steering() -> None:
+    """Out-and-back side steps that start turning the body after four steps turn on the spot: the
+    bout ends (a march that turns the same way steers and goes on)."""
+    swings = _out_and_back((1.0, 2.2, 3.4, 4.6, 5.8))
+    joints, _ = _turned(Scene(8.0, swings), 12.0, from_step=4)
+    t = np.arange(len(joints)) / FPS
+    probs = RIGHT
+    labels = _gate_joints(joints, probs)
+    assert (labels[(t > 1.3) & (t < swings[3].t1)] == R).all()
+    turning = (t > swings[5].t0) & (t < swings[-1].t1)
+    assert (labels[turning] == S).mean() > 0.7, f"{np.bincount(labels[turning], minlength=4)}"
