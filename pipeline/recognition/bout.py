@@ -45,7 +45,9 @@ What a user expects (MODEL_CARD.md, "Behaviour"):
   and a bout of fewer than ``steer_steps`` landed steps ends (an established march that starts to
   turn is steering and goes on; a side-step bout that turns the body is turning on the spot); a bout
   whose only step (in place) has landed ends once the body has turned ``first_turn_deg`` since that
-  step's lift-off (a slow turn in single pivot steps).
+  step's lift-off (a slow turn in single pivot steps). A swing whose foot rose ``march_lift_m``
+  without itself turning the body is a march step, not a pivot: a turn that has just ended neither
+  vetoes its start nor ends its bout.
 - **Direction** (forward / left / right): the network's smoothed probabilities among the moving
   classes, weighted by the evidence of the newest step (``evidence_weight``): a foot opening
   sideways away from the other foot is a side step to that foot's side; a vertical (march) or
@@ -141,6 +143,10 @@ class GateConfig:
     # the pause holds up to max_allowance_s after that landing, whatever the rhythm, unless the network
     # is sure the bout has ended (pause_still_prob)
     split_hold: bool = True
+    # a swing whose foot rose march_lift_m without itself turning the body (swing_turn_deg) is a march
+    # step, not a pivot of a turn on the spot: the body's turn just before it (a turn that has ended)
+    # neither vetoes its start nor ends its bout (inf: never)
+    march_lift_m: float = 0.10
 
     def __post_init__(self) -> None:
         if self.rhythm not in RHYTHMS:
@@ -180,6 +186,8 @@ class GateConfig:
                 f"start_turn_deg must be > 0 (inf: never) and start_travel_m >= 0, got "
                 f"{self.start_turn_deg}, {self.start_travel_m}"
             )
+        if not self.march_lift_m > 0:
+            raise ValueError(f"march_lift_m must be > 0 (inf: never), got {self.march_lift_m}")
         if not self.kick_deg > 0:
             raise ValueError(f"kick_deg must be > 0 (inf: never), got {self.kick_deg}")
         if not self.first_turn_deg > 0:
@@ -499,7 +507,11 @@ class BoutGate:
         swing_turning = bool(swings) and any(
             abs(turn[k]) >= c.swing_turn_deg for k, f in enumerate(frame.feet) if f.known
         )
-        if swing_turning and turned > c.max_window_turn_deg and not steering:
+        # every swing a high march step that has not turned the body: a turn just before has ended
+        marching = bool(swings) and all(
+            self._swing_top[k] >= c.march_lift_m and abs(turn[k]) < c.swing_turn_deg for k in swings
+        )
+        if swing_turning and turned > c.max_window_turn_deg and not steering and not marching:
             # steps in place while the body turns this fast: turning on the spot (walking a curve moves
             # the feet forward; an established bout that starts to turn is steering)
             pivot = pivot or in_place
@@ -519,8 +531,10 @@ class BoutGate:
         if pivot or first_turned:
             return self._end("pivot", ev_name)
         if not self._active:
-            turning_in_place = turned >= c.start_turn_deg and all(
-                abs(frame.feet[k].sagittal_m) < c.start_travel_m for k in stepping
+            turning_in_place = (
+                not marching
+                and turned >= c.start_turn_deg
+                and all(abs(frame.feet[k].sagittal_m) < c.start_travel_m for k in stepping)
             )
             sure = bool(stepping) and max(self._swing_maxp[k] for k in stepping) >= c.start_prob
             if sure and not turning_in_place:

@@ -244,13 +244,16 @@ def test_side_steps_that_change_side_turn_the_bout() -> None:
             assert (labels[(t > left[0].t0 + 0.3) & (t < turn)] == R).mean() > 0.9, "one step late"
 
 
-def _turned(scene: Scene, per_step_deg: float, from_step: int = 0) -> tuple[np.ndarray, np.ndarray]:
+def _turned(
+    scene: Scene, per_step_deg: float, from_step: int = 0, to_step: int | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """The scene's joints, the whole body turning about the vertical by ``per_step_deg`` during each
-    swing from the ``from_step``-th on, about the planted foot (which stays where it is)."""
+    swing from the ``from_step``-th on (to the ``to_step``-th, excluded), about the planted foot
+    (which stays where it is)."""
     joints, contacts = render(scene)
     t = np.arange(len(joints)) / FPS
     yaw = np.zeros(len(joints))
-    for sw in scene.swings[from_step:]:
+    for sw in scene.swings[from_step:to_step]:
         yaw += np.radians(per_step_deg) * np.clip((t - sw.t0) / (sw.t1 - sw.t0), 0.0, 1.0)
     rot, shift = np.eye(2), np.zeros(2)  # world = rot @ body + shift
     out = joints.copy()
@@ -319,6 +322,8 @@ def test_the_turning_rule_checks_its_settings() -> None:
         {"steer_steps": -1},
         {"slide_step_m": -0.1},
         {"jump_rise_s": float("nan")},
+        {"march_lift_m": 0.0},
+        {"march_lift_m": float("nan")},
     ):
         with pytest.raises(ValueError, match=next(iter(bad))):
             GateConfig(**bad)  # type: ignore[arg-type]
@@ -566,3 +571,24 @@ def test_side_steps_that_turn_the_body_are_a_turn_not_steering() -> None:
     assert (labels[(t > 1.3) & (t < swings[3].t1)] == R).all()
     turning = (t > swings[5].t0) & (t < swings[-1].t1)
     assert (labels[turning] == S).mean() > 0.7, f"{np.bincount(labels[turning], minlength=4)}"
+
+
+def test_a_march_right_after_a_turn_on_the_spot_starts_with_its_first_high_step() -> None:
+    """Four low pivot steps turn the body 100 degrees, then a march starts at once: the march's first
+    step rises 12 cm without turning the body, so the turn just before neither vetoes its start nor
+    ends the bout; the pivots stay still. Without the rule the march waits for the turn to leave
+    the 0.7 s window."""
+    pivots = tuple(Swing(i % 2, 1.0 + 0.5 * i, 1.35 + 0.5 * i, peak=0.03) for i in range(4))
+    marching = march(pivots[-1].t1 + 0.05, 8, 0.55, 0.35, peak=0.12)
+    scene = Scene(8.0, pivots + marching)
+    joints, _ = _turned(scene, 25.0, to_step=len(pivots))
+    t = np.arange(len(joints)) / FPS
+    for config in (None, GateConfig(march_lift_m=INF)):
+        labels = _gate_joints(joints, FWD, config)
+        assert (labels[t < pivots[-1].t1] == S).all(), "the turn on the spot is still"
+        start = t[(t > marching[0].t0) & (labels == F)][0] - marching[0].t0
+        if config is None:
+            assert start <= 0.4, f"the march started {start:.2f} s after its first lift-off"
+            assert (labels[(t > marching[0].t0 + 0.4) & (t < marching[-1].t1)] == F).all()
+        else:
+            assert start > 0.4, f"without the rule the march started {start:.2f} s after its first lift-off"
