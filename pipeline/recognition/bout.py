@@ -147,6 +147,15 @@ class GateConfig:
     # step, not a pivot of a turn on the spot: the body's turn just before it (a turn that has ended)
     # neither vetoes its start nor ends its bout (inf: never)
     march_lift_m: float = 0.10
+    # Stepping the network does not know: rhythm_steps alternating steps in a row (left, right, left:
+    # each lift-off within rhythm_gap_s of the other foot's, each swing turning the body less than
+    # rhythm_turn_deg, none a jump or a kick) start a bout even while the network calls them still,
+    # from the last of them (0: never). Such a bout ignores the network's stops and ends when the
+    # next lift-off is later than the person's median rhythm allows; once the network is sure of one
+    # of its steps it is an ordinary bout. A bout the network ended starts the count anew.
+    rhythm_steps: int = 3
+    rhythm_gap_s: float = 1.5
+    rhythm_turn_deg: float = 3.0
 
     def __post_init__(self) -> None:
         if self.rhythm not in RHYTHMS:
@@ -200,6 +209,13 @@ class GateConfig:
             raise ValueError(f"jump_air_s must be >= 0 (inf: never), got {self.jump_air_s}")
         if self.jump_steps < 0:
             raise ValueError(f"jump_steps must be >= 0 (0: never), got {self.jump_steps}")
+        if self.rhythm_steps < 0 or self.rhythm_steps == 1:
+            raise ValueError(f"rhythm_steps must be 0 (never) or >= 2, got {self.rhythm_steps}")
+        if not (self.rhythm_gap_s > 0 and self.rhythm_turn_deg >= 0):
+            raise ValueError(
+                f"rhythm_gap_s must be > 0 and rhythm_turn_deg >= 0, got {self.rhythm_gap_s}, "
+                f"{self.rhythm_turn_deg}"
+            )
         if self.steer_steps < 0:
             raise ValueError(f"steer_steps must be >= 0 (0: never), got {self.steer_steps}")
         if self.side_switch_steps < 1 or self.travel_steps < 1:
@@ -297,6 +313,10 @@ class BoutGate:
         self._first_foot = -1  # the foot of the bout's first landed step
         self._kicked = [False, False]  # the current (or last) swing of each foot raised the leg kick_deg
         self._raised = [0, 0]  # frames in a row each swinging leg has been raised kick_deg
+        self._run: deque[tuple[int, float]] = deque(maxlen=8)  # (foot, lift-off) of alternating steps
+        self._unknown = False  # the bout was started by the rhythm alone: the network does not know it
+        self._vetoed = False  # the network ended a bout of the steps in the current run
+        self._last_run_lift = -math.inf  # lift-off of the newest step counted for a run
         self._unsure_start = math.nan  # lift-off of a bout's first step, started sideways on the network's
         # word before the step showed which way it goes
 
@@ -389,6 +409,34 @@ class BoutGate:
                     self._same = 0
         return self._side
 
+    def _count_rhythm(self, foot: int, lift_t: float, broken: bool) -> None:
+        """A step of ``foot`` that lifted off at ``lift_t`` has landed: it continues the run of
+        alternating steps (the other foot's step lifted ``rhythm_gap_s`` or less before) or starts a
+        new one; a jump, a kick or a swing that turned the body ends the run."""
+        run = self._run
+        if broken:
+            run.clear()
+            return
+        if run and not (run[-1][0] != foot and 0.25 <= lift_t - run[-1][1] <= self.config.rhythm_gap_s):
+            run.clear()
+        if not run and not lift_t - self._last_run_lift <= self.config.rhythm_gap_s:
+            self._vetoed = False  # a new run of steps after a break in the stepping
+        run.append((foot, lift_t))
+        self._last_run_lift = lift_t
+
+    def _continues_rhythm(self, foot: int, turn_deg: float) -> bool:
+        """Foot ``foot``'s swing is the ``rhythm_steps``-th alternating step in a row."""
+        c, run = self.config, self._run
+        if (
+            c.rhythm_steps == 0
+            or self._vetoed
+            or len(run) < c.rhythm_steps - 1
+            or turn_deg > c.rhythm_turn_deg
+        ):
+            return False
+        gap = self._swing_lift[foot] - run[-1][1]
+        return run[-1][0] != foot and 0.25 <= gap <= c.rhythm_gap_s
+
     def _turned(self, frame: StepFrame) -> float:
         """How far (degrees) the body turned within the last ``turn_window_s``, 0 if unknown."""
         if not math.isfinite(frame.yaw_deg):
@@ -430,6 +478,11 @@ class BoutGate:
             self._intervals.clear()
             self._last_lift_t = self._bout_land_t = math.nan
         self._bout_steps = 0
+        self._unknown = False
+        if reason != "rhythm-broke":  # the network (or a jump, a crouch, a turn ...) ended it
+            self._run.clear()
+        if reason == "network-still":  # the network has seen this person step and says stop: no
+            self._vetoed = True  # rhythm of the same stepping overrides it (until a new run of steps)
         return GateVerdict(False, _STILL, reason, evidence, self._allowance(), math.nan)
 
     def update(self, frame: StepFrame, probs: NDArray[np.floating], t: float) -> GateVerdict:
@@ -464,6 +517,7 @@ class BoutGate:
             elif not f.planted and math.isfinite(self._swing_lift[k]):
                 self._swing_maxp[k] = max(self._swing_maxp[k], p_move)
             if f.landed and math.isfinite(self._swing_lift[k]):
+                self._count_rhythm(k, self._swing_lift[k], no_step[k] or abs(f.turn_deg) > c.rhythm_turn_deg)
                 if not no_step[k]:
                     if self._active:
                         landed_steps.append(self._swing_maxp[k])
@@ -537,7 +591,9 @@ class BoutGate:
                 and all(abs(frame.feet[k].sagittal_m) < c.start_travel_m for k in stepping)
             )
             sure = bool(stepping) and max(self._swing_maxp[k] for k in stepping) >= c.start_prob
-            if sure and not turning_in_place:
+            rhythmic = any(self._continues_rhythm(k, abs(turn[k])) for k in stepping)
+            if (sure or rhythmic) and not turning_in_place:
+                self._unknown = not sure
                 self._active = True
                 self._side_t = max(self._swing_lift[k] for k in stepping)  # the bout's first step
                 self._label = self._start_direction(frame, ev, p)
@@ -553,7 +609,9 @@ class BoutGate:
                 reason = "lifting" if swings else "planted"
             return GateVerdict(False, _STILL, reason, ev_name, self._allowance(), math.nan)
         # a bout is on
-        if landed_steps and max(landed_steps) < c.stop_prob:
+        if landed_steps and max(landed_steps) >= c.start_prob:
+            self._unknown = False  # the network knows these steps now
+        if landed_steps and max(landed_steps) < c.stop_prob and not self._unknown:
             return self._end("network-still", ev_name)
         sideways = self._label in (_LEFT, _RIGHT) and self._side != _STILL  # seen stepping sideways
         # a side-step bout turns forward on a landed march step (if the network agrees), not on the
@@ -595,6 +653,11 @@ class BoutGate:
             if t <= deadline + 1e-9:
                 return GateVerdict(True, self._label, "pause", ev_name, self._allowance(), deadline)
         deadline = self._bout_land_t + self._allowance()
+        if self._unknown:  # the rhythm alone: the next lift-off by the person's usual rhythm
+            deadline = self._bout_land_t + self._allowance("median")
+            if t > deadline + 1e-9:
+                return self._end("rhythm-broke", ev_name)
+            return GateVerdict(True, self._label, "pause", ev_name, self._allowance(), deadline)
         if t > deadline + 1e-9:
             if p[_STILL] < c.hold_still_prob and t <= self._bout_land_t + c.max_allowance_s + 1e-9:
                 # late for the rhythm, but the network is sure the bout goes on: a longer pause

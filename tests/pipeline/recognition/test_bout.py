@@ -117,11 +117,45 @@ def test_no_movement_while_the_feet_stay_planted_or_move_together(scene: Scene) 
     assert (labels == S).all(), f"moving in {np.mean(labels != S):.1%} of frames"
 
 
+STILL_NET = np.array([0.95, 0.03, 0.01, 0.01])  # a network sure the person stands still
+
+
 def test_the_network_vetoes_steps_it_does_not_call_movement() -> None:
-    swings = march(1.0, 8, 0.6, 0.35)
-    labels, verdicts, _ = _gate(Scene(7.0, swings), np.array([0.95, 0.03, 0.01, 0.01]))
+    """Two steps the network calls still are no bout; without the rhythm rule, neither is a march."""
+    labels, verdicts, _ = _gate(Scene(4.0, march(1.0, 2, 0.6, 0.35)), STILL_NET)
     assert (labels == S).all()
     assert "network-still" in {v.reason for v in verdicts}
+    labels, _, _ = _gate(Scene(7.0, march(1.0, 8, 0.6, 0.35)), STILL_NET, config=GateConfig(rhythm_steps=0))
+    assert (labels == S).all()
+
+
+def test_a_rhythm_of_alternating_steps_is_a_bout_even_when_the_network_does_not_know_it() -> None:
+    """A low march (the feet rise 5 cm) that the network calls still: from the third alternating
+    step on, the rhythm alone is a forward bout, held through the steps, ended by the person's own
+    rhythm (the network's stops do not apply), and the count starts anew after it."""
+    swings = march(1.0, 8, 0.6, 0.35, peak=0.05)
+    labels, verdicts, _ = _gate(Scene(8.0, swings), STILL_NET)
+    t = np.arange(len(labels)) / FPS
+    third = swings[2]
+    start = t[labels == F][0]
+    assert third.t0 + 0.1 <= start <= third.t0 + 0.35, (
+        f"started at {start:.2f} s, third lift-off {third.t0} s"
+    )
+    assert (labels[(t > third.t0 + 0.35) & (t < swings[-1].t1)] == F).all()
+    assert (labels[t < third.t0] == S).all()
+    stop = t[(t > swings[-1].t1) & (labels == S)][0] - swings[-1].t1
+    # the next lift-off was due 0.6 s after the last one, 0.25 s after its touch-down, + 0.2 s
+    assert stop <= 0.6 - 0.35 + 0.2 + 0.15, f"stopped {stop:.2f} s after the last touch-down"
+    assert {v.reason for v in verdicts if v.active} <= {"stepping", "pause"}
+
+
+@pytest.mark.parametrize("per_step_deg", [10.0, 20.0])
+def test_turning_steps_the_network_calls_still_are_no_rhythm(per_step_deg: float) -> None:
+    """Alternating pivot steps of a turn on the spot (each turning the body) that the network calls
+    still never start a bout, however many there are."""
+    swings = march(1.0, 8, 0.6, 0.35, peak=0.04)
+    joints, _ = _turned(Scene(7.0, swings), per_step_deg)
+    assert (_gate_joints(joints, STILL_NET) == S).all()
 
 
 def test_a_confident_start_then_a_still_network_for_a_whole_swing_ends_the_bout() -> None:
@@ -324,6 +358,8 @@ def test_the_turning_rule_checks_its_settings() -> None:
         {"jump_rise_s": float("nan")},
         {"march_lift_m": 0.0},
         {"march_lift_m": float("nan")},
+        {"rhythm_steps": 1},
+        {"rhythm_gap_s": 0.0},
     ):
         with pytest.raises(ValueError, match=next(iter(bad))):
             GateConfig(**bad)  # type: ignore[arg-type]
