@@ -80,7 +80,7 @@ from pipeline.skeleton import ACTIONS
 _STILL, _FORWARD, _LEFT, _RIGHT = (ACTIONS.index(a) for a in ("still", "forward", "left", "right"))
 RHYTHMS = ("max", "median")
 REASONS = ("planted", "lifting", "stepping", "pause", "rhythm-broke", "jump", "crouched", "pivot",
-           "network-still", "feet-unknown", "not-upright", "kick")  # fmt: skip
+           "network-still", "feet-unknown", "not-upright", "kick", "rhythm")  # fmt: skip
 
 
 @dataclass(frozen=True, slots=True)
@@ -409,6 +409,10 @@ class BoutGate:
                     self._same = 0
         return self._side
 
+    def _moving(self) -> str:
+        """The reason of a bout's stepping frames: ``rhythm`` while the rhythm alone carries it."""
+        return "rhythm" if self._unknown else "stepping"
+
     def _count_rhythm(self, foot: int, lift_t: float, broken: bool) -> None:
         """A step of ``foot`` that lifted off at ``lift_t`` has landed: it continues the run of
         alternating steps (the other foot's step lifted ``rhythm_gap_s`` or less before) or starts a
@@ -600,7 +604,7 @@ class BoutGate:
                 sided = ev in (_LEFT, _RIGHT) or self._label not in (_LEFT, _RIGHT)
                 self._unsure_start = math.nan if sided else self._side_t
                 self._bout_steps = 0  # landed steps of the bout
-                return GateVerdict(True, self._label, "stepping", ev_name, self._allowance(), math.nan)
+                return GateVerdict(True, self._label, self._moving(), ev_name, self._allowance(), math.nan)
             if not all(f.known for f in frame.feet):
                 reason = "feet-unknown"
             elif stepping:
@@ -640,7 +644,7 @@ class BoutGate:
                 if side == ev or self._label not in (_LEFT, _RIGHT):
                     self._label = choose_direction(p, side, c, self._label)
                 # else: the way back of a side step: the bout keeps its side, whatever the network says
-            return GateVerdict(True, self._label, "stepping", ev_name, self._allowance(), math.nan)
+            return GateVerdict(True, self._label, self._moving(), ev_name, self._allowance(), math.nan)
         if math.isnan(self._bout_land_t):
             self._bout_land_t = t
         k = frame.stepping
@@ -657,7 +661,7 @@ class BoutGate:
             deadline = self._bout_land_t + self._allowance("median")
             if t > deadline + 1e-9:
                 return self._end("rhythm-broke", ev_name)
-            return GateVerdict(True, self._label, "pause", ev_name, self._allowance(), deadline)
+            return GateVerdict(True, self._label, "rhythm", ev_name, self._allowance(), deadline)
         if t > deadline + 1e-9:
             if p[_STILL] < c.hold_still_prob and t <= self._bout_land_t + c.max_allowance_s + 1e-9:
                 # late for the rhythm, but the network is sure the bout goes on: a longer pause
