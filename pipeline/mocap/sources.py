@@ -102,15 +102,17 @@ SIM_SETS = {
 SIM_USE = {"still": "train", "still-heldout": "eval"}
 
 
-BLIND_MODELS = ("blind", "blind2")
+BLIND_MODELS = ("blind", "blind2", "blind3")
+OWN_NOISE_MODELS = ("blind2", "blind3")  # their generators add their own capture noise
 
 
 @dataclass(frozen=True, slots=True)
 class BlindSet:
     """A set of an independent motion model's sequences: ``model`` ``blind`` (the third motion model,
-    pipeline.sim.blind) or ``blind2`` (the fourth, pipeline.sim.blind2, whose capture noise is its
-    own: 1.2 cm and 2 % of the joints, so ``noise_m`` and ``dropout`` must stay at those values);
-    how many, how long, seed, noise and dropped joints."""
+    pipeline.sim.blind), ``blind2`` (the fourth, pipeline.sim.blind2) or ``blind3`` (the fifth,
+    pipeline.sim.blind3; blind2's and blind3's capture noise is their own: 1.2 cm and 2 % of the
+    joints, so ``noise_m`` and ``dropout`` must stay at those values); how many, how long, seed,
+    noise and dropped joints."""
 
     count: int
     duration_s: float
@@ -126,9 +128,9 @@ class BlindSet:
             )
         if self.model not in BLIND_MODELS:
             raise InputError(f"a blind set's model is one of {BLIND_MODELS}, got {self.model!r}")
-        if self.model == "blind2" and (self.noise_m, self.dropout) != (0.012, 0.02):
+        if self.model in OWN_NOISE_MODELS and (self.noise_m, self.dropout) != (0.012, 0.02):
             raise InputError(
-                "blind2 sets have their own capture noise (noise_m 0.012, dropout 0.02), "
+                f"{self.model} sets have their own capture noise (noise_m 0.012, dropout 0.02), "
                 f"got {self.noise_m}, {self.dropout}"
             )
 
@@ -137,10 +139,13 @@ class BlindSet:
 BLIND_SETS = {
     "blind-heldout": BlindSet(count=12, duration_s=60.0, seed=4242),
     "blind2-heldout": BlindSet(count=12, duration_s=60.0, seed=2026, model="blind2"),
+    "blind3-heldout": BlindSet(count=12, duration_s=60.0, seed=31337, model="blind3"),
 }
 BLIND_ORIGINS = {
     "blind": "pipeline.sim.blind: a third motion model, written without reading the others",
     "blind2": "pipeline.sim.blind2: a fourth motion model, written without reading the product's code",
+    "blind3": "pipeline.sim.blind3: a fifth motion model (joint angles and forward kinematics), written "
+    "without reading the product's code",
 }
 
 
@@ -249,7 +254,7 @@ def write_gait_set(folder: Path, spec: GaitSet, progress: Callable[[str], None])
 
 def write_blind_set(folder: Path, spec: BlindSet, progress: Callable[[str], None]) -> dict[str, Any]:
     """The set's NPZs in ``folder`` (made again only when the set's settings changed)."""
-    from pipeline.sim import blind, blind2
+    from pipeline.sim import blind, blind2, blind3
 
     stamp: dict[str, Any] = {"count": spec.count, "duration_s": spec.duration_s, "seed": spec.seed,
                              "noise_m": spec.noise_m, "dropout": spec.dropout, "v": 1}  # fmt: skip
@@ -262,6 +267,8 @@ def write_blind_set(folder: Path, spec: BlindSet, progress: Callable[[str], None
     if spec.model == "blind2":
         config = blind2.SetConfig(count=spec.count, seed=spec.seed, duration_s=spec.duration_s)
         paths = blind2.write_set(folder, config)
+    elif spec.model == "blind3":
+        paths = blind3.write_set(folder, spec.count, spec.seed, spec.duration_s)
     else:
         paths = blind.write_set(folder, spec.count, spec.duration_s, spec.seed, spec.noise_m, spec.dropout)
     for path in paths:

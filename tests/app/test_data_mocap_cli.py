@@ -61,6 +61,7 @@ def test_data_sources_writes_one_folder_per_named_source(
         "still-heldout",
         "blind-heldout",
         "blind2-heldout",
+        "blind3-heldout",
     }
     for name, m in manifest.items():
         assert f"{name}={m['dir']}  [{m['use']}]" in res.output
@@ -102,6 +103,11 @@ def test_data_sources_writes_one_folder_per_named_source(
     assert all(len(s) == 360 and s.contacts is not None for s in blind2)  # the fourth motion model
     assert manifest["blind2-heldout"]["settings"]["model"] == "blind2"
     assert "pipeline.sim.blind2" in manifest["blind2-heldout"]["licences"][0]
+    blind3 = from_folder(manifest["blind3-heldout"]["dir"], source="blind3-heldout")
+    assert manifest["blind3-heldout"]["use"] == "eval" and len(blind3) == 2
+    assert all(len(s) == 360 and s.contacts is not None for s in blind3)  # the fifth motion model
+    assert manifest["blind3-heldout"]["settings"]["model"] == "blind3"
+    assert "pipeline.sim.blind3" in manifest["blind3-heldout"]["licences"][0]
     still = from_folder(manifest["still"]["dir"], source="still")
     assert len(still) == 2 and all((s.labels == ACTIONS.index("still")).all() for s in still)
     assert manifest["still"]["frames_per_label"]["still"] == sum(len(s.labels) for s in still)

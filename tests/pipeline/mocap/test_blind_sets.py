@@ -1,5 +1,5 @@
 """The held-out sets of the independent motion models (``pipeline.mocap.sources.BlindSet``): their
-checks, and a blind2 set written, indexed and kept while its settings stay the same."""
+checks, and a blind2 and a blind3 set written, indexed and kept while their settings stay the same."""
 
 from __future__ import annotations
 
@@ -12,12 +12,15 @@ from pipeline.mocap.sources import BLIND_SETS, BlindSet, write_blind_set
 from pipeline.skeleton import load_npz
 
 
-def test_the_sets_name_a_known_model_and_blind2_keeps_its_own_noise() -> None:
-    assert {s.model for s in BLIND_SETS.values()} == {"blind", "blind2"}
+def test_the_sets_name_a_known_model_and_blind2_and_blind3_keep_their_own_noise() -> None:
+    assert {s.model for s in BLIND_SETS.values()} == {"blind", "blind2", "blind3"}
+    assert BLIND_SETS["blind3-heldout"] == BlindSet(count=12, duration_s=60.0, seed=31337, model="blind3")
     with pytest.raises(InputError, match="model is one of"):
-        BlindSet(count=1, duration_s=10.0, seed=1, model="blind3")
-    with pytest.raises(InputError, match="their own capture noise"):
+        BlindSet(count=1, duration_s=10.0, seed=1, model="blind4")
+    with pytest.raises(InputError, match="blind2 sets have their own capture noise"):
         BlindSet(count=1, duration_s=10.0, seed=1, noise_m=0.0, model="blind2")
+    with pytest.raises(InputError, match="blind3 sets have their own capture noise"):
+        BlindSet(count=1, duration_s=10.0, seed=1, dropout=0.0, model="blind3")
     with pytest.raises(InputError, match="count >= 1"):
         BlindSet(count=0, duration_s=10.0, seed=1, model="blind2")
 
@@ -39,3 +42,17 @@ def test_a_blind2_set_is_written_indexed_and_kept(tmp_path: Path) -> None:
     )
     assert [f["file"] for f in other["files"]] == ["blind2_8_00.npz"]  # new settings: made again
     assert not (folder / "blind2_7_00.npz").exists()
+
+
+def test_a_blind3_set_is_written_indexed_and_kept(tmp_path: Path) -> None:
+    folder = tmp_path / "blind3-heldout"
+    spec = BlindSet(count=1, duration_s=8.0, seed=7, model="blind3")
+    index = write_blind_set(folder, spec, progress=lambda _m: None)
+    (entry,) = index["files"]
+    assert entry["file"] == "blind3_7_00.npz" and index["stamp"]["model"] == "blind3"
+    seq = load_npz(folder / entry["file"])
+    assert len(seq) == 240 and seq.fps == 30.0 and seq.contacts is not None
+    assert sum(entry["frames_per_label"].values()) == 240
+    stamp_before = (folder / entry["file"]).stat().st_mtime_ns
+    again = write_blind_set(folder, spec, progress=lambda _m: None)  # same settings: kept
+    assert again == index and (folder / entry["file"]).stat().st_mtime_ns == stamp_before
