@@ -25,34 +25,19 @@ def test_the_sets_name_a_known_model_and_blind2_and_blind3_keep_their_own_noise(
         BlindSet(count=0, duration_s=10.0, seed=1, model="blind2")
 
 
-def test_a_blind2_set_is_written_indexed_and_kept(tmp_path: Path) -> None:
-    folder = tmp_path / "blind2-heldout"
-    spec = BlindSet(count=1, duration_s=8.0, seed=7, model="blind2")
+@pytest.mark.parametrize("model", ["blind2", "blind3"])
+def test_a_set_of_an_own_noise_model_is_written_indexed_and_kept(tmp_path: Path, model: str) -> None:
+    folder = tmp_path / f"{model}-heldout"
+    spec = BlindSet(count=1, duration_s=8.0, seed=7, model=model)
     index = write_blind_set(folder, spec, progress=lambda _m: None)
     (entry,) = index["files"]
-    assert entry["file"] == "blind2_7_00.npz" and index["stamp"]["model"] == "blind2"
-    seq = load_npz(folder / entry["file"])
-    assert len(seq) == 240 and seq.fps == 30.0
-    assert sum(entry["frames_per_label"].values()) == 240
-    stamp_before = (folder / entry["file"]).stat().st_mtime_ns
-    again = write_blind_set(folder, spec, progress=lambda _m: None)  # same settings: kept
-    assert again == index and (folder / entry["file"]).stat().st_mtime_ns == stamp_before
-    other = write_blind_set(
-        folder, BlindSet(count=1, duration_s=8.0, seed=8, model="blind2"), lambda _m: None
-    )
-    assert [f["file"] for f in other["files"]] == ["blind2_8_00.npz"]  # new settings: made again
-    assert not (folder / "blind2_7_00.npz").exists()
-
-
-def test_a_blind3_set_is_written_indexed_and_kept(tmp_path: Path) -> None:
-    folder = tmp_path / "blind3-heldout"
-    spec = BlindSet(count=1, duration_s=8.0, seed=7, model="blind3")
-    index = write_blind_set(folder, spec, progress=lambda _m: None)
-    (entry,) = index["files"]
-    assert entry["file"] == "blind3_7_00.npz" and index["stamp"]["model"] == "blind3"
+    assert entry["file"] == f"{model}_7_00.npz" and index["stamp"]["model"] == model
     seq = load_npz(folder / entry["file"])
     assert len(seq) == 240 and seq.fps == 30.0 and seq.contacts is not None
     assert sum(entry["frames_per_label"].values()) == 240
     stamp_before = (folder / entry["file"]).stat().st_mtime_ns
     again = write_blind_set(folder, spec, progress=lambda _m: None)  # same settings: kept
     assert again == index and (folder / entry["file"]).stat().st_mtime_ns == stamp_before
+    other = write_blind_set(folder, BlindSet(count=1, duration_s=8.0, seed=8, model=model), lambda _m: None)
+    assert [f["file"] for f in other["files"]] == [f"{model}_8_00.npz"]  # new settings: made again
+    assert not (folder / f"{model}_7_00.npz").exists()
