@@ -10,7 +10,12 @@ What a user expects (MODEL_CARD.md, "Behaviour"):
   spot (``start_turn_deg`` within ``turn_window_s`` while the foot has moved less than
   ``start_travel_m`` forward or back), and the network agreeing that it is movement (its smoothed
   probability of moving at least ``start_prob`` at some moment of that swing). Both feet planted,
-  whatever the knees, hips and upper body do, is ``still``.
+  whatever the knees, hips and upper body do, is ``still``. Stepping the network does not know:
+  ``rhythm_steps`` alternating steps in place in a row (none turning the body ``rhythm_turn_deg``,
+  lift-offs within ``rhythm_gap_s``) start a bout without the network (reason ``rhythm``); it
+  ignores the network's stops and ends when the next lift-off is later than the person's median
+  rhythm allows, until the network is sure of one of its steps; after a bout the network ended, the
+  rule waits for a new run of steps.
 - **One command per bout.** Once started, the bout holds through the pauses between its steps:
   after each touch-down the next lift-off is due when the person's own rhythm says (the newest
   lift-off + ``pause_gain`` x the longest, or with ``rhythm="median"`` the median, of their last
@@ -152,7 +157,8 @@ class GateConfig:
     # rhythm_turn_deg, none a jump or a kick) start a bout even while the network calls them still,
     # from the last of them (0: never). Such a bout ignores the network's stops and ends when the
     # next lift-off is later than the person's median rhythm allows; once the network is sure of one
-    # of its steps it is an ordinary bout. A bout the network ended starts the count anew.
+    # of its steps it is an ordinary bout. After a bout the network ended, the rule waits for a new
+    # run of steps (a break longer than rhythm_gap_s).
     rhythm_steps: int = 3
     rhythm_gap_s: float = 1.5
     rhythm_turn_deg: float = 3.0
