@@ -427,7 +427,7 @@ class BoutGate:
         if broken:
             run.clear()
             return
-        if run and not (run[-1][0] != foot and 0.25 <= lift_t - run[-1][1] <= self.config.rhythm_gap_s):
+        if run and not self._follows_run(foot, lift_t):
             run.clear()
         if not run and not lift_t - self._last_run_lift <= self.config.rhythm_gap_s:
             self._vetoed = False  # a new run of steps after a break in the stepping
@@ -444,8 +444,13 @@ class BoutGate:
             or turn_deg > c.rhythm_turn_deg
         ):
             return False
-        gap = self._swing_lift[foot] - run[-1][1]
-        return run[-1][0] != foot and 0.25 <= gap <= c.rhythm_gap_s
+        return self._follows_run(foot, self._swing_lift[foot])
+
+    def _follows_run(self, foot: int, lift_t: float) -> bool:
+        """A step of ``foot`` lifting off at ``lift_t`` follows the run's newest step: the other foot's,
+        lifted 0.25 to ``rhythm_gap_s`` seconds before."""
+        last_foot, last_lift = self._run[-1]
+        return last_foot != foot and 0.25 <= lift_t - last_lift <= self.config.rhythm_gap_s
 
     def _turned(self, frame: StepFrame) -> float:
         """How far (degrees) the body turned within the last ``turn_window_s``, 0 if unknown."""
