@@ -62,6 +62,13 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
         help="augment the training windows (train.augment_windows: speed, legs, step height, lost joints)",
     )
     ap.add_argument(
+        "--arms-still",
+        type=float,
+        default=_T.arms_still,
+        metavar="SHARE",
+        help="share of the training windows whose arms hang still (train.still_arms; 0 to 1, default 0)",
+    )
+    ap.add_argument(
         "--threads", type=int, default=1, help="torch threads (1 is fastest on a busy 2-core machine)"
     )
 
@@ -78,6 +85,7 @@ def train_config(args: argparse.Namespace, features: str) -> TrainConfig:
         threads=args.threads,
         features=features,
         augment=args.augment,
+        arms_still=args.arms_still,
     )
 
 

@@ -115,6 +115,11 @@ class TrainConfig:
     features: str = FEATURES_V2  # v1: joints only; v2: joints + step evidence
     source_power: float = 0.5  # sampling: each source weighs (its frames) ** power
     augment: bool = False  # window augmentation (:func:`augment_windows`): speed, proportions, dropout
+    arms_still: float = 0.0  # share of the stepping windows whose arms hang still (:func:`still_arms`)
+
+    def __post_init__(self) -> None:
+        if not 0.0 <= self.arms_still <= 1.0:
+            raise ValueError(f"arms_still is a share of the windows, 0 to 1; got {self.arms_still}")
 
 
 @dataclass(frozen=True, slots=True)
@@ -366,6 +371,34 @@ def augment_windows(
     return j.astype(np.float32), step
 
 
+_ARMS = [(J["l_shoulder"], (J["l_elbow"], J["l_wrist"])), (J["r_shoulder"], (J["r_elbow"], J["r_wrist"]))]
+_ARM_NOISE_M = 0.006  # the replaced joints' per-frame noise (sigma): about the captures' own
+
+
+def still_arms(
+    joints: NDArray[np.floating], rows: NDArray[np.bool_], rng: np.random.Generator
+) -> NDArray[np.float32]:
+    """Windows (B, T, 17, 3) whose ``rows`` have arms that hang still: each elbow and wrist keeps its
+    window-mean offset from its shoulder (so it follows the trunk's sway, bob and lean) plus capture-like
+    noise. Whether a person swings their arms says nothing about whether they step: a network trained
+    with and without arm swing in both classes has to find the step in the legs."""
+    j = np.array(joints, dtype=np.float32)
+    pick = np.flatnonzero(rows)
+    if pick.size == 0:
+        return j
+    for shoulder, hand in _ARMS:
+        sh = j[pick][:, :, shoulder]  # (b, T, 3)
+        for joint in hand:
+            off = j[pick][:, :, joint] - sh
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)  # a joint never known in its window
+                mean = np.nanmean(off, axis=1, keepdims=True)
+            arm = sh + mean + _ARM_NOISE_M * rng.standard_normal(off.shape).astype(np.float32)
+            arm[np.isnan(off)] = np.nan  # a joint unknown in a frame stays unknown
+            j[pick, :, joint] = arm
+    return j
+
+
 def batch_inputs(
     data: Dataset,
     ends: NDArray[np.int64],
@@ -373,16 +406,23 @@ def batch_inputs(
     features: str = FEATURES_V1,
     rng: np.random.Generator | None = None,
     augment: AugmentConfig | None = None,
+    arms_still: float = 0.0,
 ) -> NDArray[np.float32]:
-    """Model inputs of the windows ending at ``ends``; with ``augment`` (and ``rng``) augmented."""
+    """Model inputs of the windows ending at ``ends``; with ``augment`` (and ``rng``) augmented, and
+    with ``arms_still`` (and ``rng``) that share of the stepping windows (labelled neither still nor
+    ignored) with still arms (:func:`still_arms`): people step without swinging their arms, while
+    the arms of the still windows keep their gestures (a wave is still, whatever the legs do)."""
     speed = step = None
     if augment is not None and rng is not None:
         idx, speed = augmented_index(data, ends, window, rng, augment)
         joints, step = augment_windows(data.joints[idx], rng, augment)
-        feats = window_features(joints, data.fps)
     else:
         idx = _window_index(data, ends, window)
-        feats = window_features(data.joints[idx], data.fps)
+        joints = data.joints[idx]
+    if arms_still > 0.0 and rng is not None:
+        stepping = data.labels[ends] > 0
+        joints = still_arms(joints, stepping & (rng.random(len(ends)) < arms_still), rng)
+    feats = window_features(joints, data.fps)
     if features not in WITH_EVIDENCE:
         return model_input(feats, None, features)
     if data.evidence is None:
@@ -504,7 +544,9 @@ def train_model(
         total = 0.0
         for b in range(steps_per_epoch):
             e = ends[b * config.batch_size : (b + 1) * config.batch_size]
-            x = torch.from_numpy(batch_inputs(train, e, config.window, config.features, aug_rng, augment))
+            x = torch.from_numpy(
+                batch_inputs(train, e, config.window, config.features, aug_rng, augment, config.arms_still)
+            )
             y = torch.from_numpy(train.labels[e])
             opt.zero_grad()
             w = frame_w[torch.from_numpy(e)]

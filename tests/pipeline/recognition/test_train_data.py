@@ -3,17 +3,20 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from pipeline.recognition.features import EVIDENCE_CHANNELS, FEATURES_V2
 from pipeline.recognition.train import (
     AugmentConfig,
     Dataset,
     NoiseConfig,
+    TrainConfig,
     augment_windows,
     augmented_index,
     batch_inputs,
     capture,
     gather_windows,
+    still_arms,
     transition_weights,
     window_ends,
 )
@@ -125,3 +128,52 @@ def test_a_faster_reading_covers_more_source_frames_and_its_evidence_too() -> No
     np.testing.assert_allclose(
         x[0, 17 * 7 + 5], 0.6 / 1.25, rtol=1e-5, err_msg="a swing read faster is shorter"
     )
+
+
+_HANDS = [J["l_elbow"], J["l_wrist"], J["r_elbow"], J["r_wrist"]]
+
+
+def test_still_arms_hang_from_the_shoulders_and_leave_everything_else() -> None:
+    w = np.repeat(_march_windows(), 2, axis=0)  # a march swings the arms
+    w[1, 4:7, J["r_wrist"]] = np.nan
+    swing = np.ptp(w[0, :, J["l_wrist"], 1] - w[0, :, J["l_shoulder"], 1])
+    assert swing > 0.05, f"the simulated march swings its arms ({swing * 100:.1f} cm)"
+    out = still_arms(w, np.array([True, False]), np.random.default_rng(0))
+    np.testing.assert_array_equal(out[1], w[1], err_msg="a window not picked is untouched")
+    others = [j for j in range(17) if j not in _HANDS]
+    np.testing.assert_array_equal(out[0][:, others], w[0][:, others], err_msg="only elbows and wrists move")
+    for hand, shoulder in ((J["l_wrist"], J["l_shoulder"]), (J["r_elbow"], J["r_shoulder"])):
+        off = out[0, :, hand] - out[0, :, shoulder]
+        assert float(np.max(np.std(off, axis=0))) < 0.012, "the arm keeps its place below the shoulder"
+        np.testing.assert_allclose(
+            off.mean(axis=0),
+            (w[0, :, hand] - w[0, :, shoulder]).mean(axis=0),
+            atol=0.005,
+            err_msg="at the window's mean offset",
+        )
+    both = still_arms(w, np.array([True, True]), np.random.default_rng(0))
+    assert np.isnan(both[1, 4:7, J["r_wrist"]]).all() and not np.isnan(both[1, 7:, J["r_wrist"]]).any(), (
+        "an unknown joint stays unknown, a known one stays known"
+    )
+
+
+def test_training_with_still_arms_changes_the_arm_channels_of_that_share_of_stepping_windows() -> None:
+    n = 200
+    joints = np.concatenate([_march_windows()[0]] * 7)[:n]
+    data = Dataset(joints, np.ones(n, np.int64), np.array([0, n]), 30.0)
+    ends = np.full(400, 150)
+    plain = batch_inputs(data, ends, 32)
+    x = batch_inputs(data, ends, 32, rng=np.random.default_rng(1), arms_still=0.5)
+    changed = np.any(np.abs(x - plain) > 1e-4, axis=(1, 2))
+    assert 0.4 < changed.mean() < 0.6, f"{changed.mean():.2f} of the windows changed, not about half"
+    moved = np.any(np.abs(x - plain) > 1e-4, axis=(0, 2)).reshape(17, 7).any(axis=1)
+    assert set(np.flatnonzero(moved)) <= set(_HANDS), "only the arms' channels change"
+    np.testing.assert_array_equal(batch_inputs(data, ends, 32, arms_still=0.5), plain, "no rng: no change")
+    standing = Dataset(joints, np.zeros(n, np.int64), np.array([0, n]), 30.0)
+    np.testing.assert_array_equal(
+        batch_inputs(standing, ends, 32, rng=np.random.default_rng(1), arms_still=1.0),
+        batch_inputs(standing, ends, 32),
+        err_msg="a still window keeps its arms (a wave is still whatever the legs do)",
+    )
+    with pytest.raises(ValueError, match="arms_still"):
+        TrainConfig(arms_still=1.5)
