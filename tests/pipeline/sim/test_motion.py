@@ -323,3 +323,45 @@ def test_turns_on_the_spot_come_in_both_styles_irregular_and_rhythmic_pivot_step
         yaw_turned = (m.yaw_deg[int(4 * FPS)] - m.yaw_deg[int(FPS)] + 180) % 360 - 180
         assert abs(yaw_turned - 150.0) < 5.0, f"the body turned {yaw_turned:.0f} degrees, not 150"
     assert rhythmic >= 3 and irregular >= 3, f"{rhythmic} rhythmic and {irregular} irregular turns of 12"
+
+
+def test_people_march_with_little_or_much_side_sway() -> None:
+    """Some people shift their weight far over the stance foot when they march, others barely
+    (issue 14: pelvis sway); the drawn styles cover both, and the pelvis follows."""
+    shares = np.array([sample_style(np.random.default_rng(i)).weight_shift_frac for i in range(300)])
+    assert shares.min() < 0.15 and shares.max() > 0.75, (shares.min(), shares.max())
+    script = MotionScript(
+        (Segment("forward", 6.0, knee_lift_m=0.05, arm_swing_deg=0.0, cadence_steps_per_s=1.6),)
+    )
+    sway = {}
+    for share in (0.1, 0.8):
+        m = simulate_user(
+            script, body_from_height(1.75), FPS, seed=3, style=MotionStyle(weight_shift_frac=share)
+        )
+        pelvis = 0.5 * (m.joints_m[30:-30, J["l_hip"]] + m.joints_m[30:-30, J["r_hip"]])
+        sway[share] = float(np.std(pelvis[:, 0]))  # the routine faces +Y: x is side to side
+    assert sway[0.1] < 0.012 < 0.03 < sway[0.8], f"pelvis side sway (std) {sway}"
+
+
+def test_some_people_march_with_the_heel_going_back() -> None:
+    """A low march often bends the knee more than the hip: the foot goes back as it rises (the
+    independent motion models march so); the drawn styles include it and the ankle follows."""
+    fracs = np.array([sample_style(np.random.default_rng(i)).forward_ankle_frac for i in range(300)])
+    assert 0.15 < np.mean(fracs < -0.3) < 0.45 and fracs.min() < -1.2 and fracs.max() > 0.5
+    script = MotionScript((Segment("forward", 6.0, knee_lift_m=0.05, arm_swing_deg=0.0),))
+    body = body_from_height(1.75)
+    up = simulate_user(script, body, FPS, seed=3, style=MotionStyle(forward_ankle_frac=0.4))
+    back = simulate_user(script, body, FPS, seed=3, style=MotionStyle(forward_ankle_frac=-1.3))
+
+    def thigh_deg(m: UserMotion) -> float:
+        v = m.joints_m[30:-30, J["l_knee"]] - m.joints_m[30:-30, J["l_hip"]]
+        return float(np.percentile(np.degrees(np.arctan2(np.hypot(v[:, 0], v[:, 1]), -v[:, 2])), 95))
+
+    def ankle_back_m(m: UserMotion) -> float:  # the routine faces +Y
+        y = m.joints_m[30:-30, J["l_ankle"], 1]
+        return float(np.median(y) - y.min())
+
+    assert ankle_back_m(back) > 0.04 > ankle_back_m(up), (ankle_back_m(back), ankle_back_m(up))
+    assert thigh_deg(back) < 18.0 < thigh_deg(up), "the heel goes back with less hip flexion"
+    rises = [float(np.ptp(m.joints_m[30:-30, J["l_ankle"], 2])) for m in (up, back)]
+    assert abs(rises[0] - rises[1]) < 0.01, f"the same rise either way: {rises}"
