@@ -23,9 +23,6 @@ from pipeline.errors import InputError
 F64 = NDArray[np.float64]
 
 HEIGHT_RANGE = (1.40, 2.05)
-# People who march with the heel going back as it rises (knee bent more than the hip: the foot
-# moves back as far as it rises, or further); the others lift it straight up or a little forward.
-HEEL_BACK_SHARE = 0.3
 
 
 @dataclass(frozen=True, slots=True)
@@ -165,8 +162,7 @@ class MotionStyle:
     pelvis follows. march_drift_mps: creeping forward while marching in place.
     toe_out_deg: knee direction outward of straight ahead. blend_s: transition time.
     cadence_drift: relative slow wandering of cadence within a segment.
-    forward_ankle_frac: forward travel of the lifted ankle relative to its rise (negative: the
-    heel goes back).
+    forward_ankle_frac: forward travel of the lifted ankle relative to its rise.
     knee_flex_deg: knee bend when standing.
     """
 
@@ -243,11 +239,11 @@ def sample_style(rng: np.random.Generator) -> MotionStyle:
         toe_out_deg=float(u(0.0, 15.0)),
         blend_s=float(u(0.1, 0.4)),
         cadence_drift=float(u(0.0, 0.06)),
-        forward_ankle_frac=float(u(-1.5, -0.3)) if rng.random() < HEEL_BACK_SHARE else float(u(-0.3, 0.7)),
+        forward_ankle_frac=float(u(-0.3, 0.7)),
         knee_flex_deg=float(u(4.0, 14.0)),
         step_irregularity=float(u(0.0, 0.02)),
         march_slide_m=float(u(-0.03, 0.07)) if rng.random() < 0.4 else 0.0,
-        weight_shift_frac=float(u(0.1, 0.8)),
+        weight_shift_frac=float(u(0.3, 0.8)),
     )
 
 

@@ -82,9 +82,7 @@ BEHAVIOUR_S: dict[str, tuple[float, float]] = {
 
 # Stepping parameter ranges (what issue 14 asks the simulator to cover).
 CADENCE_SPS = (0.5, 2.6)  # in place; 70 % of bouts in the common 1.2-2.4
-KNEE_LIFT_M = (0.03, 0.30)  # marching: 20 % low (LOW_KNEE_LIFT_M), 56 % in the common 0.05-0.22, 24 % any
-LOW_KNEE_LIFT_M = (0.03, 0.07)  # a march that barely lifts the feet (hips flexed some 15-25 degrees)
-LOW_MARCH_SHARE = 0.2
+KNEE_LIFT_M = (0.03, 0.30)  # marching; 70 % in the common 0.05-0.22
 SIDE_LIFT_M = (0.01, 0.20)
 STEP_WIDTH_M = (0.08, 0.45)
 PAUSE_BOUT_PROB = 0.35  # bouts with pauses between steps ...
@@ -125,19 +123,6 @@ def _mostly(rng: np.random.Generator, common: tuple[float, float], full: tuple[f
     return float(rng.uniform(*common)) if rng.random() < 0.7 else float(rng.uniform(*full))
 
 
-def _knee_lift(rng: np.random.Generator) -> float:
-    """A marching bout's knee lift: low, common or anywhere in the range (two draws, like
-    :func:`_mostly`, so the rest of a routine's draws stay where they were)."""
-    r = rng.random()
-    if r < LOW_MARCH_SHARE:
-        return float(rng.uniform(*LOW_KNEE_LIFT_M))
-    return (
-        float(rng.uniform(0.05, 0.22))
-        if r < LOW_MARCH_SHARE + 0.7 * (1 - LOW_MARCH_SHARE)
-        else float(rng.uniform(*KNEE_LIFT_M))
-    )
-
-
 def stepping_kwargs(rng: np.random.Generator, action: str, behaviour: str) -> dict[str, Any]:
     """Segment parameters of one stepping bout (forward / left / right) of ``behaviour``."""
     kw: dict[str, Any] = {"behaviour": behaviour, "blend_s": float(rng.uniform(0.1, 0.4))}
@@ -148,7 +133,7 @@ def stepping_kwargs(rng: np.random.Generator, action: str, behaviour: str) -> di
         return kw
     kw["cadence_steps_per_s"] = _mostly(rng, (1.2, 2.4), CADENCE_SPS)
     if action == "forward":
-        kw["knee_lift_m"] = _knee_lift(rng)
+        kw["knee_lift_m"] = _mostly(rng, (0.05, 0.22), KNEE_LIFT_M)
         kw["arm_swing_deg"] = 0.0 if rng.random() < 0.2 else float(rng.uniform(*ARM_SWING_DEG))
         if rng.random() < 0.25:
             kw["slide_m"] = float(rng.uniform(*SLIDE_M))

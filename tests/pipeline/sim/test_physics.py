@@ -189,8 +189,6 @@ def test_routine_kinds_draw_what_they_say() -> None:
     widths = [s.step_width_m for s in segs if s.step_width_m is not None]
     assert min(cad) < 0.7 and max(cad) > 2.4, "cadence 0.5-2.6 steps/s"
     assert min(lifts) < 0.05 and max(lifts) > 0.26, "knee lift 3-30 cm"
-    low = np.mean(np.array(lifts) < 0.07)
-    assert 0.1 < low < 0.35, f"low marches (feet up under 7 cm) are common, not rare: {low:.0%} of the bouts"
     assert min(widths) < 0.1 and max(widths) > 0.42, "side steps 8-45 cm"
     assert any(s.pause_prob for s in segs) and any(s.arm_swing_deg == 0.0 for s in segs)
 
