@@ -38,6 +38,14 @@ from pipeline.recognition.train import DataConfig, TrainConfig, export_onnx, tra
 _D, _T = DataConfig(), TrainConfig()
 
 
+def share(text: str) -> float:
+    """An argparse type: a share from 0 to 1 (argparse turns the ValueError into one error line)."""
+    value = float(text)
+    if not 0.0 <= value <= 1.0:
+        raise ValueError(text)
+    return value
+
+
 def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--cache", type=Path, default=Path("/tmp/cavewalk-action-cache"))
     ap.add_argument("--source", action="append", help="'sim' or NAME=DIR (repeat); default: sim")
@@ -63,10 +71,10 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     )
     ap.add_argument(
         "--arms-still",
-        type=float,
+        type=share,
         default=_T.arms_still,
         metavar="SHARE",
-        help="share of the training windows whose arms hang still (train.still_arms; 0 to 1, default 0)",
+        help="share of the stepping windows whose arms hang still (train.still_arms; 0 to 1, default 0)",
     )
     ap.add_argument(
         "--threads", type=int, default=1, help="torch threads (1 is fastest on a busy 2-core machine)"

@@ -119,7 +119,7 @@ class TrainConfig:
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.arms_still <= 1.0:
-            raise ValueError(f"arms_still is a share of the windows, 0 to 1; got {self.arms_still}")
+            raise ValueError(f"arms_still is a share of the stepping windows, 0 to 1; got {self.arms_still}")
 
 
 @dataclass(frozen=True, slots=True)

@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -177,3 +181,20 @@ def test_training_with_still_arms_changes_the_arm_channels_of_that_share_of_step
     )
     with pytest.raises(ValueError, match="arms_still"):
         TrainConfig(arms_still=1.5)
+
+
+def test_the_training_script_refuses_a_share_outside_0_to_1(tmp_path: Path) -> None:
+    script = Path(__file__).resolve().parents[3] / "scripts" / "train_action.py"
+    out = tmp_path / "m.onnx"
+    for bad in ("1.5", "-0.1", "half"):
+        done = subprocess.run(
+            [sys.executable, str(script), "--arms-still", bad, "--out", str(out), "--cache", str(tmp_path)],
+            capture_output=True,
+            text=True,
+            check=False,
+        )
+        last = done.stderr.strip().splitlines()[-1]
+        assert done.returncode == 2 and last.endswith(
+            f"error: argument --arms-still: invalid share value: '{bad}'"
+        )
+        assert not out.exists() and list(tmp_path.iterdir()) == [], "nothing written"
