@@ -386,10 +386,11 @@ def still_arms(
     pick = np.flatnonzero(rows)
     if pick.size == 0:
         return j
+    sel = j[pick]  # the picked windows, read once (only elbows and wrists are written below)
     for shoulder, hand in _ARMS:
-        sh = j[pick][:, :, shoulder]  # (b, T, 3)
+        sh = sel[:, :, shoulder]  # (b, T, 3)
         for joint in hand:
-            off = j[pick][:, :, joint] - sh
+            off = sel[:, :, joint] - sh
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", RuntimeWarning)  # a joint never known in its window
                 mean = np.nanmean(off, axis=1, keepdims=True)
