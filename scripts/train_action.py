@@ -2,14 +2,16 @@
 """Train the skeleton SlowFast action model on labelled sequences from several sources; export ONNX.
 
     .venv/bin/python scripts/train_action.py                                  # our simulator only
-    .venv/bin/python scripts/train_action.py --source sim --source gait=DIR --source mocap=DIR
+    .venv/bin/python scripts/train_action.py --source sim --source gait --source blind@60 --source mocap=DIR
     .venv/bin/python scripts/train_action.py --sequences 40 --epochs 2 --out /tmp/a.onnx   # a quick try
 
-Sources: ``sim`` (our simulator's random routines, ``--sequences`` of ``--duration`` s) or
-``NAME=DIR`` (every labelled SPEC NPZ under DIR: the still-behaviour library, the second motion
-model, converted real motion capture...), prepared by :mod:`pipeline.recognition.prepare`
-(30 fps, mirrored, ``--warp NAME`` sources also at 0.85x / 1.15x, captured through the simulated
-CAVE cameras and our triangulation, step evidence from the run-time tracker; cached in --cache).
+Sources: ``sim`` (our simulator's random routines, ``--sequences`` of ``--duration`` s), ``gait``,
+``blind`` and ``blind2`` (the second, third and fourth motion models, other seeds than their held-out
+sets; the fifth, ``blind3``, is never trained on) or ``NAME=DIR`` (every labelled SPEC NPZ under
+DIR: the still-behaviour library, converted real motion capture...), prepared by
+:mod:`pipeline.recognition.prepare` (30 fps, mirrored, ``--warp NAME`` sources also at 0.85x /
+1.15x, captured through the simulated CAVE cameras and our triangulation, step evidence from the
+run-time tracker; cached in --cache).
 Windows are drawn with each source weighing (its frames) ** 0.5. Needs the ``train`` extra
 (torch, onnx). Deterministic for a seed. ``--members N`` trains N networks, the k-th with seed
 ``--seed`` + k for its data draw and its weights, and writes their ensemble (the mean of their
@@ -31,6 +33,7 @@ sys.path.insert(0, str(ROOT))
 
 import numpy as np  # noqa: E402
 
+from pipeline.errors import InputError  # noqa: E402
 from pipeline.recognition.features import FEATURE_CHANNELS, FEATURES_V2  # noqa: E402
 from pipeline.recognition.prepare import SourceSpec, prepare_corpus, split_items, to_dataset  # noqa: E402
 from pipeline.recognition.train import DataConfig, TrainConfig, export_onnx, train_model  # noqa: E402
@@ -46,9 +49,23 @@ def share(text: str) -> float:
     return value
 
 
+def source_spec(text: str) -> SourceSpec:
+    """An argparse type: a ``--source`` (a bad one is one argparse error line, exit 2)."""
+    try:
+        return SourceSpec.parse(text)
+    except InputError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from exc
+
+
 def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--cache", type=Path, default=Path("/tmp/cavewalk-action-cache"))
-    ap.add_argument("--source", action="append", help="'sim' or NAME=DIR (repeat); default: sim")
+    ap.add_argument(
+        "--source",
+        action="append",
+        type=source_spec,
+        help="'sim', 'gait', 'blind', 'blind2', NAME=sim:KINDS or NAME=DIR, each generator with @COUNT "
+        "(repeat); default: sim",
+    )
     ap.add_argument("--warp", action="append", default=[], help="source NAME also played at 0.85x and 1.15x")
     ap.add_argument("--sequences", type=int, default=_D.sequences, help="simulated routines (source sim)")
     ap.add_argument("--duration", type=float, default=_D.duration_s, help="seconds per simulated routine")
@@ -115,7 +132,7 @@ def main() -> int:
         print(msg, flush=True)
 
     t0 = time.monotonic()
-    sources = [SourceSpec.parse(s) for s in (args.source or ["sim"])]
+    sources = args.source or [SourceSpec.parse("sim")]
     sources = [replace(s, warp=s.name in args.warp) for s in sources]
     if args.members < 1:
         raise SystemExit(f"error: --members must be at least 1, got {args.members}")

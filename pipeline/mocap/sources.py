@@ -16,7 +16,8 @@ Layout, under ``<cache_dir>/data/sources/``::
     blind-heldout/*.npz     the third motion model (pipeline.sim.blind, written without reading the
                             other two): marching, side steps out-and-back / step-touch / shuffle,
                             standing behaviours and pivot turns, 1.2 cm noise, 2 % dropped joints,
-                            bodies 1.48-1.98 m (evaluation only, never trained or tuned on)
+                            bodies 1.48-1.98 m (evaluation only; the action model trains on other
+                            seeds of its generator)
 
 ``use``: ``train`` (may be trained on and held out by leave-one-source-out), or ``eval``
 (held-out evaluation only: never pass it to ``train_action.py``). A source folder never mixes
@@ -135,7 +136,8 @@ class BlindSet:
             )
 
 
-# held-out evaluation only: never trained on
+# held-out evaluation only: never trained on (blind3 is never trained on at all; blind and blind2
+# train with other seeds: corpus.independent_model)
 BLIND_SETS = {
     "blind-heldout": BlindSet(count=12, duration_s=60.0, seed=4242),
     "blind2-heldout": BlindSet(count=12, duration_s=60.0, seed=2026, model="blind2"),

@@ -3,6 +3,8 @@
 Sources (each a list of :class:`~pipeline.recognition.dataset.LabelledSequence`, clean, any fps):
 
 - ``sim``: our own simulator's random routines (``pipeline.sim``);
+- ``gait``: the second motion model's routines (:func:`gait_model`); ``blind`` and ``blind2``: the
+  third and fourth (:func:`independent_model`, other seeds than their held-out sets);
 - any folder of labelled SPEC NPZ files (the still-behaviour library, the second motion model,
   converted real motion capture, recorded takes): :func:`from_folder`, the source named by the
   files' ``source`` or by the folder.
@@ -16,6 +18,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable, Iterable
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -148,6 +151,53 @@ def gait_model(
         if progress is not None and ((i + 1) % 10 == 0 or i + 1 == count):
             progress(f"{source}: generated {i + 1}/{count} routines")
     return out
+
+
+# Independent motion models that train (other seeds than their held-out sets); blind3 stays
+# evaluation only, the one motion model no network of ours has been trained on.
+INDEPENDENT_MODELS = ("blind", "blind2")
+HELD_OUT_SEEDS = {"blind": 4242, "blind2": 2026}  # the seeds of the blind-heldout / blind2-heldout sets
+
+
+def independent_model(
+    model: str,
+    count: int,
+    duration_s: float,
+    seed: int,
+    progress: Callable[[str], None] | None = None,
+    source: str | None = None,
+) -> list[LabelledSequence]:
+    """Clean sequences (no noise, no lost joints: the training capture adds its own) of the third
+    (``blind``, :mod:`pipeline.sim.blind`) or fourth (``blind2``, :mod:`pipeline.sim.blind2`) motion
+    model, drawn from a seed derived from ``seed`` (never their held-out sets' seeds), read back
+    through their NPZ files exactly as a folder source; named ``{source}-{seed}-{i}``."""
+    import tempfile
+
+    if model not in INDEPENDENT_MODELS:
+        raise InputError(f"an independent motion model is one of {INDEPENDENT_MODELS}, got {model!r}")
+    source = source or model
+    tag = 0xB1 if model == "blind" else 0xB2
+    model_seed = int(np.random.SeedSequence([int(seed), tag]).generate_state(1)[0])
+    if model_seed == HELD_OUT_SEEDS[model]:  # (a 1 in 4e9 draw; the held-out set must stay unseen)
+        model_seed += 1
+    with tempfile.TemporaryDirectory(prefix=f"cavewalk-{model}-") as tmp:
+        if model == "blind":
+            from pipeline.sim import blind
+
+            blind.write_set(tmp, count, duration_s, model_seed, noise_m=0.0, dropout=0.0)
+        else:
+            from pipeline.sim.blind2.generate import SetConfig, generate_set, save_set
+
+            config = SetConfig(count=count, seed=model_seed, duration_s=duration_s)
+            clean = [replace(g, joints_m=g.clean.joints_m.astype(np.float32)) for g in generate_set(config)]
+            save_set(tmp, clean, model_seed)
+        seqs = from_folder(tmp, source=source)
+    if progress is not None:
+        progress(f"{source}: generated {len(seqs)} routines of {model} (seed {model_seed})")
+    return [
+        LabelledSequence(s.joints_m, s.fps, s.labels, s.tags, s.contacts, source, f"{source}-{seed}-{i:04d}")
+        for i, s in enumerate(seqs)
+    ]
 
 
 def from_skeleton(seq: SkeletonSequence, source: str, name: str) -> LabelledSequence:

@@ -35,7 +35,7 @@ _NOT_IN_EVIDENCE = ("max_tilt_deg",)  # step settings the evidence channels do n
 WARP_SPEEDS = (0.85, 1.0, 1.15)
 
 
-GENERATORS = ("sim", "gait")
+GENERATORS = ("sim", "gait", *corpus.INDEPENDENT_MODELS)
 DEFAULT_SIM_KINDS = ("stepping",)
 
 
@@ -45,14 +45,15 @@ class SourceSpec:
 
     Forms of :meth:`parse`: ``sim`` (our simulator's stepping routines), ``NAME=sim:KIND+KIND``
     (routines of those kinds, e.g. ``still=sim:still``), ``gait`` / ``NAME=gait`` (the second
-    motion model), any of them with ``@COUNT`` (routines; default the command's ``--sequences``),
-    or ``NAME=DIR`` (every labelled NPZ under DIR).
+    motion model), ``blind`` / ``blind2`` / ``NAME=blind`` / ``NAME=blind2`` (the third and fourth
+    motion models, clean, other seeds than their held-out sets), any of them with ``@COUNT``
+    (routines; default the command's ``--sequences``), or ``NAME=DIR`` (every labelled NPZ under DIR).
     """
 
     name: str
     folder: Path | None = None
     warp: bool = False  # also played at 0.85x and 1.15x (recordings with few cadences)
-    generator: str = ""  # "sim" or "gait" when folder is None
+    generator: str = ""  # one of GENERATORS when folder is None
     kinds: tuple[str, ...] = ()
     count: int | None = None
 
@@ -73,10 +74,11 @@ class SourceSpec:
         name, sep, rest = body.partition("=")
         if not sep or not name or not rest:
             raise InputError(
-                f"a source is 'sim', 'gait', NAME=sim:KINDS, NAME=gait or NAME=DIR, got {text!r}"
+                f"a source is 'sim', 'gait', 'blind', 'blind2', NAME=sim:KINDS, NAME=gait, "
+                f"NAME=blind, NAME=blind2 or NAME=DIR, got {text!r}"
             )
-        if rest == "gait":
-            return cls(name, None, warp, "gait", (), count)
+        if rest in GENERATORS and rest != "sim":
+            return cls(name, None, warp, rest, (), count)
         if rest.startswith("sim:") or rest == "sim":
             from pipeline.sim.ranges import ROUTINE_KINDS
 
@@ -125,6 +127,10 @@ def clean_sequences(
         speeds: tuple[float, ...] = (1.0,)
         if src.folder is None and src.generator == "gait":
             base = corpus.gait_model(n_gen, sim_duration_s, FPS, seed, progress=progress, source=src.name)
+        elif src.folder is None and src.generator in corpus.INDEPENDENT_MODELS:
+            base = corpus.independent_model(
+                src.generator, n_gen, sim_duration_s, seed, progress=progress, source=src.name
+            )
         elif src.folder is None:
             kinds = src.kinds or DEFAULT_SIM_KINDS
             base = corpus.simulated(

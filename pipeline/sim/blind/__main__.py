@@ -17,7 +17,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(
         prog="python -m pipeline.sim.blind",
         description="Write skeleton NPZ files from the blind generator "
-        "(held-out evaluation data; never train on it).",
+        "(the default seed is the held-out set: never train on it).",
     )
     ap.add_argument("out_dir", type=Path, help="folder for the NPZ files")
     ap.add_argument("--count", type=int, default=12, help="number of people / sequences (default 12)")

@@ -1,4 +1,4 @@
-"""blind2: held-out synthetic CAVE stepping data. Held-out evaluation data only: never train on it.
+"""blind2: synthetic CAVE stepping data from a fourth motion model; its held-out set is never trained on.
 
 An independent generator of labelled COCO-17 3D skeleton sequences, written from first principles
 without the product's code, tests, docs or data, and independently of its motion models
@@ -6,7 +6,8 @@ without the product's code, tests, docs or data, and independently of its motion
 side-steps, pauses, makes gestures and turns on the spot; every frame is labelled ``still``,
 ``forward``, ``left`` or ``right``, tagged with what the person does, and has ground-truth foot
 contacts. The default set (seed 2026, 12 files of 60 s at 30 fps) is the ``blind2-heldout``
-source.
+source (evaluation only); since 2026-12-05 the action model trains on other seeds of it
+(``scripts/train_action.py --source blind2``).
 
 Modules: ``body`` (the person), ``feet`` (foot events and ankle paths), ``stepping`` (marching and
 side-step bouts), ``behaviours`` (still behaviours and turns), ``script`` (the plan and the label

@@ -1,6 +1,7 @@
 """``python -m pipeline.sim.blind2 OUT_DIR [--count N] [--seed S] [--summary]``: write the blind2 set.
 
-Held-out evaluation data for the action recogniser: never train on it. Its generator was written
+Held-out evaluation data for the action recogniser (the default seed: never train on it; the
+action model trains on other seeds, ``--source blind2``). Its generator was written
 independently of the product's motion models. The default set (seed 2026, 12 sequences of 60 s)
 is the ``blind2-heldout`` source.
 """
@@ -47,8 +48,8 @@ def _summary(sequences: list[Generated]) -> list[str]:
 def main(argv: list[str] | None = None) -> int:
     ap = _Parser(
         prog="python -m pipeline.sim.blind2",
-        description="Write skeleton NPZ files from the blind2 generator (held-out evaluation data; "
-        "never train on it; written independently of the product's motion models).",
+        description="Write skeleton NPZ files from the blind2 generator (the default seed is the "
+        "held-out set: never train on it; written independently of the product's motion models).",
     )
     ap.add_argument("out_dir", type=Path, help="folder for the NPZ files")
     ap.add_argument(

@@ -198,3 +198,46 @@ def test_the_training_script_refuses_a_share_outside_0_to_1(tmp_path: Path) -> N
             f"error: argument --arms-still: invalid share value: '{bad}'"
         )
         assert not out.exists() and list(tmp_path.iterdir()) == [], "nothing written"
+
+
+def test_the_third_and_fourth_motion_models_train_from_other_seeds_than_their_held_out_sets() -> None:
+    from pipeline.errors import InputError
+    from pipeline.mocap.sources import BLIND_SETS
+    from pipeline.recognition import corpus
+    from pipeline.recognition.prepare import SourceSpec
+    from pipeline.skeleton import ACTIONS
+
+    spec = SourceSpec.parse("b=blind2@3")
+    assert (spec.name, spec.generator, spec.count, spec.folder) == ("b", "blind2", 3, None)
+    assert SourceSpec.parse("blind").generator == "blind"
+    held = {s.model: s.seed for s in BLIND_SETS.values()}
+    assert {m: held[m] for m in corpus.INDEPENDENT_MODELS} == corpus.HELD_OUT_SEEDS
+    for model in corpus.INDEPENDENT_MODELS:
+        a = corpus.independent_model(model, 2, 8.0, seed=0)
+        again = corpus.independent_model(model, 2, 8.0, seed=0)
+        other = corpus.independent_model(model, 2, 8.0, seed=1)
+        assert [s.name for s in a] == [f"{model}-0-0000", f"{model}-0-0001"]
+        assert all(s.source == model and s.joints_m.shape == (240, 17, 3) for s in a)
+        assert not any(np.isnan(s.joints_m).any() for s in a), "clean: the training capture adds the faults"
+        moving = np.concatenate([s.labels for s in a])
+        assert set(np.unique(moving)) & {ACTIONS.index(x) for x in ("forward", "left", "right")}
+        assert all(np.array_equal(x.joints_m, y.joints_m) for x, y in zip(a, again, strict=True))
+        assert not np.allclose(a[0].joints_m, other[0].joints_m), "each member seed draws other people"
+    with pytest.raises(InputError, match="independent motion model"):
+        corpus.independent_model("blind3", 1, 8.0, seed=0)  # the fifth stays evaluation only
+
+
+@pytest.mark.parametrize("bad", ["blind3", "b=blind3@2", "sim@0", "x=sim:nope"])
+def test_the_training_script_refuses_a_bad_source_with_one_error_line(tmp_path: Path, bad: str) -> None:
+    script = Path(__file__).resolve().parents[3] / "scripts" / "train_action.py"
+    out = tmp_path / "m.onnx"
+    done = subprocess.run(
+        [sys.executable, str(script), "--source", bad, "--out", str(out), "--cache", str(tmp_path)],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    lines = done.stderr.strip().splitlines()
+    assert done.returncode == 2 and "Traceback" not in done.stderr
+    assert lines[-1].startswith("train_action.py: error: argument --source: "), lines[-1]
+    assert not out.exists() and list(tmp_path.iterdir()) == [], "nothing written"
