@@ -162,6 +162,10 @@ class GateConfig:
     rhythm_steps: int = 3
     rhythm_gap_s: float = 1.5
     rhythm_turn_deg: float = 3.0
+    # a "swing" longer than this is no march step (the tracker missed a landing in between: a side
+    # step out, a pause with the foot out, and back): neither while up nor when it lands where it
+    # left does it turn a side-step bout forward (inf: any)
+    max_step_swing_s: float = 1.0
 
     def __post_init__(self) -> None:
         if self.rhythm not in RHYTHMS:
@@ -514,6 +518,7 @@ class BoutGate:
         jump = [self._jump(frame, k) for k in (0, 1)]
         no_step = [jump[k] or self._kicked[k] for k in (0, 1)]  # swings that are not steps
         landed_steps: list[float] = []  # max p(moving) of bout swings that ended now
+        long_landed = False  # a swing that ended now lasted longer than a step's (max_step_swing_s)
         for k, f in enumerate(frame.feet):
             if f.lifted:
                 gap = f.event_t - self._last_lift_t if math.isfinite(self._last_lift_t) else math.inf
@@ -532,6 +537,7 @@ class BoutGate:
             elif not f.planted and math.isfinite(self._swing_lift[k]):
                 self._swing_maxp[k] = max(self._swing_maxp[k], p_move)
             if f.landed and math.isfinite(self._swing_lift[k]):
+                long_landed = long_landed or f.event_t - self._swing_lift[k] > c.max_step_swing_s
                 self._count_rhythm(k, self._swing_lift[k], no_step[k] or abs(f.turn_deg) > c.rhythm_turn_deg)
                 if not no_step[k]:
                     if self._active:
@@ -633,13 +639,19 @@ class BoutGate:
         # rising start of a side step, nor while the other foot steps sideways
         landed = [f.kind for f in frame.feet if f.landed]
         sideways_swing = any(not f.planted and f.kind in SIDEWAYS_KINDS for f in frame.feet)
-        march_landed = bool(landed) and all(k in ("vertical", "forward") for k in landed)
+        march_landed = bool(landed) and all(k in ("vertical", "forward") for k in landed) and not long_landed
         if sideways and march_landed and not sideways_swing and choose_direction(p, _FORWARD, c) == _FORWARD:
             self._label = _FORWARD
         if swings:
             k = frame.stepping
-            if sideways and ev == _FORWARD and k >= 0 and frame.feet[k].swing_s >= c.march_confirm_s:
+            if (
+                sideways
+                and ev == _FORWARD
+                and k >= 0
+                and c.march_confirm_s <= frame.feet[k].swing_s <= c.max_step_swing_s
+            ):
                 # a foot up this long without moving sideways is a march step, not a side step's rise
+                # (up longer than a step's swing, it is the tracker missing a landing: no march step)
                 if choose_direction(p, _FORWARD, c) == _FORWARD:
                     self._label = _FORWARD
             elif (

@@ -4,11 +4,13 @@ stay planted, jumps, crouches, the network's veto, and the direction from the ev
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
 from pipeline.recognition.bout import BoutGate, GateConfig, choose_direction
-from pipeline.recognition.steps import StepTracker
+from pipeline.recognition.steps import FootState, StepFrame, StepTracker
 from pipeline.skeleton import ACTIONS
 
 from .kinematic import ANKLES, Scene, Swing, kick, march, noisy, render
@@ -628,3 +630,51 @@ def test_a_march_right_after_a_turn_on_the_spot_starts_with_its_first_high_step(
             assert (labels[(t > marching[0].t0 + 0.4) & (t < marching[-1].t1)] == F).all()
         else:
             assert start > 0.4, f"without the rule the march started {start:.2f} s after its first lift-off"
+
+
+def _frames(events: list[tuple[float, float, str]], until: float) -> list[StepFrame]:
+    """Step frames of the right foot's swings (lift-off, touch-down, kind at touch-down; moving
+    sideways to the right while up unless the kind says otherwise), the left foot planted."""
+    out = []
+    kind, lift, land = "none", math.nan, math.nan
+    for i in range(round(until * FPS)):
+        t = i / FPS
+        up = next(((a, b, k) for a, b, k in events if a <= t < b), None)
+        lifted = up is not None and abs(t - up[0]) < 0.5 / FPS
+        landed = any(abs(t - b) < 0.5 / FPS for _, b, _ in events)
+        if lifted and up is not None:
+            lift = up[0]
+        if landed:
+            land = t
+            kind = next(k for _, b, k in events if abs(t - b) < 0.5 / FPS)
+        elif up is not None:
+            kind = "open" if up[2] == "open" or t - up[0] < 0.3 else "vertical"
+        right = FootState(
+            True, up is None, False, lifted, landed, t, 0.05 if up is not None else 0.0,
+            t - up[0] if up is not None else 0.0, 0.2 if kind == "open" else 0.0, 0.0, 0.05, kind, False,
+        )  # fmt: skip
+        left = FootState(True, True, False, False, False, math.nan, 0.0, 0.0, 0.0, 0.0, 0.0, "none", False)
+        out.append(StepFrame(t, (left, right), 0.9, False, 1.0, 1 if math.isfinite(lift) else -1, lift, land))
+    return out
+
+
+def test_a_swing_too_long_for_a_step_does_not_turn_a_side_bout_forward() -> None:
+    """Side steps to the right, then the right foot read as off the floor for 1.4 s, landing where it
+    left (the tracker missed the landing of a step out between: out, a pause, back) while the network
+    wavers towards forward: that "swing" is no march step and the bout stays right; with any swing
+    counting as a step, the march-step rule turns the bout forward there."""
+    events = [(1.0, 1.4, "open"), (1.6, 2.0, "open"), (2.2, 3.6, "vertical"), (3.7, 4.1, "open")]
+    frames = _frames(events, 4.5)
+    wavering = np.array([0.05, 0.2, 0.23, 0.52])  # forward x evidence_weight beats right
+    probs = [wavering if 3.4 <= f.t < 3.7 else RIGHT for f in frames]
+    for config, want_forward in ((GateConfig(), False), (GateConfig(max_step_swing_s=float("inf")), True)):
+        gate = BoutGate(config)
+        verdicts = [gate.update(f, p, f.t) for f, p in zip(frames, probs, strict=True)]
+        labels = np.array([v.label for v in verdicts])
+        t = np.array([f.t for f in frames])
+        assert verdicts[round(3.6 * FPS)].evidence == "forward", "the long swing landed as a vertical step"
+        bout = labels[(t > 1.2) & (t < 4.1)]
+        assert (bout != S).all(), f"one bout: {np.bincount(bout, minlength=4)}"
+        assert (bout == F).any() == want_forward, (
+            f"{config.max_step_swing_s}: {np.bincount(bout, minlength=4)}"
+        )
