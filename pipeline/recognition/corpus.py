@@ -156,7 +156,19 @@ def gait_model(
 # Independent motion models that train (other seeds than their held-out sets); blind3 stays
 # evaluation only, the one motion model no network of ours has been trained on.
 INDEPENDENT_MODELS = ("blind", "blind2")
-HELD_OUT_SEEDS = {"blind": 4242, "blind2": 2026}  # the seeds of the blind-heldout / blind2-heldout sets
+
+
+def training_seed(model: str, seed: int) -> int:
+    """The seed of ``model``'s training sequences for a network's ``seed``: drawn from it, and never
+    a seed of ``model``'s held-out sets (``pipeline.mocap.sources.BLIND_SETS``)."""
+    from pipeline.mocap.sources import BLIND_SETS
+
+    held = {s.seed for s in BLIND_SETS.values() if s.model == model}
+    tag = 0xB1 if model == "blind" else 0xB2
+    out = int(np.random.SeedSequence([int(seed), tag]).generate_state(1)[0])
+    while out in held:  # (a 1 in 4e9 draw; the held-out set must stay unseen)
+        out += 1
+    return out
 
 
 def independent_model(
@@ -176,10 +188,7 @@ def independent_model(
     if model not in INDEPENDENT_MODELS:
         raise InputError(f"an independent motion model is one of {INDEPENDENT_MODELS}, got {model!r}")
     source = source or model
-    tag = 0xB1 if model == "blind" else 0xB2
-    model_seed = int(np.random.SeedSequence([int(seed), tag]).generate_state(1)[0])
-    if model_seed == HELD_OUT_SEEDS[model]:  # (a 1 in 4e9 draw; the held-out set must stay unseen)
-        model_seed += 1
+    model_seed = training_seed(model, seed)
     with tempfile.TemporaryDirectory(prefix=f"cavewalk-{model}-") as tmp:
         if model == "blind":
             from pipeline.sim import blind
