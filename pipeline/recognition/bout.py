@@ -62,9 +62,14 @@ What a user expects (MODEL_CARD.md, "Behaviour"):
   when it started sideways on the network's word before the foot moved sideways: the start's
   direction is read again once the first step shows its side); ``side_switch_steps`` of them in a
   row turn the bout to that side, and so does one after ``travel_steps`` opening steps the same way
-  in a row (travelling sideways); a march step (a foot up ``march_confirm_s`` without moving
-  sideways, or landed so) turns a side-step bout forward if the network agrees and no foot steps
-  sideways.
+  in a row (travelling sideways). Stepping in place comes back to its place: an opening step to the
+  other side by a foot that stands more than ``way_back_m`` out to the bout's side of where its side
+  steps began (the landed lateral displacements added up) is the way back home, however many come
+  in a row (a shuffle or a step-together returning); once the feet are home, the next one turns the
+  bout; and if the same foot steps back again (it stepped out to the other side and back, after
+  side steps that travelled) the bout turns to that side then. A march step (a foot up
+  ``march_confirm_s`` without moving sideways, or landed so) turns a side-step bout forward if the
+  network agrees and no foot steps sideways (and makes the place of the march the side steps' home).
 
 :class:`BoutGate` is streaming; it holds only what it needs (times of the bout's steps).
 """
@@ -166,6 +171,11 @@ class GateConfig:
     # step out, a pause with the foot out, and back): neither while up nor when it lands where it
     # left does it turn a side-step bout forward (inf: any)
     max_step_swing_s: float = 1.0
+    # an opening step to the other side by a foot that stands more than way_back_m out to the bout's
+    # side of where the bout's side steps began (the feet's landed lateral displacements added up) is
+    # the way back home, however many of them come in a row (a shuffle or a step-together returning
+    # to its place); only a step beyond home counts towards a new direction (inf: never)
+    way_back_m: float = 0.05
 
     def __post_init__(self) -> None:
         if self.rhythm not in RHYTHMS:
@@ -198,8 +208,9 @@ class GateConfig:
                 f"min_allowance_s ({self.min_allowance_s}) must not exceed "
                 f"max_allowance_s ({self.max_allowance_s})"
             )
-        if not self.slide_step_m >= 0:
-            raise ValueError(f"slide_step_m must be >= 0 (inf: never), got {self.slide_step_m}")
+        for name in ("slide_step_m", "way_back_m"):
+            if not getattr(self, name) >= 0:
+                raise ValueError(f"{name} must be >= 0 (inf: never), got {getattr(self, name)}")
         if not (self.start_turn_deg > 0 and self.start_travel_m >= 0):
             raise ValueError(
                 f"start_turn_deg must be > 0 (inf: never) and start_travel_m >= 0, got "
@@ -315,6 +326,8 @@ class BoutGate:
         self._opposite = 0  # opening steps to the other side since, in a row
         self._same = 0  # opening steps to the bout's side in a row
         self._side_t = -math.inf  # when the bout's newest step was seen (the side is kept that long)
+        self._home = [0.0, 0.0]  # each foot's lateral place (m, +right) since the side was set
+        self._homing = (-1, math.nan)  # (foot, lift-off) of the newest step read as the way back home
         self._yaws: deque[tuple[float, float]] = deque()  # (t, body yaw in degrees) over turn_window_s
         self._lift_yaw = [math.nan, math.nan]  # body yaw at each foot's newest lift-off (unwrapped)
         self._last_turn = [0.0, 0.0]  # the body's turn during each foot's current or last swing
@@ -407,17 +420,44 @@ class BoutGate:
         if lift != self._side_lift:  # a new opening step
             self._side_lift = lift
             if self._side == _STILL or ev == self._side:
+                if ev != self._side:
+                    self._home = [0.0, 0.0]  # the bout's side steps begin here
                 self._same = self._same + 1 if ev == self._side else 1
                 self._side, self._opposite = ev, 0
+            elif (1.0 if self._side == _RIGHT else -1.0) * self._home[
+                frame.stepping
+            ] > self.config.way_back_m:
+                # the foot is out to the bout's side: on its way back home (counted as a step to the
+                # other side: once home, the next one there turns the bout)
+                self._same, self._opposite = 0, self._opposite + 1
+                self._homing = (frame.stepping, lift)
             else:
                 self._opposite += 1
                 # after several steps the same way (travelling sideways) a step the other way is a
                 # new direction; after one it may be the way back
                 if self._opposite >= self.config.side_switch_steps or self._same >= self.config.travel_steps:
                     self._side, self._opposite, self._same = ev, 0, 1
+                    self._home = [0.0, 0.0]
                 else:  # the way back: the next step out starts a new run
                     self._same = 0
         return self._side
+
+    def _check_homing(self, frame: StepFrame) -> None:
+        """A step read as the way back home (``way_back_m``) is confirmed once the other foot steps;
+        if the same foot steps back instead (a closing step), it was a step out to the other side and
+        back: the bout turns to that side."""
+        k, lift = self._homing
+        if k < 0:
+            return
+        f, other = frame.feet[k], frame.feet[1 - k]
+        if other.lifted:
+            self._homing = (-1, math.nan)
+        elif not f.planted and self._swing_lift[k] != lift and f.kind == "close":
+            self._homing = (-1, math.nan)
+            self._side = _LEFT if self._side == _RIGHT else _RIGHT
+            self._same, self._opposite, self._home = 1, 0, [0.0, 0.0]
+            if self._active and self._label in (_LEFT, _RIGHT):
+                self._label = self._side
 
     def _moving(self) -> str:
         """The reason of a bout's stepping frames: ``rhythm`` while the rhythm alone carries it."""
@@ -493,6 +533,7 @@ class BoutGate:
         # back); a broken rhythm keeps the person's own pauses too.
         if reason not in ("rhythm-broke", "network-still"):
             self._side, self._side_lift, self._opposite, self._same = _STILL, math.nan, 0, 0
+            self._homing = (-1, math.nan)
         if reason != "rhythm-broke":
             self._intervals.clear()
             self._last_lift_t = self._bout_land_t = math.nan
@@ -529,6 +570,7 @@ class BoutGate:
                     self._intervals.clear()
                 if not self._active and not f.event_t - self._side_t <= c.max_interval_s:
                     self._side, self._opposite, self._same = _STILL, 0, 0  # a side from a bout long over
+                    self._homing = (-1, math.nan)
                 self._last_lift_t = f.event_t
                 if self._active:
                     self._side_t = f.event_t
@@ -536,6 +578,8 @@ class BoutGate:
                 self._lift_yaw[k] = frame.yaw_deg
             elif not f.planted and math.isfinite(self._swing_lift[k]):
                 self._swing_maxp[k] = max(self._swing_maxp[k], p_move)
+            if f.landed and math.isfinite(f.lateral_m):
+                self._home[k] += f.lateral_m
             if f.landed and math.isfinite(self._swing_lift[k]):
                 long_landed = long_landed or f.event_t - self._swing_lift[k] > c.max_step_swing_s
                 self._count_rhythm(k, self._swing_lift[k], no_step[k] or abs(f.turn_deg) > c.rhythm_turn_deg)
@@ -590,6 +634,9 @@ class BoutGate:
             # steps in place while the body turns this fast: turning on the spot (walking a curve moves
             # the feet forward; an established bout that starts to turn is steering)
             pivot = pivot or in_place
+        if self._active and self._label == _FORWARD:
+            self._home, self._homing = [0.0, 0.0], (-1, math.nan)  # a march: the side steps' home is here
+        self._check_homing(frame)
         jumping = any(not f.planted and jump[k] for k, f in enumerate(frame.feet))
         kicking = any(not f.planted and self._kicked[k] for k, f in enumerate(frame.feet))
 

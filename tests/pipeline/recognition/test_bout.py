@@ -678,3 +678,65 @@ def test_a_swing_too_long_for_a_step_does_not_turn_a_side_bout_forward() -> None
         assert (bout == F).any() == want_forward, (
             f"{config.max_step_swing_s}: {np.bincount(bout, minlength=4)}"
         )
+
+
+def _shuffle(lead: int, side: float, t0: float, pairs: int, width: float = 0.2) -> list[Swing]:
+    """A side shuffle that travels ``pairs`` lead-and-follow steps to ``side`` and returns to its
+    place: then the trailing foot leads, opening to the other side, and the leading foot follows."""
+    out, t = [], t0
+    for direction, first in ((side, lead), (-side, 1 - lead)):
+        for _ in range(pairs):
+            out += [
+                Swing(first, t, t + 0.35, lateral=width * direction, peak=0.04),
+                Swing(1 - first, t + 0.5, t + 0.85, lateral=width * direction, peak=0.04),
+            ]
+            t += 1.0
+    return out
+
+
+@pytest.mark.parametrize(("lead", "side", "want", "other"), [(1, 1.0, R, L), (0, -1.0, L, R)])
+def test_a_shuffle_that_returns_to_its_place_is_one_command(
+    lead: int, side: float, want: int, other: int
+) -> None:
+    """Two pairs of shuffle steps out to a side and two back, in one bout, the network sure of the
+    other side on the way back: the feet are out to the bout's side until they are home, so every
+    step back is the way back and the command holds. Without the rule (``way_back_m`` inf) the way
+    back, after two steps out the same way, reads as travelling to the other side."""
+    swings = _shuffle(lead, side, 1.0, 2)
+    duration = swings[-1].t1 + 1.0
+    t = np.arange(round(duration * FPS)) / FPS
+    back_from = swings[4].t0
+    sure = {want: np.full(4, 0.04), other: np.full(4, 0.04)}
+    sure[want][want] = sure[other][other] = 0.88
+    probs = [sure[other] if ti >= back_from else sure[want] for ti in t]
+    bout = (t > swings[0].t0 + 0.3) & (t < swings[-1].t1)
+    for config, holds in ((GateConfig(), True), (GateConfig(way_back_m=float("inf")), False)):
+        labels, _, _ = _gate(Scene(duration, tuple(swings), yaw_deg=25.0), probs, config=config)
+        assert not (labels[bout] == S).any(), f"one bout: {np.bincount(labels[bout], minlength=4)}"
+        assert (labels[bout] == want).all() == holds, (
+            f"way_back_m={config.way_back_m}: {np.bincount(labels[bout], minlength=4)}"
+        )
+        if not holds:
+            assert (labels[(t > back_from + 0.3) & (t < swings[-1].t1)] == other).mean() > 0.9
+
+
+def test_after_travelling_a_step_out_and_back_towards_the_start_turns_the_bout() -> None:
+    """Step-together to the left for two pairs (the feet end 0.4 m left of where they began), then
+    the right foot steps out to the right and back, twice. Its first step out looks like the way
+    back home; once the same foot closes again it was a step out to the right: the command turns
+    right there, with the network unsure."""
+    left = _shuffle(0, -1.0, 1.0, 2)[:4]  # the way out only
+    t0 = left[-1].t1 + 0.3
+    right = [
+        Swing(1, t0 + 0.8 * i, t0 + 0.8 * i + 0.35, lateral=0.25 * (1 if i % 2 == 0 else -1))
+        for i in range(4)
+    ]
+    swings = tuple(left + right)
+    duration = right[-1].t1 + 1.0
+    t = np.arange(round(duration * FPS)) / FPS
+    unsure = np.array([0.1, 0.3, 0.3, 0.3])
+    labels, _, _ = _gate(Scene(duration, swings, yaw_deg=-60.0), unsure)
+    assert (labels[(t > left[0].t0 + 0.3) & (t < left[-1].t1)] == L).mean() > 0.9
+    closing = right[1]
+    turned = labels[(t > closing.t0 + 0.3) & (t < right[-1].t1)]
+    assert (turned == R).mean() > 0.9, f"{np.bincount(turned, minlength=4)}"
