@@ -4,10 +4,8 @@ set (seed 31337)."""
 
 from __future__ import annotations
 
-import ast
 import math
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -18,6 +16,7 @@ from pipeline.sim.blind3 import FILE_KEYS, SOURCE, make_record, write_set
 from pipeline.sim.blind3.check import check_folder
 from pipeline.sim.blind3.kin import leg_angles_for, leg_fk
 from pipeline.skeleton import load_npz
+from tests.pipeline.sim.npzfiles import arrays, assert_same_arrays, fingerprint, run_module
 
 REPO = Path(__file__).resolve().parents[3]
 PACKAGE = REPO / "pipeline" / "sim" / "blind3"
@@ -44,18 +43,6 @@ FINGERPRINT_00 = {
     "mean_xyz": [0.07443, -0.04617, 0.9362],
     "sd": 0.51726,
 }
-
-
-def arrays(path: Path) -> dict[str, np.ndarray]:
-    with np.load(path, allow_pickle=False) as d:
-        return {k: d[k] for k in d.files}
-
-
-def assert_same_arrays(a: dict[str, np.ndarray], b: dict[str, np.ndarray]) -> None:
-    assert list(a) == list(b)
-    for k in a:
-        assert a[k].dtype == b[k].dtype and a[k].shape == b[k].shape, k
-        assert np.array_equal(a[k], b[k], equal_nan=a[k].dtype.kind == "f"), f"{k} differs"
 
 
 @pytest.fixture(scope="module")
@@ -183,18 +170,7 @@ def test_a_sequence_depends_on_seed_and_index_only(small_set: list[Path], tmp_pa
 
 def test_sequence_0_of_the_held_out_set_matches_its_fingerprint() -> None:
     d = make_record(31337, 0, 60.0, 30.0)[0]
-    labels, n_labels = np.unique(d["labels"], return_counts=True)
-    tags, n_tags = np.unique(d["tags"], return_counts=True)
-    x = d["joints"].astype(np.float64)
-    got = {
-        "labels": dict(zip(labels.tolist(), n_labels.tolist(), strict=True)),
-        "tags": dict(zip(tags.tolist(), n_tags.tolist(), strict=True)),
-        "contacts": d["contacts"].sum(0).tolist(),
-        "nan_joints": int(np.isnan(x).any(-1).sum()),
-        "mean_xyz": np.round(np.nanmean(x, axis=(0, 1)), 5).tolist(),
-        "sd": round(float(np.nanstd(x)), 5),
-    }
-    assert got == FINGERPRINT_00, "the motion model or its random draws changed"
+    assert fingerprint(d) == FINGERPRINT_00, "the motion model or its random draws changed"
 
 
 # ---- the leg chain -------------------------------------------------------------------------------
@@ -224,13 +200,7 @@ def test_the_closed_form_leg_chain_inverts_forward_kinematics() -> None:
 
 
 def run_cli(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "pipeline.sim.blind3", *args],
-        cwd=REPO,
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
+    return run_module("pipeline.sim.blind3", *args)
 
 
 def test_cli_writes_a_set(tmp_path: Path) -> None:
@@ -287,54 +257,3 @@ def test_write_set_refuses_bad_values_before_writing(tmp_path: Path, kwargs: dic
     with pytest.raises(InputError):
         write_set(tmp_path / "set", **kwargs)  # type: ignore[arg-type]
     assert list(tmp_path.iterdir()) == []
-
-
-# ---- independence of the product -----------------------------------------------------------------
-
-
-def _imports(path: Path) -> set[str]:
-    names: set[str] = set()
-    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
-        if isinstance(node, ast.Import):
-            names |= {a.name for a in node.names}
-        elif isinstance(node, ast.ImportFrom):
-            assert node.level == 0, f"{path.name}: relative import"
-            assert node.module is not None
-            names.add(node.module)
-    return names
-
-
-def _is_allowed(module: str) -> bool:
-    top = module.split(".")[0]
-    if (
-        module == "pipeline.errors"
-        or module == "pipeline.sim.blind3"
-        or module.startswith("pipeline.sim.blind3.")
-    ):
-        return True
-    return top != "pipeline" and (top in sys.stdlib_module_names or top in {"numpy", "scipy"})
-
-
-def test_the_package_imports_only_numpy_scipy_the_stdlib_and_itself() -> None:
-    files = sorted(PACKAGE.glob("*.py"))
-    assert {p.name for p in files} >= {"__init__.py", "__main__.py", "api.py", "check.py", "model.py"}
-    for path in files:
-        bad = sorted(m for m in _imports(path) if not _is_allowed(m))
-        assert not bad, f"{path.name} imports {bad}"
-
-
-def test_importing_the_package_loads_no_app_and_no_other_motion_model() -> None:
-    code = (
-        "import sys, pipeline.sim.blind3, pipeline.sim.blind3.__main__, pipeline.sim.blind3.check; "
-        "print('\\n'.join(sorted(sys.modules)))"
-    )
-    r = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, timeout=120)
-    assert r.returncode == 0, r.stderr
-    loaded = r.stdout.split()
-    assert "pipeline.sim.blind3.model" in loaded
-    assert not [m for m in loaded if m == "app" or m.startswith("app.")]
-    ours = [m for m in loaded if m == "pipeline" or m.startswith("pipeline.")]
-    others = [
-        m for m in ours if m not in {"pipeline", "pipeline.sim", "pipeline.errors"} and not _is_allowed(m)
-    ]
-    assert not others, f"importing blind3 loads {others}"
