@@ -6,9 +6,9 @@
     .venv/bin/python scripts/train_action.py --sequences 40 --epochs 2 --out /tmp/a.onnx   # a quick try
 
 Sources: ``sim`` (our simulator's random routines, ``--sequences`` of ``--duration`` s), ``gait``,
-``blind`` and ``blind2`` (the second, third and fourth motion models, other seeds than their held-out
-sets; the fifth, ``blind3``, is never trained on) or ``NAME=DIR`` (every labelled SPEC NPZ under
-DIR: the still-behaviour library, converted real motion capture...), prepared by
+``blind``, ``blind2`` and ``blind3`` (the second to fifth motion models, other seeds than their
+held-out sets; the sixth, ``pipeline.sim.blind4``, is never trained on) or ``NAME=DIR`` (every
+labelled SPEC NPZ under DIR: the still-behaviour library, converted real motion capture...), prepared by
 :mod:`pipeline.recognition.prepare` (30 fps, mirrored, ``--warp NAME`` sources also at 0.85x /
 1.15x, captured through the simulated CAVE cameras and our triangulation, step evidence from the
 run-time tracker; cached in --cache).
@@ -63,8 +63,8 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
         "--source",
         action="append",
         type=source_spec,
-        help="'sim', 'gait', 'blind', 'blind2', NAME=sim:KINDS or NAME=DIR, each generator with @COUNT "
-        "(repeat); default: sim",
+        help="'sim', 'gait', 'blind', 'blind2', 'blind3', NAME=sim:KINDS or NAME=DIR, each generator "
+        "with @COUNT (repeat); default: sim",
     )
     ap.add_argument("--warp", action="append", default=[], help="source NAME also played at 0.85x and 1.15x")
     ap.add_argument("--sequences", type=int, default=_D.sequences, help="simulated routines (source sim)")

@@ -18,6 +18,11 @@ Layout, under ``<cache_dir>/data/sources/``::
                             standing behaviours and pivot turns, 1.2 cm noise, 2 % dropped joints,
                             bodies 1.48-1.98 m (evaluation only; the action model trains on other
                             seeds of its generator)
+    blind2-heldout/*.npz    the fourth (pipeline.sim.blind2), blind3-heldout/*.npz the fifth
+    blind3-heldout/*.npz    (pipeline.sim.blind3), the same kinds of motion with their own noise
+                            (evaluation only; the action model trains on other seeds of both)
+    blind4-heldout/*.npz    the sixth (pipeline.sim.blind4: an inverted-pendulum centre of mass over
+                            planned footsteps), evaluation only and never trained on at all
 
 ``use``: ``train`` (may be trained on and held out by leave-one-source-out), or ``eval``
 (held-out evaluation only: never pass it to ``train_action.py``). A source folder never mixes
@@ -103,17 +108,17 @@ SIM_SETS = {
 SIM_USE = {"still": "train", "still-heldout": "eval"}
 
 
-BLIND_MODELS = ("blind", "blind2", "blind3")
-OWN_NOISE_MODELS = ("blind2", "blind3")  # their generators add their own capture noise
+BLIND_MODELS = ("blind", "blind2", "blind3", "blind4")
+OWN_NOISE_MODELS = ("blind2", "blind3", "blind4")  # their generators add their own capture noise
 
 
 @dataclass(frozen=True, slots=True)
 class BlindSet:
     """A set of an independent motion model's sequences: ``model`` ``blind`` (the third motion model,
-    pipeline.sim.blind), ``blind2`` (the fourth, pipeline.sim.blind2) or ``blind3`` (the fifth,
-    pipeline.sim.blind3; blind2's and blind3's capture noise is their own: 1.2 cm and 2 % of the
-    joints, so ``noise_m`` and ``dropout`` must stay at those values); how many, how long, seed,
-    noise and dropped joints."""
+    pipeline.sim.blind), ``blind2`` (the fourth, pipeline.sim.blind2), ``blind3`` (the fifth,
+    pipeline.sim.blind3) or ``blind4`` (the sixth, pipeline.sim.blind4; the capture noise of blind2,
+    blind3 and blind4 is their own: 1.2 cm and 2 % of the joints, so ``noise_m`` and ``dropout`` must
+    stay at those values); how many, how long, seed, noise and dropped joints."""
 
     count: int
     duration_s: float
@@ -136,18 +141,21 @@ class BlindSet:
             )
 
 
-# held-out evaluation only: never trained on (blind3 is never trained on at all; blind and blind2
-# train with other seeds: corpus.independent_model)
+# held-out evaluation only: never trained on (blind4 is never trained on at all; blind, blind2 and
+# blind3 train with other seeds: corpus.independent_model)
 BLIND_SETS = {
     "blind-heldout": BlindSet(count=12, duration_s=60.0, seed=4242),
     "blind2-heldout": BlindSet(count=12, duration_s=60.0, seed=2026, model="blind2"),
     "blind3-heldout": BlindSet(count=12, duration_s=60.0, seed=31337, model="blind3"),
+    "blind4-heldout": BlindSet(count=12, duration_s=60.0, seed=60606, model="blind4"),
 }
 BLIND_ORIGINS = {
     "blind": "pipeline.sim.blind: a third motion model, written without reading the others",
     "blind2": "pipeline.sim.blind2: a fourth motion model, written without reading the product's code",
     "blind3": "pipeline.sim.blind3: a fifth motion model (joint angles and forward kinematics), written "
     "without reading the product's code",
+    "blind4": "pipeline.sim.blind4: a sixth motion model (an inverted-pendulum centre of mass over planned "
+    "footsteps, inverse-kinematics legs), written without reading the product's code",
 }
 
 
@@ -256,7 +264,7 @@ def write_gait_set(folder: Path, spec: GaitSet, progress: Callable[[str], None])
 
 def write_blind_set(folder: Path, spec: BlindSet, progress: Callable[[str], None]) -> dict[str, Any]:
     """The set's NPZs in ``folder`` (made again only when the set's settings changed)."""
-    from pipeline.sim import blind, blind2, blind3
+    from pipeline.sim import blind, blind2, blind3, blind4
 
     stamp: dict[str, Any] = {"count": spec.count, "duration_s": spec.duration_s, "seed": spec.seed,
                              "noise_m": spec.noise_m, "dropout": spec.dropout, "v": 1}  # fmt: skip
@@ -271,6 +279,8 @@ def write_blind_set(folder: Path, spec: BlindSet, progress: Callable[[str], None
         paths = blind2.write_set(folder, config)
     elif spec.model == "blind3":
         paths = blind3.write_set(folder, spec.count, spec.seed, spec.duration_s)
+    elif spec.model == "blind4":
+        paths = blind4.write_set(folder, spec.count, spec.seed, spec.duration_s)
     else:
         paths = blind.write_set(folder, spec.count, spec.duration_s, spec.seed, spec.noise_m, spec.dropout)
     for path in paths:

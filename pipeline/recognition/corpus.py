@@ -3,8 +3,9 @@
 Sources (each a list of :class:`~pipeline.recognition.dataset.LabelledSequence`, clean, any fps):
 
 - ``sim``: our own simulator's random routines (``pipeline.sim``);
-- ``gait``: the second motion model's routines (:func:`gait_model`); ``blind`` and ``blind2``: the
-  third and fourth (:func:`independent_model`, other seeds than their held-out sets);
+- ``gait``: the second motion model's routines (:func:`gait_model`); ``blind``, ``blind2`` and
+  ``blind3``: the third, fourth and fifth (:func:`independent_model`, other seeds than their held-out
+  sets; the sixth, ``pipeline.sim.blind4``, is never trained on);
 - any folder of labelled SPEC NPZ files (the still-behaviour library, the second motion model,
   converted real motion capture, recorded takes): :func:`from_folder`, the source named by the
   files' ``source`` or by the folder.
@@ -153,9 +154,9 @@ def gait_model(
     return out
 
 
-# Independent motion models that train (other seeds than their held-out sets); blind3 stays
-# evaluation only, the one motion model no network of ours has been trained on.
-INDEPENDENT_MODELS = ("blind", "blind2")
+# Independent motion models that train (other seeds than their held-out sets)
+INDEPENDENT_MODELS = ("blind", "blind2", "blind3")
+_SEED_TAGS = {"blind": 0xB1, "blind2": 0xB2, "blind3": 0xB3}
 
 
 def training_seed(model: str, seed: int) -> int:
@@ -164,8 +165,7 @@ def training_seed(model: str, seed: int) -> int:
     from pipeline.mocap.sources import BLIND_SETS
 
     held = {s.seed for s in BLIND_SETS.values() if s.model == model}
-    tag = 0xB1 if model == "blind" else 0xB2
-    out = int(np.random.SeedSequence([int(seed), tag]).generate_state(1)[0])
+    out = int(np.random.SeedSequence([int(seed), _SEED_TAGS[model]]).generate_state(1)[0])
     while out in held:  # (a 1 in 4e9 draw; the held-out set must stay unseen)
         out += 1
     return out
@@ -180,9 +180,10 @@ def independent_model(
     source: str | None = None,
 ) -> list[LabelledSequence]:
     """Clean sequences (no noise, no lost joints: the training capture adds its own) of the third
-    (``blind``, :mod:`pipeline.sim.blind`) or fourth (``blind2``, :mod:`pipeline.sim.blind2`) motion
-    model, drawn from a seed derived from ``seed`` (never their held-out sets' seeds), read back
-    through their NPZ files exactly as a folder source; named ``{source}-{seed}-{i}``."""
+    (``blind``, :mod:`pipeline.sim.blind`), fourth (``blind2``, :mod:`pipeline.sim.blind2`) or fifth
+    (``blind3``, :mod:`pipeline.sim.blind3`) motion model, drawn from a seed derived from ``seed``
+    (never their held-out sets' seeds), read back through their NPZ files exactly as a folder
+    source; named ``{source}-{seed}-{i}``."""
     import tempfile
 
     if model not in INDEPENDENT_MODELS:
@@ -194,6 +195,12 @@ def independent_model(
             from pipeline.sim import blind
 
             blind.write_set(tmp, count, duration_s, model_seed, noise_m=0.0, dropout=0.0)
+        elif model == "blind3":
+            from pipeline.sim import blind3
+
+            for i in range(count):
+                g, joints = blind3.generate_clean(model_seed, i, duration_s, blind3.FPS)
+                np.savez(Path(tmp) / blind3.file_name(model_seed, i), **blind3.record(g, joints))  # type: ignore[arg-type]
         else:
             from pipeline.sim.blind2.generate import SetConfig, generate_set, save_set
 

@@ -45,7 +45,7 @@ class SourceSpec:
 
     Forms of :meth:`parse`: ``sim`` (our simulator's stepping routines), ``NAME=sim:KIND+KIND``
     (routines of those kinds, e.g. ``still=sim:still``), ``gait`` / ``NAME=gait`` (the second
-    motion model), ``blind`` / ``blind2`` / ``NAME=blind`` / ``NAME=blind2`` (the third and fourth
+    motion model), ``blind`` / ``blind2`` / ``blind3`` / ``NAME=blind`` ... (the third to fifth
     motion models, clean, other seeds than their held-out sets), any of them with ``@COUNT``
     (routines; default the command's ``--sequences``), or ``NAME=DIR`` (every labelled NPZ under DIR).
     """
@@ -74,8 +74,8 @@ class SourceSpec:
         name, sep, rest = body.partition("=")
         if not sep or not name or not rest:
             raise InputError(
-                f"a source is 'sim', 'gait', 'blind', 'blind2', NAME=sim:KINDS, NAME=gait, "
-                f"NAME=blind, NAME=blind2 or NAME=DIR, got {text!r}"
+                f"a source is 'sim', 'gait', 'blind', 'blind2', 'blind3', NAME=sim:KINDS, NAME=gait, "
+                f"NAME=blind, NAME=blind2, NAME=blind3 or NAME=DIR, got {text!r}"
             )
         if rest in GENERATORS and rest != "sim":
             return cls(name, None, warp, rest, (), count)

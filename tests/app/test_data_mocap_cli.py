@@ -62,6 +62,7 @@ def test_data_sources_writes_one_folder_per_named_source(
         "blind-heldout",
         "blind2-heldout",
         "blind3-heldout",
+        "blind4-heldout",
     }
     for name, m in manifest.items():
         assert f"{name}={m['dir']}  [{m['use']}]" in res.output
@@ -98,16 +99,13 @@ def test_data_sources_writes_one_folder_per_named_source(
     assert manifest["blind-heldout"]["use"] == "eval" and len(blind) == 2
     assert all(len(s) == 360 and s.contacts is not None for s in blind)  # 12 s at 30 fps, with contacts
     assert manifest["blind-heldout"]["settings"]["noise_m"] == 0.012
-    blind2 = from_folder(manifest["blind2-heldout"]["dir"], source="blind2-heldout")
-    assert manifest["blind2-heldout"]["use"] == "eval" and len(blind2) == 2
-    assert all(len(s) == 360 and s.contacts is not None for s in blind2)  # the fourth motion model
-    assert manifest["blind2-heldout"]["settings"]["model"] == "blind2"
-    assert "pipeline.sim.blind2" in manifest["blind2-heldout"]["licences"][0]
-    blind3 = from_folder(manifest["blind3-heldout"]["dir"], source="blind3-heldout")
-    assert manifest["blind3-heldout"]["use"] == "eval" and len(blind3) == 2
-    assert all(len(s) == 360 and s.contacts is not None for s in blind3)  # the fifth motion model
-    assert manifest["blind3-heldout"]["settings"]["model"] == "blind3"
-    assert "pipeline.sim.blind3" in manifest["blind3-heldout"]["licences"][0]
+    for model in ("blind2", "blind3", "blind4"):  # the fourth, fifth and sixth motion models
+        entry = manifest[f"{model}-heldout"]
+        seqs = from_folder(entry["dir"], source=f"{model}-heldout")
+        assert entry["use"] == "eval" and len(seqs) == 2
+        assert all(len(s) == 360 and s.contacts is not None for s in seqs)
+        assert entry["settings"]["model"] == model
+        assert f"pipeline.sim.{model}" in entry["licences"][0]
     still = from_folder(manifest["still"]["dir"], source="still")
     assert len(still) == 2 and all((s.labels == ACTIONS.index("still")).all() for s in still)
     assert manifest["still"]["frames_per_label"]["still"] == sum(len(s.labels) for s in still)

@@ -1,4 +1,8 @@
-"""blind3: a joint-angle stepping-in-place generator. Held-out evaluation data only: never train on it.
+"""blind3: a joint-angle stepping-in-place generator (a fifth motion model).
+
+Its held-out set (seed 31337, ``blind3-heldout``) is never trained on; since the sixth motion model
+(``pipeline.sim.blind4``) took its place as the one never trained on, the action model trains on
+other seeds of it (``scripts/train_action.py --source blind3``).
 
 An independent kinematic generator of labelled COCO-17 3D skeleton sequences, written from scratch
 with numpy and scipy only, without the product's code, tests, docs or data, and independently of
@@ -33,6 +37,7 @@ from pipeline.sim.blind3.api import (
     generate_clean,
     make_record,
     observe,
+    record,
     write_set,
 )
 from pipeline.sim.blind3.body import Body, sample_body
@@ -52,6 +57,7 @@ __all__ = [
     "generate_clean",
     "make_record",
     "observe",
+    "record",
     "sample_body",
     "write_set",
 ]

@@ -92,16 +92,19 @@ def make_record(
     """The arrays of file idx (FILE_KEYS), the generator, the clean joints and the drop-out mask."""
     g, J = generate_clean(seed, idx, duration, fps)
     Y, mask = observe(J, seed, idx)
-    contacts = g.gstate == 0
-    rec = dict(
-        joints=Y,
+    return record(g, Y, fps), g, J, mask
+
+
+def record(g: Generator, joints: NDArray[np.floating], fps: float = FPS) -> dict[str, NDArray[Any]]:
+    """The arrays of a file (FILE_KEYS) of the simulated sequence ``g`` with ``joints``."""
+    return dict(
+        joints=np.asarray(joints, dtype=np.float32),
         fps=np.float64(fps),
         labels=np.asarray(g.labels, dtype="<U7"),
         tags=np.asarray(g.tags, dtype="<U20"),
-        contacts=contacts.astype(bool),
+        contacts=(g.gstate == 0).astype(bool),
         source=np.array(SOURCE),
     )
-    return rec, g, J, mask
 
 
 def file_name(seed: int, idx: int) -> str:
