@@ -18,9 +18,10 @@ Layout, under ``<cache_dir>/data/sources/``::
                             standing behaviours and pivot turns, 1.2 cm noise, 2 % dropped joints,
                             bodies 1.48-1.98 m (evaluation only; the action model trains on other
                             seeds of its generator)
-    blind2-heldout/*.npz    the fourth (pipeline.sim.blind2), blind3-heldout/*.npz the fifth
-    blind3-heldout/*.npz    (pipeline.sim.blind3), the same kinds of motion with their own noise
-                            (evaluation only; the action model trains on other seeds of both)
+    blind2-heldout/*.npz    the fourth motion model (pipeline.sim.blind2): the same kinds of motion,
+                            with its own noise (evaluation only; trained on with other seeds)
+    blind3-heldout/*.npz    the fifth (pipeline.sim.blind3), likewise (evaluation only; trained on
+                            with other seeds)
     blind4-heldout/*.npz    the sixth (pipeline.sim.blind4: an inverted-pendulum centre of mass over
                             planned footsteps), evaluation only and never trained on at all
 
