@@ -69,7 +69,9 @@ What a user expects (MODEL_CARD.md, "Behaviour"):
   bout; and if the same foot steps back again (it stepped out to the other side and back, after
   side steps that travelled) the bout turns to that side then. A march step (a foot up
   ``march_confirm_s`` without moving sideways, or landed so) turns a side-step bout forward if the
-  network agrees and no foot steps sideways (and makes the place of the march the side steps' home).
+  network agrees and no foot steps sideways (and makes the place of the march the side steps' home);
+  a closing step inside a forward bout after side steps (a march does not close) lets the network
+  choose the direction again (``close_rechoose``).
 
 :class:`BoutGate` is streaming; it holds only what it needs (times of the bout's steps).
 """
@@ -171,6 +173,10 @@ class GateConfig:
     # step out, a pause with the foot out, and back): neither while up nor when it lands where it
     # left does it turn a side-step bout forward (inf: any)
     max_step_swing_s: float = 1.0
+    # a closing step (a foot moving towards the other one) inside a forward bout, after side steps,
+    # lets the network choose among the moving classes (the bout's direction weighted 1.5): a march
+    # does not close (walking's closing steps, with no side step before, are left alone)
+    close_rechoose: bool = True
     # an opening step to the other side by a foot that stands more than way_back_m out to the bout's
     # side of where the bout's side steps began (the feet's landed lateral displacements added up) is
     # the way back home, however many of them come in a row (a shuffle or a step-together returning
@@ -714,6 +720,11 @@ class BoutGate:
                 if side == ev or self._label not in (_LEFT, _RIGHT):
                     self._label = choose_direction(p, side, c, self._label)
                 # else: the way back of a side step: the bout keeps its side, whatever the network says
+            elif (
+                c.close_rechoose and stepping and k >= 0 and self._label == _FORWARD
+                and frame.feet[k].kind == "close" and self._side != _STILL
+            ):  # fmt: skip
+                self._label = choose_direction(p, None, c, self._label)
             return GateVerdict(True, self._label, self._moving(), ev_name, self._allowance(), math.nan)
         if math.isnan(self._bout_land_t):
             self._bout_land_t = t

@@ -740,3 +740,25 @@ def test_after_travelling_a_step_out_and_back_towards_the_start_turns_the_bout()
     closing = right[1]
     turned = labels[(t > closing.t0 + 0.3) & (t < right[-1].t1)]
     assert (turned == R).mean() > 0.9, f"{np.bincount(turned, minlength=4)}"
+
+
+def test_a_closing_step_inside_a_forward_bout_lets_the_network_choose_the_side() -> None:
+    """A step out to the right, a straight-up step of the other foot that the network takes for
+    marching (the bout turns forward), then the right foot sliding back low towards the other one
+    while the network is sure of right: a march does not close, so the bout goes back to the side
+    the network names; with ``close_rechoose`` off it stays forward through the closing step (no
+    other step evidence speaks)."""
+    out = Swing(1, 1.0, 1.4, lateral=0.25, peak=0.06)
+    up = Swing(0, 1.7, 2.1, peak=0.12)
+    back = Swing(1, 2.4, 2.8, lateral=-0.25, peak=0.03)  # low: it shows as closing from the start
+    duration = 4.0
+    t = np.arange(round(duration * FPS)) / FPS
+    right = np.array([0.04, 0.08, 0.04, 0.84])
+    probs = [FWD if up.t0 <= ti < back.t0 else right for ti in t]
+    closing = (t > back.t0 + 0.25) & (t < back.t1)
+    for config, want in ((GateConfig(), R), (GateConfig(close_rechoose=False), F)):
+        labels, _, _ = _gate(Scene(duration, (out, up, back), yaw_deg=15.0), probs, config=config)
+        assert (labels[(t > up.t0 + 0.3) & (t < up.t1)] == F).all(), "the straight-up step reads as marching"
+        assert (labels[closing] == want).all(), (
+            f"close_rechoose={config.close_rechoose}: {np.bincount(labels[closing], minlength=4)}"
+        )
