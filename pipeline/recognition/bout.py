@@ -425,11 +425,10 @@ class BoutGate:
         lift = self._swing_lift[frame.stepping]
         if lift != self._side_lift:  # a new opening step
             self._side_lift = lift
-            if self._side == _STILL or ev == self._side:
-                if ev != self._side:
-                    self._home = [0.0, 0.0]  # the bout's side steps begin here
-                self._same = self._same + 1 if ev == self._side else 1
-                self._side, self._opposite = ev, 0
+            if ev == self._side:
+                self._same, self._opposite = self._same + 1, 0
+            elif self._side == _STILL:
+                self._begin_side(ev)
             elif (1.0 if self._side == _RIGHT else -1.0) * self._home[
                 frame.stepping
             ] > self.config.way_back_m:
@@ -442,11 +441,20 @@ class BoutGate:
                 # after several steps the same way (travelling sideways) a step the other way is a
                 # new direction; after one it may be the way back
                 if self._opposite >= self.config.side_switch_steps or self._same >= self.config.travel_steps:
-                    self._side, self._opposite, self._same = ev, 0, 1
-                    self._home = [0.0, 0.0]
+                    self._begin_side(ev)
                 else:  # the way back: the next step out starts a new run
                     self._same = 0
         return self._side
+
+    def _begin_side(self, side: int) -> None:
+        """The bout's side steps begin here, to ``side``: its home is where the feet stand now."""
+        self._side, self._opposite, self._same = side, 0, 1
+        self._home, self._homing = [0.0, 0.0], (-1, math.nan)
+
+    def _forget_side(self) -> None:
+        """No side is known (a new bout takes the side of its own steps)."""
+        self._side, self._side_lift, self._opposite, self._same = _STILL, math.nan, 0, 0
+        self._homing = (-1, math.nan)
 
     def _check_homing(self, frame: StepFrame) -> None:
         """A step read as the way back home (``way_back_m``) is confirmed once the other foot steps;
@@ -459,9 +467,7 @@ class BoutGate:
         if other.lifted:
             self._homing = (-1, math.nan)
         elif not f.planted and self._swing_lift[k] != lift and f.kind == "close":
-            self._homing = (-1, math.nan)
-            self._side = _LEFT if self._side == _RIGHT else _RIGHT
-            self._same, self._opposite, self._home = 1, 0, [0.0, 0.0]
+            self._begin_side(_LEFT if self._side == _RIGHT else _RIGHT)
             if self._active and self._label in (_LEFT, _RIGHT):
                 self._label = self._side
 
@@ -538,8 +544,7 @@ class BoutGate:
         # A bout that ended in a pause keeps the side of its steps (the next step may be the way
         # back); a broken rhythm keeps the person's own pauses too.
         if reason not in ("rhythm-broke", "network-still"):
-            self._side, self._side_lift, self._opposite, self._same = _STILL, math.nan, 0, 0
-            self._homing = (-1, math.nan)
+            self._forget_side()
         if reason != "rhythm-broke":
             self._intervals.clear()
             self._last_lift_t = self._bout_land_t = math.nan
@@ -575,8 +580,7 @@ class BoutGate:
                 elif not self._active:
                     self._intervals.clear()
                 if not self._active and not f.event_t - self._side_t <= c.max_interval_s:
-                    self._side, self._opposite, self._same = _STILL, 0, 0  # a side from a bout long over
-                    self._homing = (-1, math.nan)
+                    self._forget_side()  # a side from a bout long over
                 self._last_lift_t = f.event_t
                 if self._active:
                     self._side_t = f.event_t

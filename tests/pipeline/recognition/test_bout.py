@@ -762,3 +762,24 @@ def test_a_closing_step_inside_a_forward_bout_lets_the_network_choose_the_side()
         assert (labels[closing] == want).all(), (
             f"close_rechoose={config.close_rechoose}: {np.bincount(labels[closing], minlength=4)}"
         )
+
+
+def test_a_new_side_forgets_a_way_home_still_pending() -> None:
+    """A shuffle that travels two pairs to the right; the left foot then steps left three times (the
+    first two the way home, the third beyond it: the bout turns left) and closes back. That closing
+    step belongs to the new left side; it must not be read as the first way-home step's foot stepping
+    back (which turned the bout right again while that reading was left pending)."""
+    swings = _shuffle(1, 1.0, 1.0, 2)[:4]  # the way out only: the feet end 0.4 m to the right
+    t0 = swings[-1].t1 + 0.15
+    lefts = [Swing(0, t0 + 0.7 * i, t0 + 0.7 * i + 0.35, lateral=-0.2, peak=0.04) for i in range(3)]
+    back = Swing(0, lefts[-1].t1 + 0.35, lefts[-1].t1 + 0.7, lateral=0.2, peak=0.04)
+    duration = back.t1 + 1.5
+    t = np.arange(round(duration * FPS)) / FPS
+    labels, _, _ = _gate(
+        Scene(duration, (*swings, *lefts, back), yaw_deg=20.0), np.array([0.1, 0.3, 0.3, 0.3])
+    )
+    for s in lefts[:2]:
+        assert (labels[(t > s.t0 + 0.2) & (t < s.t1)] == R).all(), "the way home keeps the side"
+    for s in (lefts[2], back):
+        seen = labels[(t > s.t0 + 0.2) & (t < s.t1)]
+        assert (seen == L).all(), f"step at {s.t0:.2f} s: {np.bincount(seen, minlength=4)}"
