@@ -1,6 +1,7 @@
 """``python -m pipeline.sim.blind3 OUT_DIR [--count N] [--seed S] [--duration D]``: write a blind3 set.
 
-Held-out evaluation data for the action recogniser: never train on it. Its generator was written
+Held-out evaluation data for the action recogniser (the default seed: never train on it; the
+action model trains on other seeds, ``--source blind3``). Its generator was written
 independently of the product's motion models. The default set (seed 31337, 12 sequences of 60 s)
 is the reference held-out set; ``python -m pipeline.sim.blind3.check OUT_DIR`` checks a written set.
 """
@@ -26,8 +27,8 @@ class _Parser(argparse.ArgumentParser):
 def main(argv: list[str] | None = None) -> int:
     ap = _Parser(
         prog="python -m pipeline.sim.blind3",
-        description="Write skeleton NPZ files from the blind3 generator (held-out evaluation data; "
-        "never train on it; written independently of the product's motion models).",
+        description="Write skeleton NPZ files from the blind3 generator (the default seed is the "
+        "held-out set: never train on it; written independently of the product's motion models).",
     )
     ap.add_argument("out_dir", type=Path, help="folder for the NPZ files")
     ap.add_argument(
