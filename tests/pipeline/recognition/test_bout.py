@@ -207,6 +207,10 @@ def test_choose_direction_and_config_checks() -> None:
         GateConfig(rise_wait_s=-0.1)
     with pytest.raises(ValueError, match="rise_lead_m"):
         GateConfig(rise_lead_m=float("nan"))
+    for bad in (-0.01, float("nan")):
+        with pytest.raises(ValueError, match="way_back_m must be >= 0"):
+            GateConfig(way_back_m=bad)
+    assert GateConfig(way_back_m=float("inf")).way_back_m == float("inf")  # inf: the rule off
 
 
 def test_a_foot_still_up_long_after_the_other_landed_is_a_step_not_a_jump() -> None:
