@@ -87,6 +87,13 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
         help="augment the training windows (train.augment_windows: speed, legs, step height, lost joints)",
     )
     ap.add_argument(
+        "--augment-share",
+        type=share,
+        default=_T.augment_share,
+        metavar="SHARE",
+        help="with --augment, the share of the windows augmented (0 to 1, default 1)",
+    )
+    ap.add_argument(
         "--arms-still",
         type=share,
         default=_T.arms_still,
@@ -110,6 +117,7 @@ def train_config(args: argparse.Namespace, features: str) -> TrainConfig:
         threads=args.threads,
         features=features,
         augment=args.augment,
+        augment_share=args.augment_share,
         arms_still=args.arms_still,
     )
 

@@ -115,11 +115,14 @@ class TrainConfig:
     features: str = FEATURES_V2  # v1: joints only; v2: joints + step evidence
     source_power: float = 0.5  # sampling: each source weighs (its frames) ** power
     augment: bool = False  # window augmentation (:func:`augment_windows`): speed, proportions, dropout
+    augment_share: float = 1.0  # with ``augment``, the share of the windows augmented
     arms_still: float = 0.0  # share of the stepping windows whose arms hang still (:func:`still_arms`)
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.arms_still <= 1.0:
             raise ValueError(f"arms_still is a share of the stepping windows, 0 to 1; got {self.arms_still}")
+        if not 0.0 <= self.augment_share <= 1.0:
+            raise ValueError(f"augment_share is a share of the windows, 0 to 1; got {self.augment_share}")
 
 
 @dataclass(frozen=True, slots=True)
@@ -132,6 +135,7 @@ class AugmentConfig:
     step_scale: the feet's height above their lowest point in the window (a lower or higher step).
     drop_prob: chance of a window losing ``drop_joints`` random joints for its whole length.
     jitter_m: extra per-frame joint noise (metres, sigma).
+    share: the share of the windows augmented; the others are read as recorded.
     """
 
     speed: tuple[float, float] = (0.75, 1.3)
@@ -140,6 +144,11 @@ class AugmentConfig:
     drop_prob: float = 0.3
     drop_joints: tuple[int, int] = (1, 4)
     jitter_m: tuple[float, float] = (0.0, 0.01)
+    share: float = 1.0
+
+    def __post_init__(self) -> None:
+        if not 0.0 <= self.share <= 1.0:
+            raise ValueError(f"share is the share of the windows augmented, 0 to 1; got {self.share}")
 
 
 @dataclass(frozen=True, slots=True)
@@ -417,6 +426,11 @@ def batch_inputs(
     if augment is not None and rng is not None:
         idx, speed = augmented_index(data, ends, window, rng, augment)
         joints, step = augment_windows(data.joints[idx], rng, augment)
+        if augment.share < 1.0:  # the other windows as recorded
+            plain = np.flatnonzero(rng.random(len(ends)) >= augment.share)
+            idx[plain] = _window_index(data, ends[plain], window)
+            joints[plain] = data.joints[idx[plain]]
+            speed[plain], step[plain] = 1.0, 1.0
     else:
         idx = _window_index(data, ends, window)
         joints = data.joints[idx]
@@ -531,7 +545,7 @@ def train_model(
     sched = torch.optim.lr_scheduler.OneCycleLR(
         opt, max_lr=config.lr, total_steps=config.epochs * steps_per_epoch, pct_start=0.15
     )
-    augment = AugmentConfig() if config.augment else None
+    augment = AugmentConfig(share=config.augment_share) if config.augment else None
     aug_rng = np.random.default_rng(config.seed + 1)
     val_ends = window_ends(val, stride=3)
     val_ends = val_ends[val.labels[val_ends] >= 0]

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -132,6 +133,28 @@ def test_a_faster_reading_covers_more_source_frames_and_its_evidence_too() -> No
     np.testing.assert_allclose(
         x[0, 17 * 7 + 5], 0.6 / 1.25, rtol=1e-5, err_msg="a swing read faster is shorter"
     )
+
+
+def test_an_augment_share_leaves_the_other_windows_as_recorded() -> None:
+    n = 300
+    w = _march_windows()[0]
+    joints = np.concatenate([w] * (n // len(w) + 1))[:n]
+    evidence = np.full((n, EVIDENCE_CHANNELS), 0.5, np.float32)
+    data = Dataset(joints, np.ones(n, np.int64), np.array([0, n]), 30.0, evidence, ("a",))
+    ends = np.arange(40, 290, 2)
+    plain = batch_inputs(data, ends, 32, FEATURES_V2)
+    big = AugmentConfig(speed=(1.25, 1.25), step_scale=(1.3, 1.3), drop_prob=0.0)
+    every = batch_inputs(data, ends, 32, FEATURES_V2, np.random.default_rng(0), big)
+    assert not any(np.allclose(a, b) for a, b in zip(every, plain, strict=True)), "share 1: every window"
+    half = batch_inputs(data, ends, 32, FEATURES_V2, np.random.default_rng(0), replace(big, share=0.5))
+    same = np.array([np.array_equal(a, b) for a, b in zip(half, plain, strict=True)])
+    assert 0.3 < same.mean() < 0.7, f"{same.mean():.2f} of the windows as recorded with share 0.5"
+    none = batch_inputs(data, ends, 32, FEATURES_V2, np.random.default_rng(0), replace(big, share=0.0))
+    np.testing.assert_array_equal(none, plain, err_msg="share 0: no window changes")
+    with pytest.raises(ValueError, match="share"):
+        AugmentConfig(share=1.5)
+    with pytest.raises(ValueError, match="augment_share"):
+        TrainConfig(augment_share=-0.1)
 
 
 _HANDS = [J["l_elbow"], J["l_wrist"], J["r_elbow"], J["r_wrist"]]
