@@ -72,6 +72,12 @@ What a user expects (MODEL_CARD.md, "Behaviour"):
   network agrees and no foot steps sideways (and makes the place of the march the side steps' home);
   a closing step inside a forward bout after side steps (a march does not close) lets the network
   choose the direction again (``close_rechoose``).
+- **Two judges** (a model with a start head, ``start_network``): while no bout is on, the gate reads
+  the surer (lower smoothed p(still)) of the full-body network and the legs-only one (hips, legs,
+  shoulders and the step evidence: it has not learnt stepping from the arm swing, so it knows other
+  people's low, still-armed steps sooner); once a bout is on, only the full-body network holds and
+  ends it (it sees the arms stop; the legs-only one holds pauses too long). The committed model has
+  no start head (MODEL_CARD.md, "Tried after the newest change": a stand-up from a kneel started).
 
 :class:`BoutGate` is streaming; it holds only what it needs (times of the bout's steps).
 """
@@ -182,6 +188,9 @@ class GateConfig:
     # the way back home, however many of them come in a row (a shuffle or a step-together returning
     # to its place); only a step beyond home counts towards a new direction (inf: never)
     way_back_m: float = 0.05
+    # with a model's start head: while no bout is on, the surer of the two networks speaks (off: the
+    # full-body network alone, the ablation)
+    start_network: bool = True
 
     def __post_init__(self) -> None:
         if self.rhythm not in RHYTHMS:
@@ -556,9 +565,21 @@ class BoutGate:
             self._vetoed = True  # rhythm of the same stepping overrides it (until a new run of steps)
         return GateVerdict(False, _STILL, reason, evidence, self._allowance(), math.nan)
 
-    def update(self, frame: StepFrame, probs: NDArray[np.floating], t: float) -> GateVerdict:
+    def update(
+        self,
+        frame: StepFrame,
+        probs: NDArray[np.floating],
+        t: float,
+        start_probs: NDArray[np.floating] | None = None,
+    ) -> GateVerdict:
+        """One frame's verdict from its step evidence and the smoothed network probabilities
+        (``start_probs``: the legs-only start head's, when the model has one)."""
         c = self.config
         p = np.asarray(probs, dtype=np.float64)
+        if start_probs is not None and c.start_network and not self._active:
+            s = np.asarray(start_probs, dtype=np.float64)
+            if s[_STILL] < p[_STILL]:  # no bout on: the surer of the two judges speaks
+                p = s
         p_move = float(1.0 - p[_STILL])
         ev = evidence_direction(frame)
         ev_name = ACTIONS[ev] if ev is not None else None

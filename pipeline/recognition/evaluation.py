@@ -18,7 +18,7 @@ from pipeline.recognition.recognizer import (
     ActionRecognizer,
     CommandFilter,
     RecognizerConfig,
-    classify_windows,
+    classify_windows_heads,
     model_info,
     recognize_sequence,
 )
@@ -62,11 +62,13 @@ def evaluate_recognizer(
 class NetworkTrace:
     """What the network and the step tracker make of one sequence at the model's frame rate.
 
-    raw: (T, 4) model outputs for the window ending at each frame; steps: per-frame step evidence.
+    raw: (T, 4) model outputs for the window ending at each frame; steps: per-frame step evidence;
+    start: (T, 4) the start head's outputs (None: the model has none).
     """
 
     raw: NDArray[np.float32]
     steps: tuple[StepFrame, ...]
+    start: NDArray[np.float32] | None = None
 
 
 def step_frames(
@@ -101,24 +103,32 @@ def network_trace(
     )
     n, w = len(j), info.window
     idx = np.maximum(np.arange(n)[:, None] - np.arange(w - 1, -1, -1)[None, :], 0)
-    out = []
+    out, start = [np.zeros((0, 4), np.float32)], [np.zeros((0, 4), np.float32)]
     for a in range(0, n, batch):
         sel = idx[a : a + batch]
         evidence = ev[sel] if info.features in WITH_EVIDENCE else None
-        out.append(classify_windows(session, j[sel], fps, evidence))
-    raw = np.concatenate(out) if out else np.zeros((0, 4), np.float32)
-    return NetworkTrace(raw.astype(np.float32), frames)
+        probs, head = classify_windows_heads(session, j[sel], fps, evidence)
+        out.append(probs)
+        if head is not None:
+            start.append(head)
+    raw = np.concatenate(out).astype(np.float32)
+    return NetworkTrace(raw, frames, np.concatenate(start).astype(np.float32) if info.start_head else None)
 
 
 def replay(trace: NetworkTrace, config: RecognizerConfig) -> NDArray[np.int64]:
     """The recogniser's command per frame from a trace (same EMA, hysteresis and gate settings)."""
     filt = CommandFilter(config.ema_alpha, config.min_dwell_s, config.switch_prob, config.stop_dwell_s)
+    start = CommandFilter(config.ema_alpha, config.min_dwell_s, config.switch_prob, config.stop_dwell_s)
     gate = BoutGate(config.gate_config)
     out = np.empty(len(trace.raw), dtype=np.int64)
     for i, (p, sf) in enumerate(zip(trace.raw, trace.steps, strict=True)):
         label = filt.update(p, sf.t)
+        head = None
+        if trace.start is not None:
+            start.update(trace.start[i], sf.t)
+            head = start.probs
         if config.gate:
-            label = gate.update(sf, filt.probs, sf.t).label
+            label = gate.update(sf, filt.probs, sf.t, head).label
         out[i] = label
     return out
 

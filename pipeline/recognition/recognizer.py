@@ -109,6 +109,8 @@ class ModelInfo:
     features: the input it expects: ``v1`` joints only (17 x 7 channels), ``v2`` joints and the
     step evidence (17 x 7 + 16 channels, :func:`features.evidence_vector`), ``v3`` the same with
     the arms and the face masked out (:data:`features.V3_JOINTS`).
+    start_head: the file has a second output, the legs-only start head's probabilities (the bout
+    gate's second judge while no bout is on; ``scripts/combine_action.py``).
     """
 
     window: int
@@ -116,6 +118,7 @@ class ModelInfo:
     classes: tuple[str, ...]
     input_name: str
     features: str = FEATURES_V1
+    start_head: bool = False
 
 
 def open_session(path: Path, threads: int = 1) -> Any:
@@ -159,7 +162,20 @@ def model_info(session: Any) -> ModelInfo:
         raise ModelError(
             f"the action model's input must be (B, {channels}, {window}) for features {features}, got {shape}"
         )
-    return ModelInfo(window=window, fps=fps, classes=classes, input_name=inputs[0].name, features=features)
+    outputs = session.get_outputs()
+    if not 1 <= len(outputs) <= 2:
+        raise ModelError(f"the action model must have one output (and a start head), got {len(outputs)}")
+    for out in outputs:
+        if len(out.shape) != 2 or out.shape[1] != len(ACTIONS):
+            raise ModelError(f"the action model's outputs must be (B, {len(ACTIONS)}), got {out.shape}")
+    return ModelInfo(
+        window=window,
+        fps=fps,
+        classes=classes,
+        input_name=inputs[0].name,
+        features=features,
+        start_head=len(outputs) == 2,
+    )
 
 
 def classify_windows(
@@ -167,6 +183,13 @@ def classify_windows(
 ) -> NDArray[np.float32]:
     """Class probabilities (N, 4) of windows (N, T, 17, 3) in one batched model call; a ``v2`` or
     ``v3`` model also needs the windows' step evidence (N, T, 16)."""
+    return classify_windows_heads(session, windows, fps, evidence)[0]
+
+
+def classify_windows_heads(
+    session: Any, windows: NDArray[np.floating], fps: float, evidence: NDArray[np.floating] | None = None
+) -> tuple[NDArray[np.float32], NDArray[np.float32] | None]:
+    """:func:`classify_windows` and the start head's probabilities (N, 4) (None without one)."""
     info = model_info(session)
     feats = window_features(windows, fps)
     if info.features in WITH_EVIDENCE and evidence is None:
@@ -174,8 +197,9 @@ def classify_windows(
             f"this action model (features {info.features}) needs the step evidence of each window"
         )
     x = model_input(feats, None if evidence is None else np.asarray(evidence, np.float32), info.features)
-    out = session.run(None, {info.input_name: x})[0]
-    return np.asarray(out, dtype=np.float32)
+    outs = session.run(None, {info.input_name: x})
+    start = np.asarray(outs[1], dtype=np.float32) if info.start_head else None
+    return np.asarray(outs[0], dtype=np.float32), start
 
 
 def ema(
@@ -273,6 +297,10 @@ class ActionRecognizer:
         self._filter = CommandFilter(
             config.ema_alpha, config.min_dwell_s, config.switch_prob, config.stop_dwell_s
         )
+        # the start head's probabilities, smoothed alike (only its EMA is read)
+        self._start_filter = CommandFilter(
+            config.ema_alpha, config.min_dwell_s, config.switch_prob, config.stop_dwell_s
+        )
         steps = config.steps
         if abs(steps.rate_hz - self.info.fps) > 1e-9:
             from dataclasses import replace
@@ -314,6 +342,7 @@ class ActionRecognizer:
         # durations that are whole frames compare the same way on any clock)
         self._tick0, self._ticks = 0.0, 0  # model frames taken so far
         self._filter.reset()
+        self._start_filter.reset()
         self._tracker.reset()
         self._gate.reset()
         self._pending: list[StepFrame] = []
@@ -423,11 +452,16 @@ class ActionRecognizer:
 
     def _step(self, ticks: int) -> None:
         x = self._model_input()
-        out = np.asarray(self._session.run(None, {self.info.input_name: x})[0][0], dtype=np.float64)
+        outs = self._session.run(None, {self.info.input_name: x})
+        out = np.asarray(outs[0][0], dtype=np.float64)
         label = self._filter.update(out, self._pending[-1].t, ticks)
+        start = None
+        if self.info.start_head:
+            self._start_filter.update(np.asarray(outs[1][0], dtype=np.float64), self._pending[-1].t, ticks)
+            start = self._start_filter.probs
         if self.config.gate:
             for sf in self._pending:
-                self._verdict = self._gate.update(sf, self._filter.probs, sf.t)
+                self._verdict = self._gate.update(sf, self._filter.probs, sf.t, start)
             assert self._verdict is not None
             label = self._verdict.label
         self._step_frame = self._pending[-1]

@@ -787,3 +787,43 @@ def test_a_new_side_forgets_a_way_home_still_pending() -> None:
     for s in (lefts[2], back):
         seen = labels[(t > s.t0 + 0.2) & (t < s.t1)]
         assert (seen == L).all(), f"step at {s.t0:.2f} s: {np.bincount(seen, minlength=4)}"
+
+
+def _gate_with_start(
+    scene: Scene, probs: list[np.ndarray], start: np.ndarray, config: GateConfig
+) -> tuple[np.ndarray, list]:  # type: ignore[type-arg]
+    joints, _ = render(scene)
+    tr, gate = StepTracker(), BoutGate(config)
+    out = [
+        gate.update(tr.update(frame, i / FPS), probs[i], i / FPS, start)
+        for i, frame in enumerate(noisy(joints, 0.012, 0.02))
+    ]
+    return np.array([v.label for v in out]), out
+
+
+def test_the_start_head_may_start_a_bout_but_only_the_full_network_holds_and_ends_it() -> None:
+    """Two judges (a model with a start head): while no bout is on, the surer of the two speaks, so
+    a march the full-body network calls still starts on its first step when the legs-only head is
+    sure; once the bout is on only the full-body network counts: a whole swing it calls still ends
+    the bout (the start head, sure of movement throughout, does not hold it). Without the start head
+    (or with ``start_network`` off) no step starts a bout. The rhythm rule is off here."""
+    swings = march(1.0, 8, 0.6, 0.35)
+    n = round(7.0 * FPS)
+    t = np.arange(n) / FPS
+    config = GateConfig(rhythm_steps=0)
+    still = [STILL_NET] * n
+    labels, _ = _gate_with_start(Scene(7.0, swings), still, STILL_NET, config)
+    assert (labels == S).all(), "two judges calling still: no bout"
+    off = GateConfig(rhythm_steps=0, start_network=False)
+    labels, _ = _gate_with_start(Scene(7.0, swings), still, FWD, off)
+    assert (labels == S).all(), "the start head switched off is not read"
+    labels, verdicts = _gate_with_start(Scene(7.0, swings), still, FWD, config)
+    first = t[labels == F][0]
+    assert swings[0].t0 + 0.1 <= first <= swings[0].t0 + 0.35, f"started at {first:.2f} s"
+    ended = [v.reason for v, tt in zip(verdicts, t, strict=True) if swings[1].t1 <= tt < swings[2].t0]
+    assert "network-still" in ended, f"the full network's veto ends the bout: {set(ended)}"
+    assert (labels[(t >= swings[1].t1 + 0.05) & (t < swings[2].t0)] == S).all()
+    # a full network sure of the movement holds the bout through every step and pause
+    sure = [FWD] * n
+    labels, _ = _gate_with_start(Scene(7.0, swings), sure, STILL_NET, config)
+    assert (labels[(t > swings[0].t0 + 0.35) & (t < swings[-1].t1)] == F).all(), "the start head is not read"
