@@ -76,8 +76,10 @@ What a user expects (MODEL_CARD.md, "Behaviour"):
   the surer (lower smoothed p(still)) of the full-body network and the legs-only one (hips, legs,
   shoulders and the step evidence: it has not learnt stepping from the arm swing, so it knows other
   people's low, still-armed steps sooner); once a bout is on, only the full-body network holds and
-  ends it (it sees the arms stop; the legs-only one holds pauses too long). The committed model has
-  no start head (MODEL_CARD.md, "Tried after the newest change": a stand-up from a kneel started).
+  ends it (it sees the arms stop; the legs-only one holds pauses too long). The start head is quiet
+  for ``start_quiet_s`` after the body was crouched (standing up from a kneel brings a foot back) and
+  while the body has turned ``start_quiet_deg`` within ``turn_window_s`` (a turn's pivots): the
+  full-body network knows those, the legs-only one less.
 
 :class:`BoutGate` is streaming; it holds only what it needs (times of the bout's steps).
 """
@@ -191,6 +193,11 @@ class GateConfig:
     # with a model's start head: while no bout is on, the surer of the two networks speaks (off: the
     # full-body network alone, the ablation)
     start_network: bool = True
+    # ... but not within start_quiet_s after the body was crouched (standing up from a kneel or a
+    # squat brings a foot back) nor while the body has turned start_quiet_deg within turn_window_s
+    # (the pivots of a turn on the spot): the full-body network knows those, the legs-only one less
+    start_quiet_s: float = 1.5
+    start_quiet_deg: float = 5.0
 
     def __post_init__(self) -> None:
         if self.rhythm not in RHYTHMS:
@@ -214,6 +221,7 @@ class GateConfig:
             "turn_window_s",
             "turn_travel_m",
             "swing_turn_deg",
+            "start_quiet_s",
         ):
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
@@ -223,7 +231,7 @@ class GateConfig:
                 f"min_allowance_s ({self.min_allowance_s}) must not exceed "
                 f"max_allowance_s ({self.max_allowance_s})"
             )
-        for name in ("slide_step_m", "way_back_m"):
+        for name in ("slide_step_m", "way_back_m", "start_quiet_deg"):
             if not getattr(self, name) >= 0:
                 raise ValueError(f"{name} must be >= 0 (inf: never), got {getattr(self, name)}")
         if not (self.start_turn_deg > 0 and self.start_travel_m >= 0):
@@ -349,6 +357,8 @@ class BoutGate:
         self._swing_top = [0.0, 0.0]  # each foot's highest point (above its standing level) this swing
         self._slid = [False, False]  # the current (or last) swing of each foot was part of a slide
         self._first_foot = -1  # the foot of the bout's first landed step
+        self._crouch_t = -math.inf  # when the body was last crouched
+        self._turned_last = 0.0  # the body's turn within turn_window_s, as of the last frame
         self._kicked = [False, False]  # the current (or last) swing of each foot raised the leg kick_deg
         self._raised = [0, 0]  # frames in a row each swinging leg has been raised kick_deg
         self._run: deque[tuple[int, float]] = deque(maxlen=8)  # (foot, lift-off) of alternating steps
@@ -576,7 +586,10 @@ class BoutGate:
         (``start_probs``: the legs-only start head's, when the model has one)."""
         c = self.config
         p = np.asarray(probs, dtype=np.float64)
-        if start_probs is not None and c.start_network and not self._active:
+        if frame.crouched:
+            self._crouch_t = t
+        quiet = t - self._crouch_t < c.start_quiet_s or self._turned_last >= c.start_quiet_deg
+        if start_probs is not None and c.start_network and not self._active and not quiet:
             s = np.asarray(start_probs, dtype=np.float64)
             if s[_STILL] < p[_STILL]:  # no bout on: the surer of the two judges speaks
                 p = s
@@ -638,6 +651,7 @@ class BoutGate:
         ]  # fmt: skip
         pivot = any(abs(turn[k]) > max_turn for k in swings)
         turned = self._turned(frame)
+        self._turned_last = turned
         if self._active:
             self._bout_steps += len(landed_steps)
         if self._active and self._bout_steps == len(landed_steps) == 1:

@@ -5,6 +5,7 @@ stay planted, jumps, crouches, the network's veto, and the direction from the ev
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -827,3 +828,42 @@ def test_the_start_head_may_start_a_bout_but_only_the_full_network_holds_and_end
     sure = [FWD] * n
     labels, _ = _gate_with_start(Scene(7.0, swings), sure, STILL_NET, config)
     assert (labels[(t > swings[0].t0 + 0.35) & (t < swings[-1].t1)] == F).all(), "the start head is not read"
+
+
+def test_the_start_head_is_quiet_after_a_crouch_and_while_the_body_turns() -> None:
+    """Standing up from a kneel or a squat brings a foot back, and a turn on the spot pivots: the
+    full-body network knows those, the legs-only start head less. It is not read for
+    ``start_quiet_s`` after the body was crouched nor while the body has turned ``start_quiet_deg``
+    within ``turn_window_s``; the full-body network's judgement (still) stands."""
+    config = GateConfig(rhythm_steps=0)
+    loud = GateConfig(rhythm_steps=0, start_quiet_s=0.0, start_quiet_deg=INF)
+    # crouched 0.5-1.5 s (ramps included), a step 0.6 s after it, another 2.5 s after it
+    crouch = Scene(6.0, (Swing(0, 2.1, 2.45), Swing(1, 4.0, 4.35)), crouch=((0.5, 1.5, 0.4),))
+    n = round(6.0 * FPS)
+    t = np.arange(n) / FPS
+    labels, verdicts = _gate_with_start(crouch, [STILL_NET] * n, FWD, config)
+    assert any(v.reason == "crouched" for v in verdicts), "the scene crouches"
+    assert (labels[t < 3.5] == S).all(), "the step right after the crouch starts nothing"
+    assert (labels[(t > 4.15) & (t < 4.35)] == F).all(), "a step well after it does (the start head)"
+    labels, _ = _gate_with_start(crouch, [STILL_NET] * n, FWD, loud)
+    assert (labels[(t > 2.3) & (t < 2.45)] == F).all(), "without the quiet time the first step starts"
+    # pivot steps turning the body 8 degrees each: the turn is under way from the second swing on
+    swings = march(1.0, 4, 0.6, 0.35, peak=0.04)
+    joints, _ = _turned(Scene(4.0, swings), 8.0)
+    n = len(joints)
+
+    def run(cfg: GateConfig) -> np.ndarray:
+        tr, gate = StepTracker(), BoutGate(cfg)
+        frames = noisy(joints, 0.01)
+        return np.array(
+            [gate.update(tr.update(f, i / FPS), STILL_NET, i / FPS, FWD).label for i, f in enumerate(frames)]
+        )
+
+    quiet = run(replace(config, start_turn_deg=INF, max_window_turn_deg=INF, first_turn_deg=INF))
+    noisy_start = run(replace(loud, start_turn_deg=INF, max_window_turn_deg=INF, first_turn_deg=INF))
+    later = np.arange(n) / FPS > swings[1].t0
+    assert (quiet[later] == S).all(), f"{np.mean(quiet[later] != S):.0%} of the turn's later frames moving"
+    assert (noisy_start[later] != S).any(), "with the start head always read the pivots start bouts"
+    for bad in ({"start_quiet_s": -1.0}, {"start_quiet_s": INF}, {"start_quiet_deg": -1.0}):
+        with pytest.raises(ValueError, match=next(iter(bad))):
+            GateConfig(**bad)
