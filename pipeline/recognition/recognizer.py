@@ -7,8 +7,10 @@ probabilities with an exponential moving average (as in the paper) and only
 changes the command when a new class leads with a clearly higher smoothed
 probability than the switching threshold (hysteresis: the current command holds
 while a challenger is between 0.5 and ``switch_prob``), optionally for a minimum
-dwell time, so the command does not flicker. It also reports the smoothed facing
-direction and the intended walking speed. onnxruntime only; no torch.
+dwell time, so the command does not flicker. A model with a start head (a second output,
+``scripts/combine_action.py``) has that output smoothed alike for the bout gate, which reads it
+while no bout is on. It also reports the smoothed facing direction and the intended walking
+speed. onnxruntime only; no torch.
 
 Timestamps must increase strictly; a frame with an equal or earlier timestamp, or
 a wrong shape, raises :class:`InputError` and changes nothing. A gap longer than
@@ -163,11 +165,11 @@ def model_info(session: Any) -> ModelInfo:
             f"the action model's input must be (B, {channels}, {window}) for features {features}, got {shape}"
         )
     outputs = session.get_outputs()
-    if not 1 <= len(outputs) <= 2:
-        raise ModelError(f"the action model must have one output (and a start head), got {len(outputs)}")
-    for out in outputs:
-        if len(out.shape) != 2 or out.shape[1] != len(ACTIONS):
-            raise ModelError(f"the action model's outputs must be (B, {len(ACTIONS)}), got {out.shape}")
+    if not 1 <= len(outputs) <= 2 or any(len(o.shape) != 2 or o.shape[1] != len(ACTIONS) for o in outputs):
+        raise ModelError(
+            f"the action model must have one output (B, {len(ACTIONS)}) (and a start head alike), "
+            f"got {[o.shape for o in outputs]}"
+        )
     return ModelInfo(
         window=window,
         fps=fps,

@@ -108,14 +108,20 @@ class FinetuneConfig:
 # ----------------------------------------------------------------------------- ONNX -> torch
 def torch_from_onnx(path: Path) -> tuple[Any, dict[str, Any]]:
     """(SkeletonSlowFast with the file's weights and frozen identity batch norms, or their
-    SlowFastEnsemble for a file of several networks; the file's facts)."""
+    SlowFastEnsemble for a file of several networks; the file's facts). Of a file with a start head
+    (``scripts/combine_action.py``) the full-body network is read: a fine-tuned model has no start
+    head."""
     import onnx
+    import onnx.utils
     from onnx import numpy_helper
 
     from pipeline.recognition.model import SlowFastEnsemble
 
     info = model_info(open_session(path))
     proto = onnx.load(str(path))
+    if info.start_head:  # the part of the graph that computes the first output only
+        first = proto.graph.output[0].name
+        proto = onnx.utils.Extractor(proto).extract_model([info.input_name], [first])
     init = {t.name: numpy_helper.to_array(t) for t in proto.graph.initializer}
     convs: list[tuple[NDArray[Any], NDArray[Any] | None]] = []
     heads: list[tuple[NDArray[Any], NDArray[Any]]] = []
@@ -321,7 +327,11 @@ def finetune(
 def export(model: Any, out: Path, facts: dict[str, Any], extra: dict[str, str]) -> None:
     from pipeline.recognition.train import export_onnx
 
-    meta = {k: v for k, v in facts["metadata"].items() if k not in ("window", "fps", "classes", "features")}
+    meta = {
+        k: v
+        for k, v in facts["metadata"].items()
+        if k not in ("window", "fps", "classes", "features") and not k.startswith("start_")
+    }  # the base's start head is not carried over
     export_onnx(
         model,
         out,

@@ -106,20 +106,28 @@ def check_model_file(path: Path, card: dict[str, Any] | None = None) -> ModelFil
     except ModelError as exc:
         raise ModelError(f"{p.name}: {exc}") from None
     outputs = session.get_outputs()
-    if len(outputs) != 1 or len(outputs[0].shape) != 2 or outputs[0].shape[1] != len(ACTIONS):
+    if (
+        len(outputs) not in (1, 2)
+        or len(outputs) != 1 + info.start_head
+        or any(len(o.shape) != 2 or o.shape[1] != len(ACTIONS) for o in outputs)
+    ):
         shape = [o.shape for o in outputs]
-        raise ModelError(f"{p.name}: an action model has one output (B, {len(ACTIONS)}), got {shape}")
+        raise ModelError(
+            f"{p.name}: an action model has one output (B, {len(ACTIONS)}) "
+            f"(and a start head alike), got {shape}"
+        )
     channels = FEATURE_CHANNELS[info.features]
     try:
-        out = session.run(None, {info.input_name: np.zeros((2, channels, info.window), np.float32)})[0]
+        outs = session.run(None, {info.input_name: np.zeros((2, channels, info.window), np.float32)})
     except Exception as exc:  # onnxruntime's own error types
         raise ModelError(f"{p.name}: the model does not run on a window ({exc})") from None
-    out = np.asarray(out, dtype=np.float64)
-    sums_to_one = out.shape == (2, len(ACTIONS)) and np.allclose(out.sum(1), 1, atol=1e-3)
-    if not sums_to_one or not np.isfinite(out).all():
-        raise ModelError(
-            f"{p.name}: the output must be {len(ACTIONS)} probabilities summing to 1 per window, got {out[0]}"
-        )
+    for out in (np.asarray(o, dtype=np.float64) for o in outs):
+        sums_to_one = out.shape == (2, len(ACTIONS)) and np.allclose(out.sum(1), 1, atol=1e-3)
+        if not sums_to_one or not np.isfinite(out).all():
+            raise ModelError(
+                f"{p.name}: the output must be {len(ACTIONS)} probabilities summing to 1 per window, "
+                f"got {out[0]}"
+            )
     meta = dict(session.get_modelmeta().custom_metadata_map)
     result = ModelFileInfo(
         window=info.window,

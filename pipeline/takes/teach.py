@@ -87,7 +87,8 @@ class OutputAdaptation:
 
 class AdaptableSession:
     """An onnxruntime session whose class probabilities pass through an :class:`OutputAdaptation`
-    (or not, when it is None); everything else is the session's own."""
+    (or not, when it is None); everything else is the session's own (a start head's output too:
+    the adaptation is fitted on the full-body network's)."""
 
     def __init__(self, session: Any, adaptation: OutputAdaptation | None = None) -> None:
         self._session = session

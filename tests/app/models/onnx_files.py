@@ -28,9 +28,12 @@ def with_metadata(out: Path, **changes: str | None) -> Path:
     return out
 
 
-def three_class_model(out: Path, channels: int = 135, window: int = 32) -> Path:
-    """A small valid ONNX model with the four classes in its metadata but three outputs."""
-    w = numpy_helper.from_array(np.random.default_rng(0).normal(size=(channels, 3)).astype(np.float32), "w")
+def three_class_model(out: Path, channels: int = 135, window: int = 32, classes: int = 3) -> Path:
+    """A small valid ONNX model with the four classes in its metadata but three outputs (``classes``:
+    another count; 4 gives a model that runs but is no SlowFast network)."""
+    w = numpy_helper.from_array(
+        np.random.default_rng(0).normal(size=(channels, classes)).astype(np.float32), "w"
+    )
     axes = numpy_helper.from_array(np.array([2], dtype=np.int64), "axes")
     nodes = [
         helper.make_node("ReduceMean", ["x", "axes"], ["m"], keepdims=0),
@@ -40,7 +43,7 @@ def three_class_model(out: Path, channels: int = 135, window: int = 32) -> Path:
     graph = helper.make_graph(
         nodes, "three",
         [helper.make_tensor_value_info("x", TensorProto.FLOAT, ["batch", channels, window])],
-        [helper.make_tensor_value_info("probs", TensorProto.FLOAT, ["batch", 3])],
+        [helper.make_tensor_value_info("probs", TensorProto.FLOAT, ["batch", classes])],
         [w, axes],
     )  # fmt: skip
     model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 18)])

@@ -27,13 +27,18 @@ def test_the_committed_model_read_into_torch_computes_what_the_file_does(tmp_pat
     again = open_session(tmp_path / "again.onnx")
     assert np.abs(again.run(None, {name: x})[0] - theirs).max() < 1e-4
     assert again.get_modelmeta().custom_metadata_map["note"] == "round trip"
+    # the committed file's start head (its second output) is not the network fine-tuning reads: the
+    # fine-tuned file has the full-body network alone, and no metadata that says otherwise
+    assert len(session.get_outputs()) == 2, "the committed model carries a start head"
+    assert len(again.get_outputs()) == 1
+    assert not any(k.startswith("start_") for k in again.get_modelmeta().custom_metadata_map)
 
 
 def test_a_model_that_is_not_the_slowfast_network_cannot_be_fine_tuned(tmp_path: Path) -> None:
     from tests.app.models.onnx_files import three_class_model
 
     with pytest.raises(ModelError, match="not the skeleton SlowFast network"):
-        torch_from_onnx(three_class_model(tmp_path / "m.onnx"))
+        torch_from_onnx(three_class_model(tmp_path / "m.onnx", classes=4))
 
 
 def test_an_ensemble_file_reads_back_into_its_networks(tmp_path: Path) -> None:
