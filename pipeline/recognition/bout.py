@@ -100,7 +100,7 @@ from pipeline.skeleton import ACTIONS
 _STILL, _FORWARD, _LEFT, _RIGHT = (ACTIONS.index(a) for a in ("still", "forward", "left", "right"))
 RHYTHMS = ("max", "median")
 REASONS = ("planted", "lifting", "stepping", "pause", "rhythm-broke", "jump", "crouched", "pivot",
-           "network-still", "feet-unknown", "not-upright", "kick", "rhythm")  # fmt: skip
+           "network-still", "feet-unknown", "not-upright", "kick", "rhythm", "start-head")  # fmt: skip
 
 
 @dataclass(frozen=True, slots=True)
@@ -363,6 +363,7 @@ class BoutGate:
         self._raised = [0, 0]  # frames in a row each swinging leg has been raised kick_deg
         self._run: deque[tuple[int, float]] = deque(maxlen=8)  # (foot, lift-off) of alternating steps
         self._unknown = False  # the bout was started by the rhythm alone: the network does not know it
+        self._by_head = False  # started on the start head's word; the full-body network not yet sure
         self._vetoed = False  # the network ended a bout of the steps in the current run
         self._last_run_lift = -math.inf  # lift-off of the newest step counted for a run
         self._unsure_start = math.nan  # lift-off of a bout's first step, started sideways on the network's
@@ -491,8 +492,9 @@ class BoutGate:
                 self._label = self._side
 
     def _moving(self) -> str:
-        """The reason of a bout's stepping frames: ``rhythm`` while the rhythm alone carries it."""
-        return "rhythm" if self._unknown else "stepping"
+        """The reason of a bout's stepping frames: ``rhythm`` while the rhythm alone carries it,
+        ``start-head`` while only the start head has been sure of it."""
+        return "rhythm" if self._unknown else "start-head" if self._by_head else "stepping"
 
     def _count_rhythm(self, foot: int, lift_t: float, broken: bool) -> None:
         """A step of ``foot`` that lifted off at ``lift_t`` has landed: it continues the run of
@@ -586,13 +588,16 @@ class BoutGate:
         (``start_probs``: the legs-only start head's, when the model has one)."""
         c = self.config
         p = np.asarray(probs, dtype=np.float64)
+        if self._by_head and 1.0 - p[_STILL] >= c.start_prob:
+            self._by_head = False  # the full-body network is sure of the bout now
         if frame.crouched:
             self._crouch_t = t
         quiet = t - self._crouch_t < c.start_quiet_s or self._turned_last >= c.start_quiet_deg
+        heard = False  # the start head speaks this frame
         if start_probs is not None and c.start_network and not self._active and not quiet:
             s = np.asarray(start_probs, dtype=np.float64)
             if s[_STILL] < p[_STILL]:  # no bout on: the surer of the two judges speaks
-                p = s
+                p, heard = s, True
         p_move = float(1.0 - p[_STILL])
         ev = evidence_direction(frame)
         ev_name = ACTIONS[ev] if ev is not None else None
@@ -707,6 +712,7 @@ class BoutGate:
             rhythmic = any(self._continues_rhythm(k, abs(turn[k])) for k in stepping)
             if (sure or rhythmic) and not turning_in_place:
                 self._unknown = not sure
+                self._by_head = sure and heard
                 self._active = True
                 self._side_t = max(self._swing_lift[k] for k in stepping)  # the bout's first step
                 self._label = self._start_direction(frame, ev, p)

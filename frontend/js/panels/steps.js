@@ -23,6 +23,7 @@ const REASON_TEXT = {
   "not-upright": "the body is not upright (bent over, lying): no movement",
   kick: "the leg was raised far (a kick): no step, no movement",
   rhythm: "steps in a steady rhythm the network does not recognise: moving on the steps alone",
+  "start-head": "a step the legs-only start head is sure of; the full-body network is not yet",
 };
 
 function cm(v) {

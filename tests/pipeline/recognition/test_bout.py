@@ -824,10 +824,22 @@ def test_the_start_head_may_start_a_bout_but_only_the_full_network_holds_and_end
     ended = [v.reason for v, tt in zip(verdicts, t, strict=True) if swings[1].t1 <= tt < swings[2].t0]
     assert "network-still" in ended, f"the full network's veto ends the bout: {set(ended)}"
     assert (labels[(t >= swings[1].t1 + 0.05) & (t < swings[2].t0)] == S).all()
+    assert "start-head" in {v.reason for v in verdicts if v.active}, "the step strip says who started it"
     # a full network sure of the movement holds the bout through every step and pause
     sure = [FWD] * n
-    labels, _ = _gate_with_start(Scene(7.0, swings), sure, STILL_NET, config)
+    labels, verdicts = _gate_with_start(Scene(7.0, swings), sure, STILL_NET, config)
     assert (labels[(t > swings[0].t0 + 0.35) & (t < swings[-1].t1)] == F).all(), "the start head is not read"
+    assert "start-head" not in {v.reason for v in verdicts}
+    # a full network unsure at first (p(moving) 0.5), sure from 3 s on: the step strip's reason turns
+    # from the start head's word to a step the full-body network knows
+    unsure = np.array([0.5, 0.3, 0.1, 0.1])
+    mixed = [unsure if i / FPS < 3.0 else FWD for i in range(n)]
+    labels, verdicts = _gate_with_start(Scene(7.0, swings), mixed, FWD, config)
+    reasons = np.array([v.reason for v in verdicts])
+    early = (t > swings[0].t0 + 0.35) & (t < swings[0].t1)
+    assert (reasons[early] == "start-head").all(), set(reasons[early])
+    assert (reasons[(t > 3.2) & (labels == F)] != "start-head").all()
+    assert "stepping" in set(reasons[t > 3.2])
 
 
 def test_the_start_head_is_quiet_after_a_crouch_and_while_the_body_turns() -> None:
