@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -49,13 +50,22 @@ def start_mask(features: str) -> np.ndarray:
     return mask
 
 
+def _load(path: Path) -> Any:
+    import onnx
+
+    try:
+        return onnx.load(str(path))
+    except Exception as exc:  # protobuf's DecodeError and the like: not an ONNX file
+        raise ValueError(f"{path.name} is not an ONNX model ({type(exc).__name__})") from None
+
+
 def combine(full_path: Path, start_path: Path, out: Path) -> None:
     """Write FULL + START as one model with outputs ``probs`` and ``start_probs``; ValueError if the
-    two do not fit together."""
+    two do not fit together or one is no ONNX model."""
     import onnx
     from onnx import compose, helper, numpy_helper
 
-    full, start = onnx.load(str(full_path)), onnx.load(str(start_path))
+    full, start = _load(full_path), _load(start_path)
     mf, ms = _meta(full), _meta(start)
     for key in _SHARED:
         if mf.get(key) != ms.get(key):
@@ -108,7 +118,7 @@ def main(argv: list[str] | None = None) -> int:
             return 2
     try:
         combine(args.full, args.start, args.out)
-    except ValueError as exc:
+    except (ValueError, OSError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     print(f"wrote {args.out} ({args.out.stat().st_size // 1024} KiB)")

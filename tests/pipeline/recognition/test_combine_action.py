@@ -117,6 +117,12 @@ def test_bad_input_gets_one_error_and_writes_nothing(models: tuple[Path, Path, P
         assert done.returncode == 2 and done.stderr.startswith("error: "), done.stderr
         assert message in done.stderr, done.stderr
         assert not out.exists()
+    (tmp_path / "text.onnx").write_text("not a model")
+    done = _combine(tmp_path / "text.onnx", legs, "--out", out)
+    assert done.returncode == 2 and done.stderr == "error: text.onnx is not an ONNX model (DecodeError)\n"
+    assert not out.exists()
+    done = _combine(full, legs, "--out", tmp_path / "text.onnx" / "x.onnx")  # a file as the folder
+    assert done.returncode == 2 and done.stderr.startswith("error: ") and done.stderr.count("\n") == 1
     other = onnx.load(str(legs))
     for p in other.metadata_props:
         if p.key == "fps":
