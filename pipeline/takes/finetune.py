@@ -36,6 +36,7 @@ from pipeline.recognition.dataset import LabelledSequence
 from pipeline.recognition.evaluation import network_trace, replay, scored
 from pipeline.recognition.features import WITH_EVIDENCE
 from pipeline.recognition.metrics import Evaluation, evaluate
+from pipeline.recognition.networks import LAYOUT_KEY
 from pipeline.recognition.recognizer import DEFAULT_MODEL_PATH, RecognizerConfig, model_info, open_session
 from pipeline.skeleton import ACTIONS
 from pipeline.takes.dataset import TakeData
@@ -112,42 +113,16 @@ def torch_from_onnx(path: Path) -> tuple[Any, dict[str, Any]]:
     (``scripts/combine_action.py``) the full-body network is read: a fine-tuned model has no start
     head."""
     import onnx
-    import onnx.utils
-    from onnx import numpy_helper
 
     from pipeline.recognition.model import SlowFastEnsemble
+    from pipeline.recognition.networks import read_networks  # onnx: the train extra
 
     info = model_info(open_session(path))
-    proto = onnx.load(str(path))
-    if info.start_head:  # the part of the graph that computes the first output only
-        first = proto.graph.output[0].name
-        proto = onnx.utils.Extractor(proto).extract_model([info.input_name], [first])
-    init = {t.name: numpy_helper.to_array(t) for t in proto.graph.initializer}
-    convs: list[tuple[NDArray[Any], NDArray[Any] | None]] = []
-    heads: list[tuple[NDArray[Any], NDArray[Any]]] = []
-    for node in proto.graph.node:  # the export's order: the forward pass's, one network after another
-        if node.op_type == "Conv":
-            w = init.get(node.input[1])
-            b = init.get(node.input[2]) if len(node.input) > 2 else None
-            if w is None:
-                raise ModelError(
-                    f"{path.name}: a convolution's weights are not constants; cannot fine-tune it"
-                )
-            convs.append((w, b))
-        elif node.op_type == "Gemm":
-            w, b = init.get(node.input[1]), init.get(node.input[2]) if len(node.input) > 2 else None
-            if w is None or b is None:
-                raise ModelError(f"{path.name}: the classifier head's weights are not constants")
-            heads.append((w, b))
-    per = len(convs) // max(len(heads), 1)
-    if not heads or per not in (3, 8) or per * len(heads) != len(convs):
-        raise ModelError(
-            f"{path.name}: not the skeleton SlowFast network cavewalk trains ({len(convs)} convolutions, "
-            f"{len(heads)} heads); it can be run and evaluated but not fine-tuned"
-        )
-    members = [
-        _network(path, info.window, convs[k * per : (k + 1) * per], heads[k]) for k in range(len(heads))
-    ]
+    try:  # the first output's networks, of a training export or a grouped file alike
+        networks = read_networks(onnx.load(str(path)))
+    except ValueError as exc:
+        raise ModelError(f"{path.name}: {exc}; it can be run and evaluated but not fine-tuned") from exc
+    members = [_network(path, info.window, list(n.convs), n.head) for n in networks]
     model = members[0] if len(members) == 1 else SlowFastEnsemble(members).eval()
     facts = {
         "window": info.window,
@@ -330,8 +305,8 @@ def export(model: Any, out: Path, facts: dict[str, Any], extra: dict[str, str]) 
     meta = {
         k: v
         for k, v in facts["metadata"].items()
-        if k not in ("window", "fps", "classes", "features") and not k.startswith("start_")
-    }  # the base's start head is not carried over
+        if k not in ("window", "fps", "classes", "features", LAYOUT_KEY) and not k.startswith("start_")
+    }  # the base's start head is not carried over, nor its grouped layout (an export is not grouped)
     export_onnx(
         model,
         out,

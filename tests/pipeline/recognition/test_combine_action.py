@@ -1,5 +1,6 @@
-"""`scripts/combine_action.py`: two trained action models become one file with a start head; the
-recogniser, the replay and the bout gate read it (the model card's "two judges")."""
+"""`scripts/combine_action.py`: trained action models become one file with a start head, written as
+grouped stacks (`pipeline.recognition.networks`); the recogniser, the replay and the bout gate read it
+(the model card's "two judges")."""
 
 from __future__ import annotations
 
@@ -59,7 +60,7 @@ def models(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, Path]:
     tmp = tmp_path_factory.mktemp("combine")
     full, legs = _single(tmp, "full.onnx", "v2"), _single(tmp, "legs.onnx", FEATURES_V3)
     out = tmp / "both.onnx"
-    done = _combine(full, legs, "--out", out)
+    done = _combine("--full", full, "--start", legs, "--out", out)
     assert done.returncode == 0, done.stderr
     return full, legs, out
 
@@ -106,27 +107,124 @@ def test_the_recogniser_streams_what_the_replay_of_both_heads_gives(models: tupl
 
 
 def test_bad_input_gets_one_error_and_writes_nothing(models: tuple[Path, Path, Path], tmp_path: Path) -> None:
-    full, legs, both = models
+    full, legs, _ = models
     out = tmp_path / "x.onnx"
     for args, message in (
-        ((tmp_path / "none.onnx", legs), "no such model"),
-        ((both, legs), "one output"),
-        ((legs, full), "full model must take features v2"),
+        (("--full", tmp_path / "none.onnx", "--start", legs), "no such model"),
+        (("--full", legs, "--start", full), "full model must take features v2, legs.onnx takes 'v3'"),
+        (("--full", full, legs, "--start", legs), "full model must take features v2, legs.onnx"),
     ):
         done = _combine(*args, "--out", out)
         assert done.returncode == 2 and done.stderr.startswith("error: "), done.stderr
         assert message in done.stderr, done.stderr
         assert not out.exists()
     (tmp_path / "text.onnx").write_text("not a model")
-    done = _combine(tmp_path / "text.onnx", legs, "--out", out)
+    done = _combine("--full", tmp_path / "text.onnx", "--start", legs, "--out", out)
     assert done.returncode == 2 and done.stderr == "error: text.onnx is not an ONNX model (DecodeError)\n"
     assert not out.exists()
-    done = _combine(full, legs, "--out", tmp_path / "text.onnx" / "x.onnx")  # a file as the folder
+    folder_is_file = tmp_path / "text.onnx" / "x.onnx"
+    done = _combine("--full", full, "--start", legs, "--out", folder_is_file)
     assert done.returncode == 2 and done.stderr.startswith("error: ") and done.stderr.count("\n") == 1
     other = onnx.load(str(legs))
     for p in other.metadata_props:
         if p.key == "fps":
             p.value = "60"
     onnx.save(other, str(tmp_path / "fast.onnx"))
-    done = _combine(full, tmp_path / "fast.onnx", "--out", out)
+    done = _combine("--full", full, "--start", tmp_path / "fast.onnx", "--out", out)
     assert done.returncode == 2 and "differ in fps" in done.stderr and not out.exists()
+    done = _combine("--full", full, "--start", legs, tmp_path / "fast.onnx", "--out", out)
+    assert done.returncode == 2 and "differ in fps" in done.stderr and not out.exists()
+
+
+def _random_networks(count: int, seed: int) -> list[object]:
+    """``count`` skeleton SlowFast networks with random weights and batch-norm statistics of their own."""
+    import torch
+
+    from pipeline.recognition.model import SkeletonSlowFast, SlowFastConfig
+
+    torch.manual_seed(seed)
+    nets = [SkeletonSlowFast(SlowFastConfig(in_channels=135, window=32)) for _ in range(count)]
+    with torch.no_grad():
+        for net in nets:
+            for bn in (m for m in net.modules() if isinstance(m, torch.nn.BatchNorm1d)):
+                bn.running_mean.uniform_(-0.5, 0.5)
+                bn.running_var.uniform_(0.5, 2.0)
+                bn.bias.uniform_(-0.3, 0.3)
+            net.eval()
+    return nets
+
+
+def test_several_files_per_output_are_one_grouped_ensemble(tmp_path: Path) -> None:
+    """Files of 2 and 1 networks as the full-body output, 1 and 2 as the start head: each output is the
+    softmax of the mean logits of all its networks (computed here in torch from the networks
+    themselves), the start head's with the joints a v3 network does not see zeroed, and the file is
+    written as one grouped stack per output, which reads back into the same networks."""
+    torch = pytest.importorskip("torch")
+    from pipeline.recognition.features import CHANNELS_PER_JOINT, FEATURE_CHANNELS, V3_JOINTS
+    from pipeline.recognition.model import SlowFastEnsemble
+    from pipeline.recognition.networks import LAYOUT_KEY, read_networks
+    from pipeline.recognition.train import export_onnx
+
+    nets = _random_networks(6, seed=5)
+    paths = []
+    for k, (group, features) in enumerate(
+        (((0, 1), "v2"), ((2,), "v2"), ((3,), FEATURES_V3), ((4, 5), FEATURES_V3))
+    ):
+        path = tmp_path / f"part{k}.onnx"
+        model = SlowFastEnsemble([nets[i] for i in group]) if len(group) > 1 else nets[group[0]]
+        seeds = ",".join(str(i) for i in group)
+        export_onnx(
+            model, path, 32, 30.0, extra={"seed": seeds, "members": str(len(group))}, features=features
+        )
+        paths.append(path)
+    out = tmp_path / "joined.onnx"
+    done = _combine("--full", paths[0], paths[1], "--start", paths[2], paths[3], "--out", out)
+    assert done.returncode == 0, done.stderr
+    proto = onnx.load(str(out))
+    meta = {p.key: p.value for p in proto.metadata_props}
+    assert meta["members"] == "3" and meta["seed"] == "0,1,2" and meta["start_seed"] == "3,4,5"
+    assert meta["start_members"] == "3" and meta[LAYOUT_KEY] == "grouped"
+    assert len(proto.graph.node) < 70, "about 30 nodes per output instead of about 40 per network"
+
+    rng = np.random.default_rng(2)
+    x = rng.normal(size=(9, FEATURE_CHANNELS["v2"], 32)).astype(np.float32)
+    mask = np.ones(FEATURE_CHANNELS["v2"], np.float32)  # a v3 network sees the step evidence and its joints
+    mask[: 17 * CHANNELS_PER_JOINT] = 0.0
+    for j in V3_JOINTS:
+        mask[j * CHANNELS_PER_JOINT : (j + 1) * CHANNELS_PER_JOINT] = 1.0
+    with torch.no_grad():
+        t = torch.from_numpy(x)
+        tm = torch.from_numpy(x * mask[None, :, None])
+        want_full = torch.softmax(torch.stack([nets[i](t) for i in (0, 1, 2)]).mean(0), dim=1).numpy()
+        want_start = torch.softmax(torch.stack([nets[i](tm) for i in (3, 4, 5)]).mean(0), dim=1).numpy()
+    session = open_session(out)
+    probs, start = session.run(None, {"x": x})
+    np.testing.assert_allclose(probs, want_full, atol=2e-6)
+    np.testing.assert_allclose(start, want_start, atol=2e-6)
+    assert np.abs(want_full - want_start).max() > 1e-3, "the two outputs differ (the check can fail)"
+    back = read_networks(proto)
+    assert len(back) == 3
+    sd = nets[2].state_dict()
+    w, _ = back[2].conv("slow2")
+    scale = (sd["slow2.2.weight"] / torch.sqrt(sd["slow2.2.running_var"] + 1e-5)).numpy()
+    np.testing.assert_allclose(w, sd["slow2.1.weight"].numpy() * scale[:, None, None], atol=1e-5)
+    np.testing.assert_allclose(back[2].head[0], sd["head.weight"].numpy(), atol=1e-6)
+    np.testing.assert_allclose(back[2].head[1], sd["head.bias"].numpy(), atol=1e-6)
+    again = tmp_path / "again.onnx"
+    done = _combine("--full", out, "--start", out, "--out", again)
+    assert done.returncode == 0, done.stderr
+    assert again.read_bytes() == out.read_bytes(), "a grouped file joins into itself byte for byte"
+
+
+def test_the_committed_file_is_grouped_and_reads_back_into_its_networks() -> None:
+    """The committed model is written grouped (a few dozen nodes per output, not forty per network)
+    and its metadata counts the networks that reading it back finds."""
+    from pipeline.recognition.networks import LAYOUT_KEY, read_networks
+
+    proto = onnx.load(str(DEFAULT_MODEL_PATH))
+    meta = {p.key: p.value for p in proto.metadata_props}
+    assert meta[LAYOUT_KEY] == "grouped"
+    assert len(proto.graph.node) < 80
+    full, start = read_networks(proto, "probs"), read_networks(proto, "start_probs")
+    assert len(full) == int(meta["members"]) == len(meta["seed"].split(","))
+    assert len(start) == int(meta["start_members"]) == len(meta["start_seed"].split(","))
