@@ -53,7 +53,8 @@ def _routine(segments: tuple[Segment, ...], height: float, yaw: float, seed: int
 
 def test_committed_model_is_small_and_describes_itself() -> None:
     assert DEFAULT_MODEL_PATH.is_file(), "pipeline/recognition/action.onnx is committed"
-    assert DEFAULT_MODEL_PATH.stat().st_size < 2 * 1024 * 1024
+    # sixteen networks of 47,244 parameters (eight per output, MODEL_CARD.md "Latest change"): 3.1 MiB
+    assert DEFAULT_MODEL_PATH.stat().st_size < 4 * 1024 * 1024
     rec = ActionRecognizer.from_config(RecognizerConfig())
     assert rec.info.classes == ACTIONS and rec.info.fps == FPS and 30 <= rec.info.window <= 40
 
