@@ -175,10 +175,12 @@ def _cached_or_emptied(folder: Path, stamp: dict[str, Any]) -> dict[str, Any] | 
 
 
 def write_sim_set(folder: Path, spec: SimSet, progress: Callable[[str], None]) -> dict[str, Any]:
-    """The set's NPZs in ``folder`` (made again only when the set's settings changed)."""
-    from pipeline.sim.routines import simulate_routine
+    """The set's NPZs in ``folder`` (made again only when the set's settings or the simulator's
+    version changed)."""
+    from pipeline.sim import routines
 
-    stamp = {"kind": spec.kind, "count": spec.count, "duration_s": spec.duration_s, "seed": spec.seed, "v": 1}
+    stamp = {"kind": spec.kind, "count": spec.count, "duration_s": spec.duration_s, "seed": spec.seed,
+             "sim_version": routines.SIM_VERSION, "v": 1}  # fmt: skip
     cached = _cached_or_emptied(folder, stamp)
     if cached is not None:
         return cached
@@ -186,7 +188,7 @@ def write_sim_set(folder: Path, spec: SimSet, progress: Callable[[str], None]) -
     files = []
     for i in range(spec.count):
         seed = spec.seed + i
-        seq = simulate_routine(seed=seed, duration_s=spec.duration_s, kind=spec.kind).to_sequence()
+        seq = routines.simulate_routine(seed=seed, duration_s=spec.duration_s, kind=spec.kind).to_sequence()
         name = f"sim_{spec.kind}_{seed}.npz"
         save_npz(folder / name, seq)
         labels = list(seq.labels or ())

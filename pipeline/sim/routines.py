@@ -46,6 +46,11 @@ from pipeline.sim.motion import UserMotion, simulate_user
 from pipeline.sim.ranges import ROUTINE_KINDS
 from pipeline.sim.script import random_script
 
+# Bumped whenever the same seed and kind would give other motion (the rhythmic pivot turns of
+# 2026-12-04 were the first such change after the held-out sets existed): the sets that
+# ``cavewalk data sources`` writes from this simulator carry it in their stamp and are made again.
+SIM_VERSION = 2
+
 __all__ = ["ROUTINE_KINDS", "simulate_routine"]
 
 
