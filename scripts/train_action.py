@@ -7,11 +7,11 @@
 
 Sources: ``sim`` (our simulator's random routines, ``--sequences`` of ``--duration`` s), ``gait``,
 ``blind``, ``blind2`` and ``blind3`` (the second to fifth motion models, other seeds than their
-held-out sets; the sixth, ``pipeline.sim.blind4``, is never trained on) or ``NAME=DIR`` (every
-labelled SPEC NPZ under DIR: the still-behaviour library, converted real motion capture...), prepared by
-:mod:`pipeline.recognition.prepare` (30 fps, mirrored, ``--warp NAME`` sources also at 0.85x /
-1.15x, captured through the simulated CAVE cameras and our triangulation, step evidence from the
-run-time tracker; cached in --cache).
+held-out sets; the sixth and seventh, ``pipeline.sim.blind4`` and ``blind5``, are never trained on)
+or ``NAME=DIR`` (every labelled SPEC NPZ under DIR: the still-behaviour library, converted real
+motion capture...), prepared by :mod:`pipeline.recognition.prepare` (30 fps, mirrored, ``--warp
+NAME`` sources also at 0.85x / 1.15x, captured through the simulated CAVE cameras and our
+triangulation, step evidence from the run-time tracker; cached in --cache).
 Windows are drawn with each source weighing (its frames) ** 0.5. Needs the ``train`` extra
 (torch, onnx). Deterministic for a seed. ``--members N`` trains N networks, the k-th with seed
 ``--seed`` + k for its data draw and its weights, and writes their ensemble (the mean of their

@@ -24,6 +24,9 @@ Layout, under ``<cache_dir>/data/sources/``::
                             with other seeds)
     blind4-heldout/*.npz    the sixth (pipeline.sim.blind4: an inverted-pendulum centre of mass over
                             planned footsteps), evaluation only and never trained on at all
+    blind5-heldout/*.npz    the seventh (pipeline.sim.blind5: keyframe animation on a joint hierarchy
+                            with foot-lock IK; adds aerobics step-touches, crouches and tiptoes),
+                            evaluation only and never trained on at all
 
 ``use``: ``train`` (may be trained on and held out by leave-one-source-out), or ``eval``
 (held-out evaluation only: never pass it to ``train_action.py``). A source folder never mixes
@@ -109,17 +112,18 @@ SIM_SETS = {
 SIM_USE = {"still": "train", "still-heldout": "eval"}
 
 
-BLIND_MODELS = ("blind", "blind2", "blind3", "blind4")
-OWN_NOISE_MODELS = ("blind2", "blind3", "blind4")  # their generators add their own capture noise
+BLIND_MODELS = ("blind", "blind2", "blind3", "blind4", "blind5")
+OWN_NOISE_MODELS = ("blind2", "blind3", "blind4", "blind5")  # their generators add their own capture noise
 
 
 @dataclass(frozen=True, slots=True)
 class BlindSet:
     """A set of an independent motion model's sequences: ``model`` ``blind`` (the third motion model,
     pipeline.sim.blind), ``blind2`` (the fourth, pipeline.sim.blind2), ``blind3`` (the fifth,
-    pipeline.sim.blind3) or ``blind4`` (the sixth, pipeline.sim.blind4; the capture noise of blind2,
-    blind3 and blind4 is their own: 1.2 cm and 2 % of the joints, so ``noise_m`` and ``dropout`` must
-    stay at those values); how many, how long, seed, noise and dropped joints."""
+    pipeline.sim.blind3), ``blind4`` (the sixth, pipeline.sim.blind4) or ``blind5`` (the seventh,
+    pipeline.sim.blind5; the capture noise of blind2 to blind5 is their own: 1.2 cm and 2 % of the
+    joints, so ``noise_m`` and ``dropout`` must stay at those values); how many, how long, seed, noise
+    and dropped joints."""
 
     count: int
     duration_s: float
@@ -142,13 +146,14 @@ class BlindSet:
             )
 
 
-# held-out evaluation only: never trained on (blind4 is never trained on at all; blind, blind2 and
-# blind3 train with other seeds: corpus.independent_model)
+# held-out evaluation only: never trained on (blind4 and blind5 are never trained on at all; blind,
+# blind2 and blind3 train with other seeds: corpus.independent_model)
 BLIND_SETS = {
     "blind-heldout": BlindSet(count=12, duration_s=60.0, seed=4242),
     "blind2-heldout": BlindSet(count=12, duration_s=60.0, seed=2026, model="blind2"),
     "blind3-heldout": BlindSet(count=12, duration_s=60.0, seed=31337, model="blind3"),
     "blind4-heldout": BlindSet(count=12, duration_s=60.0, seed=60606, model="blind4"),
+    "blind5-heldout": BlindSet(count=12, duration_s=60.0, seed=50505, model="blind5"),
 }
 BLIND_ORIGINS = {
     "blind": "pipeline.sim.blind: a third motion model, written without reading the others",
@@ -157,6 +162,8 @@ BLIND_ORIGINS = {
     "without reading the product's code",
     "blind4": "pipeline.sim.blind4: a sixth motion model (an inverted-pendulum centre of mass over planned "
     "footsteps, inverse-kinematics legs), written without reading the product's code",
+    "blind5": "pipeline.sim.blind5: a seventh motion model (keyframe animation on a joint hierarchy, "
+    "foot-lock IK), written without reading the product's code",
 }
 
 
@@ -267,7 +274,7 @@ def write_gait_set(folder: Path, spec: GaitSet, progress: Callable[[str], None])
 
 def write_blind_set(folder: Path, spec: BlindSet, progress: Callable[[str], None]) -> dict[str, Any]:
     """The set's NPZs in ``folder`` (made again only when the set's settings changed)."""
-    from pipeline.sim import blind, blind2, blind3, blind4
+    from pipeline.sim import blind, blind2, blind3, blind4, blind5
 
     stamp: dict[str, Any] = {"count": spec.count, "duration_s": spec.duration_s, "seed": spec.seed,
                              "noise_m": spec.noise_m, "dropout": spec.dropout, "v": 1}  # fmt: skip
@@ -284,6 +291,8 @@ def write_blind_set(folder: Path, spec: BlindSet, progress: Callable[[str], None
         paths = blind3.write_set(folder, spec.count, spec.seed, spec.duration_s)
     elif spec.model == "blind4":
         paths = blind4.write_set(folder, spec.count, spec.seed, spec.duration_s)
+    elif spec.model == "blind5":
+        paths = blind5.write_set(folder, spec.count, spec.seed, spec.duration_s)
     else:
         paths = blind.write_set(folder, spec.count, spec.duration_s, spec.seed, spec.noise_m, spec.dropout)
     for path in paths:

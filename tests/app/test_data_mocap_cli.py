@@ -63,6 +63,7 @@ def test_data_sources_writes_one_folder_per_named_source(
         "blind2-heldout",
         "blind3-heldout",
         "blind4-heldout",
+        "blind5-heldout",
     }
     for name, m in manifest.items():
         assert f"{name}={m['dir']}  [{m['use']}]" in res.output
@@ -99,7 +100,7 @@ def test_data_sources_writes_one_folder_per_named_source(
     assert manifest["blind-heldout"]["use"] == "eval" and len(blind) == 2
     assert all(len(s) == 360 and s.contacts is not None for s in blind)  # 12 s at 30 fps, with contacts
     assert manifest["blind-heldout"]["settings"]["noise_m"] == 0.012
-    for model in ("blind2", "blind3", "blind4"):  # the fourth, fifth and sixth motion models
+    for model in ("blind2", "blind3", "blind4", "blind5"):  # the fourth to seventh motion models
         entry = manifest[f"{model}-heldout"]
         seqs = from_folder(entry["dir"], source=f"{model}-heldout")
         assert entry["use"] == "eval" and len(seqs) == 2
