@@ -1,10 +1,11 @@
 """Fine-tuning the action model on recorded takes plus simulator data (``cavewalk train``; torch).
 
 The network starts from a registered ONNX model's own weights (the committed model by default):
-:func:`torch_from_onnx` reads the exported graph's convolutions (batch norm folded in by the export)
-back into :class:`~pipeline.recognition.model.SkeletonSlowFast` (each network of an ensemble file
-into its :class:`~pipeline.recognition.model.SlowFastEnsemble`), whose batch norms then stay
-frozen at the identity, so the untrained network computes exactly what the file does.
+:func:`torch_from_onnx` reads the graph's convolutions (batch norm folded in by the export; a training
+export or a grouped file, :mod:`pipeline.recognition.networks`) back into
+:class:`~pipeline.recognition.model.SkeletonSlowFast` (each network of an ensemble file into its
+:class:`~pipeline.recognition.model.SlowFastEnsemble`), whose batch norms then stay frozen at the
+identity, so the untrained network computes exactly what the file does.
 The data: every take's participant frames at the model's frame rate, mirrored (a mirrored left
 side step is a right one), with the step evidence of the run-time tracker; plus simulated routines
 (stepping and still behaviours) captured through the simulated CAVE cameras, so the model keeps
