@@ -71,8 +71,8 @@ def _load(path: Path) -> Any:
 
 @dataclass(frozen=True, slots=True)
 class Part:
-    """One file's share of one output: its networks, the output they come from, the metadata that
-    describes them (a start head's without the ``start_`` prefix) and the input scale they expect."""
+    """One file's share of one output: its networks, the output they come from and the metadata that
+    describes them (a start head's without the ``start_`` prefix)."""
 
     path: Path
     proto: Any
