@@ -27,7 +27,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "scripts"))
 
-from train_action import add_arguments, source_spec, train_config  # noqa: E402
+from train_action import add_arguments, any_source_spec, train_config  # noqa: E402
 
 from pipeline.recognition.evaluation import network_trace, replay, step_frames, tune_gate  # noqa: E402
 from pipeline.recognition.features import FEATURE_CHANNELS, FEATURES_V1, FEATURES_V2, FEATURES_V3  # noqa: E402
@@ -109,7 +109,7 @@ def main() -> int:
     ap.add_argument(
         "--eval-source",
         action="append",
-        type=source_spec,
+        type=any_source_spec,
         default=[],
         help="NAME=DIR of labelled NPZ never trained on (real mocap): scored in every fold",
     )

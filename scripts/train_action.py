@@ -34,6 +34,7 @@ sys.path.insert(0, str(ROOT))
 import numpy as np  # noqa: E402
 
 from pipeline.errors import InputError  # noqa: E402
+from pipeline.mocap.sources import evaluation_only  # noqa: E402
 from pipeline.recognition.features import FEATURE_CHANNELS, FEATURES_V2  # noqa: E402
 from pipeline.recognition.prepare import SourceSpec, prepare_corpus, split_items, to_dataset  # noqa: E402
 from pipeline.recognition.train import DataConfig, TrainConfig, export_onnx, train_model  # noqa: E402
@@ -49,12 +50,24 @@ def share(text: str) -> float:
     return value
 
 
-def source_spec(text: str) -> SourceSpec:
-    """An argparse type: a ``--source`` (a bad one is one argparse error line, exit 2)."""
+def any_source_spec(text: str) -> SourceSpec:
+    """An argparse type: a source to score (a bad one is one argparse error line, exit 2)."""
     try:
         return SourceSpec.parse(text)
     except InputError as exc:
         raise argparse.ArgumentTypeError(str(exc)) from exc
+
+
+def source_spec(text: str) -> SourceSpec:
+    """An argparse type: a ``--source`` to train on; a folder that ``cavewalk data sources`` wrote
+    for evaluation only is refused like a bad one."""
+    spec = any_source_spec(text)
+    held = evaluation_only(spec.folder) if spec.folder is not None else None
+    if held is not None:  # sources.json says it is held out: evaluation only
+        raise argparse.ArgumentTypeError(
+            f"{spec.folder} is the held-out source {held!r} (sources.json: use eval): it is never trained on"
+        )
+    return spec
 
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:

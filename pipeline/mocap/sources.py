@@ -393,6 +393,27 @@ def write_sources(
     return manifest
 
 
+def evaluation_only(folder: Path) -> str | None:
+    """The name of the held-out source ``folder`` is, if the manifest beside it (the ``sources.json``
+    of ``cavewalk data sources``) lists it for evaluation only (``use`` ``eval``); else None."""
+    path = Path(folder).resolve()
+    manifest = path.parent / MANIFEST
+    if not manifest.is_file():
+        return None
+    try:
+        data = json.loads(manifest.read_text())
+    except (OSError, ValueError):
+        return None
+    for name, entry in data.items() if isinstance(data, dict) else ():
+        if (
+            isinstance(entry, dict)
+            and entry.get("use") == "eval"
+            and Path(str(entry.get("dir", ""))).resolve() == path
+        ):
+            return str(name)
+    return None
+
+
 def load_sources(cache_dir: Path) -> dict[str, dict[str, Any]]:
     """The manifest :func:`write_sources` wrote (raises :class:`InputError` if absent)."""
     path = sources_dir(cache_dir) / MANIFEST

@@ -271,3 +271,30 @@ def test_the_training_script_refuses_a_bad_source_with_one_error_line(tmp_path: 
     assert done.returncode == 2 and "Traceback" not in done.stderr
     assert lines[-1].startswith("train_action.py: error: argument --source: "), lines[-1]
     assert not out.exists() and list(tmp_path.iterdir()) == [], "nothing written"
+
+
+def test_the_training_script_refuses_a_folder_the_manifest_holds_out(tmp_path: Path) -> None:
+    """A folder that ``cavewalk data sources`` wrote for evaluation only (``sources.json``: use eval)
+    is refused as a training source, with one error line and nothing written; a training folder of the
+    same manifest is not held out."""
+    import json
+
+    from pipeline.mocap.sources import evaluation_only
+
+    root = tmp_path / "sources"
+    for name in ("blind5-heldout", "still"):
+        (root / name).mkdir(parents=True)
+    manifest = {
+        "blind5-heldout": {"dir": str(root / "blind5-heldout"), "use": "eval"},
+        "still": {"dir": str(root / "still"), "use": "train"},
+    }
+    (root / "sources.json").write_text(json.dumps(manifest))
+    assert evaluation_only(root / "blind5-heldout") == "blind5-heldout"
+    assert evaluation_only(root / "still") is None and evaluation_only(tmp_path) is None
+    work = tmp_path / "work"
+    work.mkdir()
+    done = _train_script(work, "--source", f"b={root / 'blind5-heldout'}")
+    last = done.stderr.strip().splitlines()[-1]
+    assert done.returncode == 2 and "Traceback" not in done.stderr
+    assert last.startswith("train_action.py: error: argument --source: ") and "never trained on" in last
+    assert list(work.iterdir()) == [], "nothing written"
