@@ -40,14 +40,10 @@ from pipeline.recognition.features import (  # noqa: E402
     NUM_CHANNELS,
     V3_JOINTS,
 )
-from pipeline.recognition.networks import LAYOUT_KEY, Network, fused_model, read_networks  # noqa: E402
+from pipeline.recognition.networks import LAYOUT_KEY, Network, fused_model, metadata, read_networks  # noqa: E402
 from pipeline.skeleton import ACTIONS  # noqa: E402
 
 _SHARED = ("window", "fps", "classes")
-
-
-def _meta(model: object) -> dict[str, str]:
-    return {p.key: p.value for p in model.metadata_props}  # type: ignore[attr-defined]
 
 
 def start_mask(features: str) -> np.ndarray:
@@ -83,7 +79,7 @@ class Part:
 
 def _part(path: Path, as_start: bool) -> Part:
     proto = _load(path)
-    meta = _meta(proto)
+    meta = metadata(proto)
     outputs = [o.name for o in proto.graph.output]
     if as_start and len(outputs) == 2:  # a file with a start head: its start networks
         meta = {
@@ -134,16 +130,9 @@ def _reference(parts: list[Part], scale: np.ndarray | None, x: np.ndarray) -> np
     """What one output of the joined model must give on inputs x: the softmax of the mean of every
     network's logits, from each file's own probabilities (log p is the logits up to a constant per
     window, which the softmax drops), each file weighted by its networks."""
-    import onnxruntime as ort
-
     total = np.zeros((x.shape[0], len(ACTIONS)), np.float64)
     for part in parts:
-        opts = ort.SessionOptions()
-        opts.intra_op_num_threads = 1
-        opts.log_severity_level = 3
-        session = ort.InferenceSession(
-            part.proto.SerializeToString(), opts, providers=["CPUExecutionProvider"]
-        )
+        session = _session(part.proto)
         names = [o.name for o in session.get_outputs()]
         # a file with a start head masks its start networks' input itself
         fed = x if (scale is None or len(names) == 2) else x * scale[None, :, None]
@@ -181,7 +170,8 @@ def combine(full_paths: list[Path], start_paths: list[Path], out: Path) -> float
     channels, window = FEATURE_CHANNELS[FEATURES_V2], int(mf["window"])
     rng = np.random.default_rng(0)
     x = rng.standard_normal((64, channels, window)).astype(np.float32)
-    session_out = _run(model, x)
+    joined = _session(model)
+    session_out = [np.asarray(o, np.float64) for o in joined.run(None, {joined.get_inputs()[0].name: x})]
     diff = 0.0
     for parts, mask, got in ((full, None, session_out[0]), (start, scale, session_out[1])):
         diff = max(diff, float(np.abs(_reference(parts, mask, x) - got).max()))
@@ -192,14 +182,14 @@ def combine(full_paths: list[Path], start_paths: list[Path], out: Path) -> float
     return diff
 
 
-def _run(model: Any, x: np.ndarray) -> list[np.ndarray]:
+def _session(proto: Any) -> Any:
+    """An onnxruntime session (one thread, CPU) of an in-memory model."""
     import onnxruntime as ort
 
     opts = ort.SessionOptions()
     opts.intra_op_num_threads = 1
     opts.log_severity_level = 3
-    session = ort.InferenceSession(model.SerializeToString(), opts, providers=["CPUExecutionProvider"])
-    return [np.asarray(o, np.float64) for o in session.run(None, {session.get_inputs()[0].name: x})]
+    return ort.InferenceSession(proto.SerializeToString(), opts, providers=["CPUExecutionProvider"])
 
 
 def main(argv: list[str] | None = None) -> int:

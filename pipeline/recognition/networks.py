@@ -65,7 +65,8 @@ class Network:
         return int(self.conv("lat1")[0].shape[2]) if self.fast else 4
 
 
-def _meta(proto: Any) -> dict[str, str]:
+def metadata(proto: Any) -> dict[str, str]:
+    """An ONNX model's metadata, key -> value."""
     return {p.key: p.value for p in proto.metadata_props}
 
 
@@ -103,7 +104,7 @@ def read_networks(proto: Any, output: str | None = None) -> list[Network]:
                 raise ValueError("the classifier head's weights are not constants")
             trans_b = next((helper.get_attribute_value(a) for a in node.attribute if a.name == "transB"), 0)
             heads.append(((w if trans_b else w.T).astype(np.float32), b.astype(np.float32)))
-    if _meta(proto).get(LAYOUT_KEY) == GROUPED:
+    if metadata(proto).get(LAYOUT_KEY) == GROUPED:
         return _unfuse(convs, heads)
     per = len(convs) // max(len(heads), 1)
     if not heads or per not in (len(LAYERS), len(SLOW_LAYERS)) or per * len(heads) != len(convs):
