@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import socket
+from collections.abc import Iterator
 
 import pytest
 
@@ -30,13 +31,26 @@ def test_a_held_port_is_not_handed_out(monkeypatch: pytest.MonkeyPatch) -> None:
     held.bind(("127.0.0.1", free_udp_port()))
     taken = held.getsockname()[1]
     waiting._HANDED_OUT.discard(taken)  # only the bind check can refuse it now
-    draws = iter([taken, taken, taken + 1 if taken + 1 < _ephemeral_range()[0] else taken - 1])
+    drawn: list[int] = []
+
+    def candidates(bottom: int, top: int) -> Iterator[int]:
+        yield taken
+        yield taken
+        # then every other port of the range: any of them may be held by another process here
+        yield from (p for p in range(bottom, top + 1) if p != taken)
+
     class Rng:
-        def randint(self, _a: int, _b: int) -> int:
-            return next(draws)
+        draws: Iterator[int] | None = None
+
+        def randint(self, a: int, b: int) -> int:
+            if Rng.draws is None:
+                Rng.draws = candidates(a, b)
+            drawn.append(next(Rng.draws))
+            return drawn[-1]
 
     monkeypatch.setattr(waiting.random, "Random", Rng)
     try:
         assert free_udp_port() != taken
+        assert drawn[:2] == [taken, taken]  # it was offered the held port and refused it
     finally:
         held.close()
