@@ -27,6 +27,9 @@ Layout, under ``<cache_dir>/data/sources/``::
     blind5-heldout/*.npz    the seventh (pipeline.sim.blind5: keyframe animation on a joint hierarchy
                             with foot-lock IK; adds aerobics step-touches, crouches and tiptoes),
                             evaluation only and never trained on at all
+    blind6-heldout/*.npz    the eighth (pipeline.sim.blind6: coupled Hopf oscillators drive the
+                            rhythm; adds dancing, jumps, kneeling, squats, leans and picking up),
+                            evaluation only and never trained on at all
 
 ``use``: ``train`` (may be trained on and held out by leave-one-source-out), or ``eval``
 (held-out evaluation only: never pass it to ``train_action.py``). A source folder never mixes
@@ -112,16 +115,18 @@ SIM_SETS = {
 SIM_USE = {"still": "train", "still-heldout": "eval"}
 
 
-BLIND_MODELS = ("blind", "blind2", "blind3", "blind4", "blind5")
-OWN_NOISE_MODELS = ("blind2", "blind3", "blind4", "blind5")  # their generators add their own capture noise
+BLIND_MODELS = ("blind", "blind2", "blind3", "blind4", "blind5", "blind6")
+# their generators add their own capture noise
+OWN_NOISE_MODELS = ("blind2", "blind3", "blind4", "blind5", "blind6")
 
 
 @dataclass(frozen=True, slots=True)
 class BlindSet:
     """A set of an independent motion model's sequences: ``model`` ``blind`` (the third motion model,
     pipeline.sim.blind), ``blind2`` (the fourth, pipeline.sim.blind2), ``blind3`` (the fifth,
-    pipeline.sim.blind3), ``blind4`` (the sixth, pipeline.sim.blind4) or ``blind5`` (the seventh,
-    pipeline.sim.blind5; the capture noise of blind2 to blind5 is their own: 1.2 cm and 2 % of the
+    pipeline.sim.blind3), ``blind4`` (the sixth, pipeline.sim.blind4), ``blind5`` (the seventh,
+    pipeline.sim.blind5) or ``blind6`` (the eighth, pipeline.sim.blind6; the capture noise of blind2
+    to blind6 is their own: 1.2 cm and 2 % of the
     joints, so ``noise_m`` and ``dropout`` must stay at those values); how many, how long, seed, noise
     and dropped joints."""
 
@@ -146,7 +151,7 @@ class BlindSet:
             )
 
 
-# held-out evaluation only: never trained on (blind4 and blind5 are never trained on at all; blind,
+# held-out evaluation only: never trained on (blind4 to blind6 are never trained on at all; blind,
 # blind2 and blind3 train with other seeds: corpus.independent_model)
 BLIND_SETS = {
     "blind-heldout": BlindSet(count=12, duration_s=60.0, seed=4242),
@@ -154,6 +159,7 @@ BLIND_SETS = {
     "blind3-heldout": BlindSet(count=12, duration_s=60.0, seed=31337, model="blind3"),
     "blind4-heldout": BlindSet(count=12, duration_s=60.0, seed=60606, model="blind4"),
     "blind5-heldout": BlindSet(count=12, duration_s=60.0, seed=50505, model="blind5"),
+    "blind6-heldout": BlindSet(count=12, duration_s=60.0, seed=60606, model="blind6"),
 }
 BLIND_ORIGINS = {
     "blind": "pipeline.sim.blind: a third motion model, written without reading the others",
@@ -164,6 +170,8 @@ BLIND_ORIGINS = {
     "footsteps, inverse-kinematics legs), written without reading the product's code",
     "blind5": "pipeline.sim.blind5: a seventh motion model (keyframe animation on a joint hierarchy, "
     "foot-lock IK), written without reading the product's code",
+    "blind6": "pipeline.sim.blind6: an eighth motion model (coupled Hopf oscillators set the rhythm, "
+    "forward kinematics, IK legs, a pinned stance foot), written without reading the product's code",
 }
 
 
@@ -274,7 +282,7 @@ def write_gait_set(folder: Path, spec: GaitSet, progress: Callable[[str], None])
 
 def write_blind_set(folder: Path, spec: BlindSet, progress: Callable[[str], None]) -> dict[str, Any]:
     """The set's NPZs in ``folder`` (made again only when the set's settings changed)."""
-    from pipeline.sim import blind, blind2, blind3, blind4, blind5
+    from pipeline.sim import blind, blind2, blind3, blind4, blind5, blind6
 
     stamp: dict[str, Any] = {"count": spec.count, "duration_s": spec.duration_s, "seed": spec.seed,
                              "noise_m": spec.noise_m, "dropout": spec.dropout, "v": 1}  # fmt: skip
@@ -293,6 +301,8 @@ def write_blind_set(folder: Path, spec: BlindSet, progress: Callable[[str], None
         paths = blind4.write_set(folder, spec.count, spec.seed, spec.duration_s)
     elif spec.model == "blind5":
         paths = blind5.write_set(folder, spec.count, spec.seed, spec.duration_s)
+    elif spec.model == "blind6":
+        paths = blind6.write_set(folder, spec.count, spec.seed, spec.duration_s)
     else:
         paths = blind.write_set(folder, spec.count, spec.duration_s, spec.seed, spec.noise_m, spec.dropout)
     for path in paths:
