@@ -33,6 +33,7 @@ sys.path.insert(0, str(ROOT / "scripts"))
 
 from loso_action import summary  # noqa: E402
 
+from pipeline.errors import InputError  # noqa: E402
 from pipeline.recognition.bout import GateConfig  # noqa: E402
 from pipeline.recognition.dataset import LabelledSequence  # noqa: E402
 from pipeline.recognition.evaluation import network_trace, replay, step_frames  # noqa: E402
@@ -59,9 +60,12 @@ def gate_variant(text: str) -> tuple[str, GateConfig]:
         key, _, value = item.partition("=")
         if key not in fields:
             raise SystemExit(f"error: unknown gate setting {key!r} (known: {', '.join(fields)})")
-        changes[key] = (
-            value if key == "rhythm" else (value == "true" if key == "evidence_direction" else float(value))
-        )
+        if fields[key] in ("bool", bool):
+            if value not in ("true", "false"):
+                raise SystemExit(f"error: gate setting {key} wants true or false, got {value!r}")
+            changes[key] = value == "true"
+        else:
+            changes[key] = value if key == "rhythm" else float(value)
     return name, replace(GateConfig(), **changes)  # type: ignore[arg-type]
 
 
@@ -92,7 +96,10 @@ def main() -> int:
         print(msg, flush=True)
 
     variants = [gate_variant(v) for v in args.gate_variant]
-    specs = [SourceSpec.parse(s) for s in (args.source or DEFAULT_SOURCES)]
+    try:
+        specs = [SourceSpec.parse(s) for s in (args.source or DEFAULT_SOURCES)]
+    except InputError as exc:
+        raise SystemExit(f"error: {exc}") from None
     if args.direct:  # the files' own joints, as `cavewalk evaluate --skeletons` reads them
         seqs = [s for _, s, original in clean_sequences(specs, 32, args.duration, args.seed, say) if original]
     else:

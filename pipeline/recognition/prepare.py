@@ -73,9 +73,10 @@ class SourceSpec:
             return cls(body, None, warp, body, kinds, count)
         name, sep, rest = body.partition("=")
         if not sep or not name or not rest:
+            named = ", ".join(f"NAME={g}" for g in GENERATORS if g != "sim")
             raise InputError(
-                f"a source is 'sim', 'gait', 'blind', 'blind2', 'blind3', NAME=sim:KINDS, NAME=gait, "
-                f"NAME=blind, NAME=blind2, NAME=blind3 or NAME=DIR, got {text!r}"
+                f"a source is {', '.join(repr(g) for g in GENERATORS)}, NAME=sim:KINDS, {named} or NAME=DIR, "
+                f"got {text!r}"
             )
         if rest in GENERATORS and rest != "sim":
             return cls(name, None, warp, rest, (), count)
