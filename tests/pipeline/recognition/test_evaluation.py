@@ -36,6 +36,20 @@ def test_replay_gives_the_streaming_commands(gate: bool) -> None:
         assert est[-1].gate is not None and est[-1].gate.to_dict()["command"] in ACTIONS
 
 
+def test_replay_gives_the_streaming_commands_on_another_models_captured_minute() -> None:
+    """A minute of the eighth motion model (its own noise and lost joints): the step tracker's
+    timestamps in the replay are the streaming recogniser's to the last bit (a swing 3 frames long
+    is 0.1 s in both, or in neither), so no threshold on a duration flips between them."""
+    from pipeline.sim.blind6 import make_record
+
+    j = make_record(60606, 3, 1800)["joints"].astype(np.float64)
+    config = RecognizerConfig()
+    rec = ActionRecognizer.from_config(config)
+    streamed = np.array([ACTIONS.index(e.label) for e in recognize_sequence(rec, j, FPS)])
+    replayed = replay(network_trace(rec.session, j, FPS), config)
+    assert (streamed == replayed).all(), np.flatnonzero(streamed != replayed)
+
+
 def _seq() -> LabelledSequence:
     joints, contacts = render(Scene(2.0, (Swing(0, 0.5, 0.9, lateral=-0.2),)))
     labels = np.zeros(len(joints), dtype=np.int64)
