@@ -77,10 +77,7 @@ def step_frames(
     """The run-time step tracker over a whole sequence."""
     j = np.where(np.isfinite(joints_m), joints_m, np.nan).astype(np.float64)
     tracker = StepTracker(replace(steps or StepConfig(), rate_hz=fps))
-    # the streaming recogniser's clock: model frame k at k x (1 / fps), not k / fps (the two differ
-    # in the last bit, and a swing exactly 3 frames long must be 0.1 s in both or in neither)
-    dt = 1.0 / fps
-    return tuple(tracker.update(f, i * dt) for i, f in enumerate(j))
+    return tuple(tracker.update(f, i / fps) for i, f in enumerate(j))
 
 
 def network_trace(
