@@ -421,7 +421,8 @@ class ActionRecognizer:
                 # the clock of every model frame is k / fps, as training and the replay
                 # (evaluation.step_frames) time the step tracker: k x (1 / fps) differs in the last
                 # bit, and a swing exactly 3 frames long must be 0.1 s in all of them or in none
-                self._add_frame(_interpolate(self._last_j, j, min(max(w, 0.0), 1.0)), self._ticks / self.info.fps)
+                frame = _interpolate(self._last_j, j, min(max(w, 0.0), 1.0))
+                self._add_frame(frame, self._ticks / self.info.fps)
                 self._ticks += 1
                 ticks += 1
         self._last_t, self._last_j = t, j
