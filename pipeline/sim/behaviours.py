@@ -12,6 +12,10 @@ squat or kneel is tagged ``stand-up``.
 - ``kneel``: on one knee: the rear foot steps back, the pelvis goes down until the rear knee
   is on the floor (rear heel up, toes down), the front shin upright-ish; then up, and the rear
   foot steps forward again. The feet move only in those two steps.
+- ``kneel-forward``: the same kneel reached the other way: the front foot steps forward, the
+  rear knee goes down where the rear foot stood; then up, and the front foot steps back. Not in
+  the routines' random draws yet (``ranges``): a script names it (the recogniser's known limit,
+  MODEL_CARD.md "Limits").
 - ``bend``: to pick something up: trunk forward 50-100 deg, knees bent, hips back, one or both
   hands to a spot on the floor ahead, looking down. Feet planted.
 - ``lean``: far, forward or to a side (20-45 deg), the pelvis shifting the other way, one arm
@@ -32,6 +36,7 @@ squat or kneel is tagged ``stand-up``.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 
@@ -125,8 +130,9 @@ def _squat(ctx: Ctx, seg: Segment, t0: float, t1: float, k: float) -> None:
     _stand_up_tag(ctx, t1 - up, t1)
 
 
-def _kneel(ctx: Ctx, seg: Segment, t0: float, t1: float, k: float) -> None:
-    """One knee down: the rear foot steps back so that, the pelvis lowered, the knee meets the floor."""
+def _kneel(ctx: Ctx, seg: Segment, t0: float, t1: float, k: float, front_steps: bool = False) -> None:
+    """One knee down: the rear foot steps back (``front_steps``: the front foot steps forward) so
+    that, the pelvis lowered, the knee meets the floor."""
     ch, rng, body = ctx.ch, ctx.rng, ctx.body
     rear = int(rng.integers(2))
     front = 1 - rear
@@ -142,8 +148,14 @@ def _kneel(ctx: Ctx, seg: Segment, t0: float, t1: float, k: float) -> None:
     hip_y = -back
     knee_y = hip_y + body.thigh_m * math.sin(tilt)
     ankle_y = knee_y - math.sqrt(body.shin_m**2 - (ankle_z - knee_z) ** 2)
-    rear_side = f_side - SIDE_SIGN[front] * (ctx.width_m * float(rng.uniform(0.6, 1.0)))
-    rear_xy = (f_along + ankle_y) * fwd + rear_side * right
+    spread = ctx.width_m * float(rng.uniform(0.6, 1.0))
+    rear_side = f_side - SIDE_SIGN[front] * spread
+    mover, target = rear, (f_along + ankle_y) * fwd + rear_side * right
+    if front_steps:  # the rear foot stays; the front one steps out ahead of it
+        rear_xy = ctx.feet.xy[rear]
+        r_along, rear_side = float(rear_xy @ fwd), float(rear_xy @ right)
+        f_along, f_side = r_along - ankle_y, rear_side + SIDE_SIGN[front] * spread
+        mover, target = front, f_along * fwd + f_side * right
     dur = t1 - t0
     step_s = _phase_s(dur, 0.5, 0.8, rng, 0.2)
     down_s = _phase_s(dur, 0.6, 1.1, rng, 0.25)
@@ -152,11 +164,13 @@ def _kneel(ctx: Ctx, seg: Segment, t0: float, t1: float, k: float) -> None:
     s_back1 = s_back0 + step_s
     s_fwd1 = t1 - 0.02
     s_fwd0 = s_fwd1 - step_s
-    home = ctx.feet.xy[rear].copy()
+    home = ctx.feet.xy[mover].copy()
     ctx.feet.move(
-        rear, s_back0, s_back1, rear_xy, ctx.feet_yaw(yaw, rear), lift_m=float(rng.uniform(0.03, 0.08))
+        mover, s_back0, s_back1, target, ctx.feet_yaw(yaw, mover), lift_m=float(rng.uniform(0.03, 0.08))
     )
-    ctx.feet.move(rear, s_fwd0, s_fwd1, home, ctx.feet_yaw(yaw, rear), lift_m=float(rng.uniform(0.03, 0.08)))
+    ctx.feet.move(
+        mover, s_fwd0, s_fwd1, home, ctx.feet_yaw(yaw, mover), lift_m=float(rng.uniform(0.03, 0.08))
+    )
     w = _env(ch.t, s_back0 + 0.3 * step_s, s_fwd0 + 0.2 * step_s, down_s, up_s)
     # pelvis offsets from where the feet's midpoint is while kneeling: the rear hip above the knee
     mid_along = f_along + 0.5 * ankle_y
@@ -361,6 +375,7 @@ LIBRARY: dict[str, Callable[[Ctx, Segment, float, float, float], None]] = {
     "crouch": _crouch,
     "squat": _squat,
     "kneel": _kneel,
+    "kneel-forward": functools.partial(_kneel, front_steps=True),
     "bend": _bend,
     "lean": _lean,
     "tiptoe": _tiptoe,

@@ -43,6 +43,7 @@ STILL_BEHAVIOURS: tuple[str, ...] = (
     "crouch",
     "squat",
     "kneel",
+    "kneel-forward",
     "bend",
     "lean",
     "tiptoe",

@@ -59,6 +59,23 @@ def _moving_runs(labels: list[str]) -> list[tuple[int, int, str]]:
     return runs
 
 
+@pytest.mark.xfail(
+    strict=True,
+    reason="known: the step forward into the kneel is called forward for 0.3-0.6 s before the body is "
+    "low (MODEL_CARD.md, Limits: kneeling that begins with a step; blind6 34 %)",
+)
+def test_kneeling_that_begins_with_a_step_forward_never_moves(recognizer: ActionRecognizer) -> None:
+    segs = (
+        Segment("still", 2.0, gestures=()),
+        Segment("still", 7.0, behaviour="kneel-forward"),
+        Segment("still", 2.0, gestures=()),
+    )
+    motion, labels, _ = _run(recognizer, segs, seed=31)
+    assert set(motion.labels) == {"still"} and "kneel-forward" in motion.tags
+    moving = [i for i, lab in enumerate(labels) if lab != "still"]
+    assert not moving, f"{len(moving)} frames called moving, first at {moving[0] / FPS:.2f} s"
+
+
 @pytest.mark.parametrize(
     ("behaviour", "seconds", "seed"),
     [

@@ -64,7 +64,7 @@ def test_each_behaviour_is_physical_still_and_returns_to_standing(name: str, hei
     assert m.joints_m[:, ANKLES, 2].min() > 0.9 * body_from_height(height).ankle_height_m - 1e-3
     assert np.all(np.isfinite(m.joints_m))
     moving_feet = ~m.contacts
-    if name not in ("kneel", "jump"):
+    if name not in ("kneel", "kneel-forward", "jump"):
         assert not moving_feet.any(), f"{name} keeps both feet planted"
     # back to standing where it started: the same feet, the pelvis at its standing height
     assert np.allclose(
@@ -99,6 +99,22 @@ def test_kneeling_puts_one_knee_on_the_floor_and_the_feet_step_only_to_kneel(hei
     lifts = np.flatnonzero((m.contacts[:-1] & ~m.contacts[1:]).any(axis=1))
     assert len(lifts) == 2, f"one step back and one forward, got {len(lifts)} lift-offs"
     assert "stand-up" in m.tags and m.tags.index("stand-up") > m.tags.index("kneel")
+
+
+@pytest.mark.parametrize("height", HEIGHTS)
+def test_kneeling_forward_steps_the_front_foot_out_and_back(height: float) -> None:
+    m = _behave("kneel-forward", height, seed=4, dur=5.0)
+    assert m.joints_m[:, KNEES, 2].min() < 0.09 * height / 1.75, "a knee on the floor"
+    lifts = np.flatnonzero((m.contacts[:-1] & ~m.contacts[1:]).any(axis=1))
+    assert len(lifts) == 2, f"one step out and one back, got {len(lifts)} lift-offs"
+    (foot,) = {int(np.flatnonzero(~m.contacts[i + 1])[0]) for i in lifts}  # the same foot both times
+    facing = np.array([-np.sin(np.radians(-40.0)), np.cos(np.radians(-40.0))])  # the script's start yaw
+    ankle = m.joints_m[:, ANKLES[foot], :2]
+    ahead = (ankle[lifts[1]] - ankle[0]) @ facing
+    assert ahead > 0.3 * height / 1.75, f"the front foot stepped {ahead:.2f} m forward"
+    other = m.joints_m[:, ANKLES[1 - foot], :2]
+    assert np.allclose(other, other[0], atol=1e-9), "the rear foot stays where it stood"
+    assert "stand-up" in m.tags and m.tags.index("stand-up") > m.tags.index("kneel-forward")
 
 
 @pytest.mark.parametrize("name", ["crouch", "squat"])
