@@ -32,8 +32,8 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "scripts"))
 
 from loso_action import summary  # noqa: E402
+from train_action import any_source_spec  # noqa: E402
 
-from pipeline.errors import InputError  # noqa: E402
 from pipeline.recognition.bout import GateConfig  # noqa: E402
 from pipeline.recognition.dataset import LabelledSequence  # noqa: E402
 from pipeline.recognition.evaluation import network_trace, replay, step_frames  # noqa: E402
@@ -72,7 +72,12 @@ def gate_variant(text: str) -> tuple[str, GateConfig]:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--model", action="append", type=Path, required=True)
-    ap.add_argument("--source", action="append", help=f"test sources (default {' '.join(DEFAULT_SOURCES)})")
+    ap.add_argument(
+        "--source",
+        action="append",
+        type=any_source_spec,
+        help=f"test sources (default {' '.join(DEFAULT_SOURCES)})",
+    )
     ap.add_argument("--seed", type=int, default=7919)
     ap.add_argument("--duration", type=float, default=40.0)
     ap.add_argument("--cache", type=Path, default=Path("/tmp/cavewalk-action-cache"))
@@ -96,10 +101,7 @@ def main() -> int:
         print(msg, flush=True)
 
     variants = [gate_variant(v) for v in args.gate_variant]
-    try:
-        specs = [SourceSpec.parse(s) for s in (args.source or DEFAULT_SOURCES)]
-    except InputError as exc:
-        raise SystemExit(f"error: {exc}") from None
+    specs = args.source or [SourceSpec.parse(s) for s in DEFAULT_SOURCES]
     if args.direct:  # the files' own joints, as `cavewalk evaluate --skeletons` reads them
         seqs = [s for _, s, original in clean_sequences(specs, 32, args.duration, args.seed, say) if original]
     else:
