@@ -126,9 +126,8 @@ class BlindSet:
     pipeline.sim.blind), ``blind2`` (the fourth, pipeline.sim.blind2), ``blind3`` (the fifth,
     pipeline.sim.blind3), ``blind4`` (the sixth, pipeline.sim.blind4), ``blind5`` (the seventh,
     pipeline.sim.blind5) or ``blind6`` (the eighth, pipeline.sim.blind6; the capture noise of blind2
-    to blind6 is their own: 1.2 cm and 2 % of the
-    joints, so ``noise_m`` and ``dropout`` must stay at those values); how many, how long, seed, noise
-    and dropped joints."""
+    to blind6 is their own: 1.2 cm and 2 % of the joints, so ``noise_m`` and ``dropout`` must stay at
+    those values); how many, how long, seed, noise and dropped joints."""
 
     count: int
     duration_s: float
@@ -282,7 +281,9 @@ def write_gait_set(folder: Path, spec: GaitSet, progress: Callable[[str], None])
 
 def write_blind_set(folder: Path, spec: BlindSet, progress: Callable[[str], None]) -> dict[str, Any]:
     """The set's NPZs in ``folder`` (made again only when the set's settings changed)."""
-    from pipeline.sim import blind, blind2, blind3, blind4, blind5, blind6
+    import importlib
+
+    from pipeline.sim import blind, blind2
 
     stamp: dict[str, Any] = {"count": spec.count, "duration_s": spec.duration_s, "seed": spec.seed,
                              "noise_m": spec.noise_m, "dropout": spec.dropout, "v": 1}  # fmt: skip
@@ -295,14 +296,9 @@ def write_blind_set(folder: Path, spec: BlindSet, progress: Callable[[str], None
     if spec.model == "blind2":
         config = blind2.SetConfig(count=spec.count, seed=spec.seed, duration_s=spec.duration_s)
         paths = blind2.write_set(folder, config)
-    elif spec.model == "blind3":
-        paths = blind3.write_set(folder, spec.count, spec.seed, spec.duration_s)
-    elif spec.model == "blind4":
-        paths = blind4.write_set(folder, spec.count, spec.seed, spec.duration_s)
-    elif spec.model == "blind5":
-        paths = blind5.write_set(folder, spec.count, spec.seed, spec.duration_s)
-    elif spec.model == "blind6":
-        paths = blind6.write_set(folder, spec.count, spec.seed, spec.duration_s)
+    elif spec.model != "blind":  # blind3 to blind6: write_set(folder, count, seed, duration_s)
+        model = importlib.import_module(f"pipeline.sim.{spec.model}")
+        paths = model.write_set(folder, spec.count, spec.seed, spec.duration_s)
     else:
         paths = blind.write_set(folder, spec.count, spec.duration_s, spec.seed, spec.noise_m, spec.dropout)
     for path in paths:
