@@ -95,8 +95,13 @@ class SourceSpec:
         return cls(name, Path(rest), warp)
 
     def fingerprint(self) -> str:
+        """What the source's data depends on: a generator's name and kinds (our simulator's also its
+        ``SIM_VERSION``, so a prepared cache of an older simulator is not used), or a folder's files."""
         if self.folder is None:
-            return f"{self.generator}:{'+'.join(self.kinds)}"
+            from pipeline.sim.routines import SIM_VERSION
+
+            version = f"@v{SIM_VERSION}" if self.generator == "sim" else ""
+            return f"{self.generator}:{'+'.join(self.kinds)}{version}"
         h = hashlib.sha1()
         for p in sorted(self.folder.rglob("*.npz")):
             st = p.stat()

@@ -298,3 +298,24 @@ def test_the_training_script_refuses_a_folder_the_manifest_holds_out(tmp_path: P
     assert done.returncode == 2 and "Traceback" not in done.stderr
     assert last.startswith("train_action.py: error: argument --source: ") and "never trained on" in last
     assert list(work.iterdir()) == [], "nothing written"
+
+
+def test_a_prepared_simulator_source_is_made_again_when_the_simulator_changes(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The cache of prepared training data keys our simulator's sources by ``SIM_VERSION``: a
+    changed simulator (a new still behaviour in its draws) must not train on the old routines."""
+    from pipeline.recognition.prepare import SourceSpec, prepare_source
+    from pipeline.sim import routines
+
+    spec = SourceSpec.parse("s=sim:still@1")
+    first = prepare_source(spec, tmp_path, sim_duration_s=4.0, seed=0)
+    assert len(list(tmp_path.glob("action-source-s-*.pkl"))) == 1
+    again = prepare_source(spec, tmp_path, sim_duration_s=4.0, seed=0)
+    assert np.array_equal(first[0].seq.joints_m, again[0].seq.joints_m, equal_nan=True)
+    assert len(list(tmp_path.glob("action-source-s-*.pkl"))) == 1, "the same simulator reads its cache"
+    gait = SourceSpec.parse("gait@1").fingerprint()
+    monkeypatch.setattr(routines, "SIM_VERSION", routines.SIM_VERSION + 1)
+    prepare_source(spec, tmp_path, sim_duration_s=4.0, seed=0)
+    assert len(list(tmp_path.glob("action-source-s-*.pkl"))) == 2, "a new simulator prepares again"
+    assert SourceSpec.parse("gait@1").fingerprint() == gait, "other motion models keep their cache"
