@@ -1,9 +1,9 @@
 """The still library: what people do in a CAVE without meaning to move (all labelled ``still``).
 
-Each behaviour fills its segment and is back to standing by the segment's end; ``intensity``
-(0-1, the script's or drawn) scales how far it goes between the ranges below (body-relative
-where it says L = thigh + shin). Tags are the behaviour's name; the rising part of a crouch,
-squat or kneel is tagged ``stand-up``.
+Each behaviour fills its segment and is back to standing by the segment's end (where it began,
+but for ``step-back``); ``intensity`` (0-1, the script's or drawn) scales how far it goes between
+the ranges below (body-relative where it says L = thigh + shin). Tags are the behaviour's name;
+the rising part of a crouch, squat or kneel is tagged ``stand-up``.
 
 - ``crouch``: pelvis down 0.20-0.45 L, hips back, trunk forward 15-40 deg; hands forward,
   on the knees or one touching the floor. Feet planted.
@@ -16,6 +16,10 @@ squat or kneel is tagged ``stand-up``.
   rear knee goes down where the rear foot stood; then up, and the front foot steps back. Not in
   the routines' random draws yet (``ranges``): a script names it (the recogniser's known limit,
   MODEL_CARD.md "Limits").
+- ``step-back``: making room or backing off from a wall: one foot steps back 0.25-0.5 m (body
+  scaled), the other follows beside it, and the person stays there (a real step back is no
+  command: there is no ``backward``). Not in the routines' random draws (``ranges``): a script
+  names it (the behaviour test that no step back moves the user).
 - ``bend``: to pick something up: trunk forward 50-100 deg, knees bent, hips back, one or both
   hands to a spot on the floor ahead, looking down. Feet planted.
 - ``lean``: far, forward or to a side (20-45 deg), the pelvis shifting the other way, one arm
@@ -185,6 +189,23 @@ def _kneel(ctx: Ctx, seg: Segment, t0: float, t1: float, k: float, front_steps: 
     side = SIDE_SIGN[front]
     _arm(ctx, int(side), w, (0.0, 0.05, 0.05), "knee", (side * 1.0, -0.3, -0.5))
     _stand_up_tag(ctx, s_fwd0 + 0.2 * step_s - up_s, t1)
+
+
+def _step_back(ctx: Ctx, seg: Segment, t0: float, t1: float, k: float) -> None:
+    """One foot steps back, the other closes beside it; the person stays in the new place."""
+    ch, rng, body = ctx.ch, ctx.rng, ctx.body
+    yaw = ch.yaw_at(t0)
+    back = _between(k, 0.25, 0.5) * body.height_m / 1.75 * forward_xy(yaw)
+    lead = int(rng.integers(2))
+    dur = t1 - t0
+    step_s = _phase_s(dur, 0.45, 0.7, rng, 0.2)
+    start = t0 + 0.02
+    follow = start + step_s + float(rng.uniform(0.0, 0.3))  # the other lifts as or after the first lands
+    for foot, lift in ((lead, start), (1 - lead, follow)):
+        ctx.feet.move(
+            foot, lift, lift + step_s, ctx.feet.xy[foot] - back, ctx.feet_yaw(yaw, foot),
+            lift_m=float(rng.uniform(0.02, 0.08)),
+        )  # fmt: skip
 
 
 def _bend(ctx: Ctx, seg: Segment, t0: float, t1: float, k: float) -> None:
@@ -376,6 +397,7 @@ LIBRARY: dict[str, Callable[[Ctx, Segment, float, float, float], None]] = {
     "squat": _squat,
     "kneel": _kneel,
     "kneel-forward": functools.partial(_kneel, front_steps=True),
+    "step-back": _step_back,
     "bend": _bend,
     "lean": _lean,
     "tiptoe": _tiptoe,

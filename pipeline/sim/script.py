@@ -44,6 +44,7 @@ STILL_BEHAVIOURS: tuple[str, ...] = (
     "squat",
     "kneel",
     "kneel-forward",
+    "step-back",
     "bend",
     "lean",
     "tiptoe",

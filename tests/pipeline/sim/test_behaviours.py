@@ -64,12 +64,14 @@ def test_each_behaviour_is_physical_still_and_returns_to_standing(name: str, hei
     assert m.joints_m[:, ANKLES, 2].min() > 0.9 * body_from_height(height).ankle_height_m - 1e-3
     assert np.all(np.isfinite(m.joints_m))
     moving_feet = ~m.contacts
-    if name not in ("kneel", "kneel-forward", "jump"):
+    if name not in ("kneel", "kneel-forward", "jump", "step-back"):
         assert not moving_feet.any(), f"{name} keeps both feet planted"
-    # back to standing where it started: the same feet, the pelvis at its standing height
-    assert np.allclose(
-        m.joints_m[-1, ANKLES, :2], m.joints_m[0, ANKLES, :2], atol=0.25 if name == "jump" else 1e-6
-    )
+    # back to standing where it started (a step back stands where it stepped to): the same feet,
+    # the pelvis at its standing height
+    if name != "step-back":
+        assert np.allclose(
+            m.joints_m[-1, ANKLES, :2], m.joints_m[0, ANKLES, :2], atol=0.25 if name == "jump" else 1e-6
+        )
     pelvis_z = m.joints_m[:, [J["l_hip"], J["r_hip"]], 2].mean(axis=1)
     assert abs(pelvis_z[-1] - pelvis_z[0]) < 0.03, f"{name}: not standing again at the end"
     hips = m.joints_m[:, [J["l_hip"], J["r_hip"]]].mean(axis=1)
@@ -115,6 +117,25 @@ def test_kneeling_forward_steps_the_front_foot_out_and_back(height: float) -> No
     other = m.joints_m[:, ANKLES[1 - foot], :2]
     assert np.allclose(other, other[0], atol=1e-9), "the rear foot stays where it stood"
     assert "stand-up" in m.tags and m.tags.index("stand-up") > m.tags.index("kneel-forward")
+
+
+@pytest.mark.parametrize("height", HEIGHTS)
+def test_stepping_back_moves_both_feet_back_and_stays(height: float) -> None:
+    near = _behave("step-back", height, seed=6, intensity=0.0)
+    far = _behave("step-back", height, seed=6, intensity=1.0)
+    facing = np.array([-np.sin(np.radians(-40.0)), np.cos(np.radians(-40.0))])  # the script's start yaw
+    backs = []
+    for m in (near, far):
+        lifts = np.flatnonzero((m.contacts[:-1] & ~m.contacts[1:]).any(axis=1))
+        assert len(lifts) == 2, f"one step back and the other foot after it, got {len(lifts)} lift-offs"
+        feet = {int(np.flatnonzero(~m.contacts[i + 1])[0]) for i in lifts}
+        assert feet == {0, 1}, "each foot steps once"
+        moved = (m.joints_m[-1, ANKLES, :2] - m.joints_m[0, ANKLES, :2]) @ facing
+        assert np.allclose(moved, moved[0], atol=0.02), f"the feet end side by side again: {moved}"
+        backs.append(-float(moved.mean()))
+        assert set(m.labels) == {"still"}
+    scale = height / 1.75
+    assert 0.24 * scale < backs[0] < backs[1] < 0.51 * scale, f"intensity steps further back: {backs}"
 
 
 @pytest.mark.parametrize("name", ["crouch", "squat"])
