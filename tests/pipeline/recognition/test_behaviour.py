@@ -103,7 +103,8 @@ def test_kneeling_that_begins_with_a_step_forward_is_at_most_a_short_nudge(
     assert "kneel-forward" in motion.tags
     runs = _moving_runs([e.label for e in est])
     assert len(runs) <= 1, f"one nudge at most, got {runs}"
-    low = next(i for i, e in enumerate(est) if e.steps is not None and e.steps.crouched)
+    low = next((i for i, e in enumerate(est) if e.steps is not None and e.steps.crouched), None)
+    assert low is not None, "the tracker sees the body go down"
     for first, end, label in runs:
         assert label == "forward" and (end - first) / FPS <= 0.6, runs
         assert end <= low, f"moving until frame {end}, the body was low from frame {low}"
