@@ -48,7 +48,8 @@ from pipeline.sim.script import random_script
 
 # Bumped whenever the same seed and kind would give other motion (the rhythmic pivot turns of
 # 2026-12-04 were the first such change after the held-out sets existed): the sets that
-# ``cavewalk data sources`` writes from this simulator carry it in their stamp and are made again.
+# ``cavewalk data sources`` writes from this simulator carry it in their stamp and are made again,
+# and the training data's prepared cache keys our simulator's sources by it (``prepare``).
 SIM_VERSION = 2
 
 __all__ = ["ROUTINE_KINDS", "simulate_routine"]
