@@ -70,18 +70,21 @@ def _moving_runs(labels: list[str]) -> list[tuple[int, int, str]]:
     return runs
 
 
+# standing, then a kneel reached by stepping the front foot forward, then standing
+KNEEL_FORWARD = (
+    Segment("still", 2.0, gestures=()),
+    Segment("still", 7.0, behaviour="kneel-forward"),
+    Segment("still", 2.0, gestures=()),
+)
+
+
 @pytest.mark.xfail(
     strict=True,
     reason="known: the step forward into the kneel is called forward for 0.3-0.6 s before the body is "
     "low (MODEL_CARD.md, Limits: kneeling that begins with a step; blind6 34 %)",
 )
 def test_kneeling_that_begins_with_a_step_forward_never_moves(recognizer: ActionRecognizer) -> None:
-    segs = (
-        Segment("still", 2.0, gestures=()),
-        Segment("still", 7.0, behaviour="kneel-forward"),
-        Segment("still", 2.0, gestures=()),
-    )
-    motion, labels, _ = _run(recognizer, segs, seed=31)
+    motion, labels, _ = _run(recognizer, KNEEL_FORWARD, seed=31)
     assert set(motion.labels) == {"still"} and "kneel-forward" in motion.tags
     moving = [i for i, lab in enumerate(labels) if lab != "still"]
     assert not moving, f"{len(moving)} frames called moving, first at {moving[0] / FPS:.2f} s"
@@ -94,12 +97,7 @@ def test_kneeling_that_begins_with_a_step_forward_is_at_most_a_short_nudge(
     """What holds of the known limit above: the step forward into the kneel may start a bout (it
     is a first forward step until the body goes down), but one short one, over once the body is
     low, and nothing while kneeling or standing up."""
-    segs = (
-        Segment("still", 2.0, gestures=()),
-        Segment("still", 7.0, behaviour="kneel-forward"),
-        Segment("still", 2.0, gestures=()),
-    )
-    motion, est = _estimates(recognizer, segs, seed)
+    motion, est = _estimates(recognizer, KNEEL_FORWARD, seed)
     assert "kneel-forward" in motion.tags
     runs = _moving_runs([e.label for e in est])
     assert len(runs) <= 1, f"one nudge at most, got {runs}"
