@@ -27,8 +27,13 @@ What a user expects (MODEL_CARD.md, "Behaviour"):
   the network is sure the bout goes on (smoothed p(still) below ``hold_still_prob``): then the pause
   may last up to ``max_allowance_s`` (a longer pause than the person has shown yet). With the feet
   apart after an opening step (a foot out to the side, ``split_hold``) the way back is still to come:
-  the pause holds up to ``max_allowance_s`` whatever the rhythm says, unless the network is sure the
-  bout has ended (``pause_still_prob``, as below).
+  the pause holds up to ``max_allowance_s`` whatever the rhythm says (``split_allowance_s`` after a step
+  that opened ``split_width_m`` or more: slow side steps rest with the foot out, and the other foot
+  may mark time unseen), unless the network is sure the bout has ended (``pause_still_prob``, as below).
+  Such a foot lifting again is the way back (within ``split_memory_s`` of the bout's newest step): the
+  bout's side is kept for it, a bout it starts goes to that side, and while it, or the other foot
+  following it (a step-together), only rises in place (lower than ``march_lift_m``) it is no march
+  step until it lands.
 - **Stops stay fast**: past the pause the person's *median* rhythm allows, a smoothed p(still) of
   ``late_still_prob`` already ends the bout (the longest-interval deadline is only for pauses the
   network does not call a stop).
@@ -50,7 +55,8 @@ What a user expects (MODEL_CARD.md, "Behaviour"):
   and a bout of fewer than ``steer_steps`` landed steps ends (an established march that starts to
   turn is steering and goes on; a side-step bout that turns the body is turning on the spot); a bout
   whose only step (in place) has landed ends once the body has turned ``first_turn_deg`` since that
-  step's lift-off (a slow turn in single pivot steps). A swing whose foot rose ``march_lift_m``
+  step's lift-off (a slow turn in single pivot steps; ``first_turn_open_deg`` after a step that opened
+  sideways: a wide stance turns the hips and the shoulders a little). A swing whose foot rose ``march_lift_m``
   without itself turning the body is a march step, not a pivot: a turn that has just ended neither
   vetoes its start nor ends its bout.
 - **Direction** (forward / left / right): the network's smoothed probabilities among the moving
@@ -156,13 +162,22 @@ class GateConfig:
     start_turn_deg: float = 10.0
     start_travel_m: float = 0.1
     first_turn_deg: float = 7.0  # the body turned this far since a bout's lone first step in place: a pivot
+    first_turn_open_deg: float = 15.0  # ... or this far, if more, when that step opened sideways (a wide
+    # stance turns the hips and shoulders a little)
     steer_steps: int = 2  # ... unless the bout has already landed this many steps: steering while marching
     # (0: a turning bout always ends)
     kick_deg: float = 55.0  # a swing raising the leg this far (hip to ankle, from straight down) is a kick
     # the feet apart after an opening step (a foot out to the side): the way back is still to come, so
     # the pause holds up to max_allowance_s after that landing, whatever the rhythm, unless the network
-    # is sure the bout has ended (pause_still_prob)
+    # is sure the bout has ended (pause_still_prob) ...
     split_hold: bool = True
+    split_allowance_s: float = 2.0  # ... up to this long after the landing of a step that opened
+    split_width_m: float = 0.05  # ... this far sideways (a narrower opening step: max_allowance_s)
+    # such a foot (standing out to the bout's side, the other foot not having followed) is on its way
+    # back when it lifts again: within split_memory_s of the bout's newest step the bout's side is kept
+    # for it, a bout it starts goes to that side, and while it (or the other foot, following it) only
+    # rises in place, lower than march_lift_m, it is not read as a march step (0: off)
+    split_memory_s: float = 4.0
     # a swing whose foot rose march_lift_m without itself turning the body (swing_turn_deg) is a march
     # step, not a pivot of a turn on the spot: the body's turn just before it (a turn that has ended)
     # neither vetoes its start nor ends its bout (inf: never)
@@ -222,6 +237,9 @@ class GateConfig:
             "turn_travel_m",
             "swing_turn_deg",
             "start_quiet_s",
+            "split_allowance_s",
+            "split_width_m",
+            "split_memory_s",
         ):
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
@@ -245,6 +263,8 @@ class GateConfig:
             raise ValueError(f"kick_deg must be > 0 (inf: never), got {self.kick_deg}")
         if not self.first_turn_deg > 0:
             raise ValueError(f"first_turn_deg must be > 0 (inf: never), got {self.first_turn_deg}")
+        if not self.first_turn_open_deg > 0:
+            raise ValueError(f"first_turn_open_deg must be > 0 (inf: never), got {self.first_turn_open_deg}")
         if not self.max_window_turn_deg > 0:
             raise ValueError(f"max_window_turn_deg must be > 0 (inf: never), got {self.max_window_turn_deg}")
         if not self.rise_wait_s >= 0:
@@ -356,6 +376,7 @@ class BoutGate:
         self._last_turn = [0.0, 0.0]  # the body's turn during each foot's current or last swing
         self._swing_top = [0.0, 0.0]  # each foot's highest point (above its standing level) this swing
         self._slid = [False, False]  # the current (or last) swing of each foot was part of a slide
+        self._opened = [False, False]  # each foot's last step opened (away from the other, not followed)
         self._first_foot = -1  # the foot of the bout's first landed step
         self._crouch_t = -math.inf  # when the body was last crouched
         self._turned_last = 0.0  # the body's turn within turn_window_s, as of the last frame
@@ -423,17 +444,28 @@ class BoutGate:
             if self._raised[k] >= 2:
                 self._kicked[k] = True
 
-    def _allowance(self, rhythm: str | None = None) -> float:
+    def _allowance(self, rhythm: str | None = None, longest: float | None = None) -> float:
         """How long after the newest touch-down the next lift-off may come: when the person's rhythm
         says it is due (``pause_gain`` x the longest of their last three step intervals after the
-        newest lift-off) + ``pause_margin_s``, within [min_allowance_s, max_allowance_s]."""
+        newest lift-off) + ``pause_margin_s``, within [min_allowance_s, ``longest`` or
+        max_allowance_s]."""
         c = self.config
         if not self._intervals or not math.isfinite(self._bout_land_t):
             return c.first_allowance_s
         rhythm = rhythm or c.rhythm
         interval = max(self._intervals) if rhythm == "max" else float(np.median(self._intervals))
         due = self._last_lift_t + c.pause_gain * interval - self._bout_land_t
-        return float(min(max(due + c.pause_margin_s, c.min_allowance_s), c.max_allowance_s))
+        cap = c.max_allowance_s if longest is None else longest
+        return float(min(max(due + c.pause_margin_s, c.min_allowance_s), cap))
+
+    def _split_allowance(self, k: int) -> float:
+        """How long a pause with foot ``k`` out to the side may last: ``max_allowance_s``; after a
+        step that opened ``split_width_m`` or more, as long as the person's own rhythm says (slow side
+        steps rest with the foot out), up to ``split_allowance_s``."""
+        c = self.config
+        if not self._opened[k] or c.split_allowance_s <= c.max_allowance_s:
+            return c.max_allowance_s
+        return max(c.max_allowance_s, self._allowance(longest=c.split_allowance_s))
 
     def _side_evidence(self, frame: StepFrame, ev: int | None) -> int | None:
         """The direction the newest step speaks for, read against the bout's side: the first opening
@@ -490,6 +522,11 @@ class BoutGate:
             self._begin_side(_LEFT if self._side == _RIGHT else _RIGHT)
             if self._active and self._label in (_LEFT, _RIGHT):
                 self._label = self._side
+
+    def _out_to_side(self, k: int) -> bool:
+        """Foot ``k`` stands out to the bout's side: its last step opened to that side and the other
+        foot has not followed it."""
+        return self._opened[k] and self._side == (_LEFT if k == 0 else _RIGHT)
 
     def _moving(self) -> str:
         """The reason of a bout's stepping frames: ``rhythm`` while the rhythm alone carries it,
@@ -552,6 +589,9 @@ class BoutGate:
         """A new bout's direction: a step back from the side steps just before (the way back of an
         opening step to the other side, or a closing step) keeps their side; else the network
         weighted by the evidence."""
+        k = frame.stepping
+        if ev in (None, _FORWARD) and k >= 0 and self.config.split_memory_s > 0 and self._out_to_side(k):
+            return self._side  # the foot out to the side steps back: the way back of the side steps
         side = self._side_evidence(frame, ev)
         if ev is None and self._side != _STILL:
             return self._side
@@ -618,7 +658,9 @@ class BoutGate:
                         self._intervals.append(gap)
                 elif not self._active:
                     self._intervals.clear()
-                if not self._active and not f.event_t - self._side_t <= c.max_interval_s:
+                since = f.event_t - self._side_t
+                out = self._out_to_side(k) and since <= c.split_memory_s  # the way back is due
+                if not self._active and not since <= c.max_interval_s and not out:
                     self._forget_side()  # a side from a bout long over
                 self._last_lift_t = f.event_t
                 if self._active:
@@ -629,6 +671,10 @@ class BoutGate:
                 self._swing_maxp[k] = max(self._swing_maxp[k], p_move)
             if f.landed and math.isfinite(f.lateral_m):
                 self._home[k] += f.lateral_m
+            if f.landed:
+                self._opened[k] = f.kind == "open" and abs(f.lateral_m) >= c.split_width_m
+                if f.kind == "close":
+                    self._opened[1 - k] = False
             if f.landed and math.isfinite(self._swing_lift[k]):
                 long_landed = long_landed or f.event_t - self._swing_lift[k] > c.max_step_swing_s
                 self._count_rhythm(k, self._swing_lift[k], no_step[k] or abs(f.turn_deg) > c.rhythm_turn_deg)
@@ -667,7 +713,8 @@ class BoutGate:
         first_turned = (
             self._active and self._bout_steps == 1 and not swings and k0 >= 0
             and abs(frame.feet[k0].sagittal_m) < c.turn_travel_m
-            and abs(frame.yaw_deg - self._lift_yaw[k0]) >= c.first_turn_deg
+            and abs(frame.yaw_deg - self._lift_yaw[k0])
+            >= max(c.first_turn_deg, c.first_turn_open_deg if frame.feet[k0].kind == "open" else 0.0)
         )  # fmt: skip
         # a march (a forward bout) that starts to turn is steering; side steps that turn the body are
         # turning on the spot
@@ -747,6 +794,15 @@ class BoutGate:
                 and ev == _FORWARD
                 and k >= 0
                 and c.march_confirm_s <= frame.feet[k].swing_s <= c.max_step_swing_s
+                # a foot rising in place, not high, may be the way back of a foot out or the other
+                # foot following it: not a march step until it lands
+                and not (
+                    c.split_memory_s > 0
+                    and frame.feet[k].kind == "vertical"
+                    and self._swing_top[k] < c.march_lift_m
+                    and frame.feet[1 - k].planted
+                    and (self._out_to_side(k) or self._opened[1 - k])
+                )
             ):
                 # a foot up this long without moving sideways is a march step, not a side step's rise
                 # (up longer than a step's swing, it is the tracker missing a landing: no march step)
@@ -779,7 +835,7 @@ class BoutGate:
         )
         if split and p[_STILL] < c.pause_still_prob:
             # a foot out to the side: the way back is due, however long the person pauses before it
-            deadline = self._bout_land_t + c.max_allowance_s
+            deadline = self._bout_land_t + self._split_allowance(k)
             if t <= deadline + 1e-9:
                 return GateVerdict(True, self._label, "pause", ev_name, self._allowance(), deadline)
         deadline = self._bout_land_t + self._allowance()

@@ -195,6 +195,36 @@ def test_a_side_step_bout_with_pauses_is_one_command(
     assert -0.1 <= (end - off) / FPS <= 1.0, f"ended {(end - off) / FPS:.2f} s after the last touch-down"
 
 
+@pytest.mark.parametrize(
+    ("side", "behaviour", "cadence", "seed"),
+    [
+        ("left", "step-together", 0.5, 61),
+        ("right", "step-together", 0.5, 61),
+        ("right", "step-together", 0.7, 62),
+        ("left", "side-step-out-back", 0.5, 61),
+        ("right", "side-step-out-back", 0.5, 63),
+    ],
+)
+def test_slow_side_steps_keep_their_side(
+    recognizer: ActionRecognizer, side: str, behaviour: str, cadence: float, seed: int
+) -> None:
+    """Side steps at 0.5-0.7 steps/s with pauses of 0.6-1.0 s: the feet rest apart for up to two
+    seconds and the trailing foot rises slowly before it moves sideways. The command is the side
+    for at least 80 % of the bout, never the other side, and forward for at most 0.3 s (before the
+    split-stance rules it was the side for 47-83 % of these bouts and forward for up to 2.9 s: the
+    trailing foot's rise read as a march, a wide step's turn of the hips as a pivot)."""
+    bout = Segment(
+        side, 9.0, cadence_steps_per_s=cadence, pause_prob=0.5, pause_s=(0.6, 1.0), behaviour=behaviour
+    )
+    segs = (Segment("still", 2.5, gestures=()), bout, Segment("still", 3.0, gestures=()))
+    motion, labels, _ = _run(recognizer, segs, seed)
+    truth, got = np.asarray(motion.labels), np.asarray(labels)
+    other = "right" if side == "left" else "left"
+    assert np.mean(got[truth == side] == side) >= 0.8, _moving_runs(labels)
+    assert not np.any(got == other), _moving_runs(labels)
+    assert np.sum(got == "forward") / FPS <= 0.3, _moving_runs(labels)
+
+
 def test_a_march_stops_when_the_rhythm_breaks(recognizer: ActionRecognizer) -> None:
     segs = (
         Segment("still", 2.0, gestures=()),

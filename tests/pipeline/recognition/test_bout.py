@@ -204,6 +204,12 @@ def test_choose_direction_and_config_checks() -> None:
         GateConfig(travel_steps=0)
     with pytest.raises(ValueError, match="first_turn_deg"):
         GateConfig(first_turn_deg=0.0)
+    with pytest.raises(ValueError, match="first_turn_open_deg"):
+        GateConfig(first_turn_open_deg=-1.0)
+    for name in ("split_allowance_s", "split_width_m", "split_memory_s"):
+        for bad in (-0.1, float("nan"), float("inf")):
+            with pytest.raises(ValueError, match=name):
+                GateConfig(**{name: bad})
     with pytest.raises(ValueError, match="rise_wait_s"):
         GateConfig(rise_wait_s=-0.1)
     with pytest.raises(ValueError, match="rise_lead_m"):
@@ -318,6 +324,8 @@ def _gate_joints(joints: np.ndarray, probs: np.ndarray, config: GateConfig | Non
 
 
 INF = float("inf")
+# the lone first step's turn rule only
+NO_WINDOW_RULE = GateConfig(max_window_turn_deg=INF, start_turn_deg=INF, max_turn_deg=INF)
 NO_TURN_RULE = GateConfig(max_window_turn_deg=INF, first_turn_deg=INF, start_turn_deg=INF)  # no turning rule
 
 
@@ -372,21 +380,29 @@ def test_the_turning_rule_checks_its_settings() -> None:
             GateConfig(**bad)  # type: ignore[arg-type]
 
 
-def test_a_one_step_side_bout_keeps_its_side_for_the_way_back_after_a_pause() -> None:
-    """The right foot steps out to the right, stays there 1.3 s (the bout ends: rhythm broken), then
-    comes back: the way back of that side step is a new bout to the right, even with a network that
-    reads it as a step to the left (the side of a bout's first step is remembered like any other)."""
+@pytest.mark.parametrize("stay_s", [1.3, 2.5])
+def test_a_one_step_side_bout_keeps_its_side_for_the_way_back_after_a_pause(stay_s: float) -> None:
+    """The right foot steps out to the right and stays there 1.3 or 2.5 s: with no rhythm of the
+    person's yet the split stance holds ``max_allowance_s`` and the bout ends; the way back is a new
+    bout to the right, even with a network that reads it as a step to the left (the side of a foot
+    standing out is kept for its way back, ``split_memory_s``, also after more than
+    ``max_interval_s``)."""
     out = Swing(1, 1.0, 1.4, lateral=0.3, peak=0.05)
-    back = Swing(1, 2.7, 3.1, lateral=-0.3, peak=0.05)
-    n = round(4.5 * FPS)
+    back = Swing(1, 1.4 + stay_s, 1.8 + stay_s, lateral=-0.3, peak=0.05)
+    duration = back.t1 + 1.4
+    n = round(duration * FPS)
     t = np.arange(n) / FPS
     lead, wrong = np.array([0.1, 0.05, 0.05, 0.8]), np.array([0.1, 0.1, 0.7, 0.1])
-    probs = [wrong if t[i] > 2.5 else lead for i in range(n)]
-    labels, verdicts, _ = _gate(Scene(4.5, (out, back)), probs)
+    probs = [wrong if t[i] > back.t0 - 0.2 else lead for i in range(n)]
+    labels, verdicts, _ = _gate(Scene(duration, (out, back)), probs)
     assert (labels[(t > 1.2) & (t < 1.4)] == R).all()
-    assert "rhythm-broke" in {v.reason for v in verdicts[round(1.4 * FPS) : round(2.7 * FPS)]}
+    reasons = {v.reason for v in verdicts[round(1.4 * FPS) : round(back.t0 * FPS)]}
+    assert "rhythm-broke" in reasons, reasons
     way_back = labels[(t > back.t0 + 0.2) & (t < back.t1)]
     assert (way_back == R).mean() > 0.9, f"way back: {np.bincount(way_back, minlength=4)}"
+    if stay_s > 2.2:  # longer than max_interval_s: without the foot's memory the side is forgotten
+        forgot, _, _ = _gate(Scene(duration, (out, back)), probs, config=GateConfig(split_memory_s=0.0))
+        assert (forgot[(t > back.t0 + 0.2) & (t < back.t1)] != R).any()
 
 
 def test_a_step_over_a_sliding_stance_is_no_jump() -> None:
@@ -452,6 +468,22 @@ def test_a_lone_first_step_that_turned_the_body_is_no_bout() -> None:
     march_joints, _ = _turned(Scene(8.0, swings), 0.0)
     straight = _gate_joints(march_joints, FWD)
     assert (straight[after & (t < swings[1].t0)] == F).all(), "a march's first step holds"
+
+
+def test_a_lone_wide_side_step_that_turns_the_body_a_little_is_no_pivot() -> None:
+    """A slow side step 0.3 m to the right whose wide stance turns the body 10 degrees (hips and
+    shoulders follow the foot a little) keeps its bout through the hold (``first_turn_open_deg`` 15);
+    with the in-place threshold (7) it ended as a pivot, and a 25-degree turn still does."""
+    swings = (Swing(1, 1.0, 1.5, lateral=0.3, peak=0.05),)
+    t = np.arange(round(3.0 * FPS)) / FPS
+    hold = (t > 1.6) & (t < 2.1)
+    joints, _ = _turned(Scene(3.0, swings), 10.0)
+    labels = _gate_joints(joints, RIGHT, NO_WINDOW_RULE)
+    assert (labels[hold] == R).all(), f"{np.bincount(labels[hold], minlength=4)}"
+    strict = _gate_joints(joints, RIGHT, replace(NO_WINDOW_RULE, first_turn_open_deg=7.0))
+    assert (strict[hold] == S).any(), "with 7 degrees the wide step's turn reads as a pivot"
+    pivot, _ = _turned(Scene(3.0, swings), 25.0)
+    assert (_gate_joints(pivot, RIGHT, NO_WINDOW_RULE)[hold] == S).any(), "a wide pivot step is still a pivot"
 
 
 def test_a_step_in_place_right_after_the_body_turned_starts_no_bout() -> None:
@@ -582,14 +614,43 @@ def test_a_pause_with_a_foot_out_holds_until_the_way_back() -> None:
     }
 
 
+@pytest.mark.parametrize("gap_s", [2.0, 0.6])
+def test_slow_side_steps_rest_with_the_foot_out_as_long_as_their_rhythm(gap_s: float) -> None:
+    """Out-and-back steps whose lift-offs come ``gap_s`` apart, then a rest of 1.6 s with the foot
+    out while the network is unsure: a person stepping every 2 s (0.5 steps/s) rests that long
+    between steps (their rhythm allows it, up to ``split_allowance_s``), so the bout holds; a person
+    stepping every 0.6 s has stopped, so it ends at ``max_allowance_s``, as before."""
+    out, back, swing = 0.25, -0.25, 0.4
+    t_lifts = [1.0 + i * gap_s for i in range(5)]  # out, back, out, back, out
+    swings = [
+        Swing(1, t0, t0 + swing, lateral=out if i % 2 == 0 else back, peak=0.06)
+        for i, t0 in enumerate(t_lifts)
+    ]
+    land = swings[-1].t1
+    rest_end = land + 1.6
+    swings.append(Swing(1, rest_end, rest_end + swing, lateral=back, peak=0.06))
+    duration = rest_end + 1.5
+    t = np.arange(round(duration * FPS)) / FPS
+    probs = [UNSURE if land + 0.1 <= ti < rest_end else RIGHT for ti in t]
+    labels, _, _ = _gate(Scene(duration, tuple(swings)), probs)
+    rest = (t > land + 0.2) & (t < rest_end - 0.1)
+    if gap_s > 1.0:
+        assert (labels[rest] == R).all(), f"{np.bincount(labels[rest], minlength=4)}"
+        flat, _, _ = _gate(Scene(duration, tuple(swings)), probs, config=GateConfig(split_allowance_s=1.2))
+        assert (flat[rest] == S).any(), "without split_allowance_s the rest ends the bout"
+    else:
+        assert (labels[rest] == S).any(), "a quick stepper resting 1.6 s has stopped"
+
+
 @pytest.mark.parametrize(
     ("after", "latest_s"), [(UNSURE, 1.2 + 0.1), (np.array([0.9, 0.03, 0.03, 0.04]), 0.35)]
 )
 def test_a_foot_left_out_ends_the_bout_at_the_longest_pause_or_when_the_network_is_sure(
     after: np.ndarray, latest_s: float
 ) -> None:
-    """The last step out stays out: the bout ends at most ``max_allowance_s`` after it landed, and
-    as soon as a network sure that the person has stopped says so."""
+    """The last step out stays out: the bout ends at most ``max_allowance_s`` after it landed (the
+    person's rhythm, 0.6 s from out to back, allows no longer), and as soon as a network sure that
+    the person has stopped says so."""
     swings = _out_and_back((1.0, 2.2), last_back=False)
     n = round(5.0 * FPS)
     t = np.arange(n) / FPS
