@@ -7,7 +7,7 @@
 
 Sources: ``sim`` (our simulator's random routines, ``--sequences`` of ``--duration`` s), ``gait``,
 ``blind``, ``blind2`` and ``blind3`` (the second to fifth motion models, other seeds than their
-held-out sets; the sixth to eighth, ``pipeline.sim.blind4``, ``blind5`` and ``blind6``, are never trained on)
+held-out sets; the sixth to ninth, ``pipeline.sim.blind4`` to ``blind7``, are never trained on)
 or ``NAME=DIR`` (every labelled SPEC NPZ under DIR: the still-behaviour library, converted real
 motion capture...), prepared by :mod:`pipeline.recognition.prepare` (30 fps, mirrored, ``--warp
 NAME`` sources also at 0.85x / 1.15x, captured through the simulated CAVE cameras and our

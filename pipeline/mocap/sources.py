@@ -30,6 +30,9 @@ Layout, under ``<cache_dir>/data/sources/``::
     blind6-heldout/*.npz    the eighth (pipeline.sim.blind6: coupled Hopf oscillators drive the
                             rhythm; adds dancing, jumps, kneeling, squats, leans and picking up),
                             evaluation only and never trained on at all
+    blind7-heldout/*.npz    the ninth (pipeline.sim.blind7: a linear-inverted-pendulum centre of mass
+                            driven by a capture-point plan through planned footsteps, minimum-jerk
+                            swing feet, two-link leg IK), evaluation only and never trained on at all
 
 ``use``: ``train`` (may be trained on and held out by leave-one-source-out), or ``eval``
 (held-out evaluation only: never pass it to ``train_action.py``). A source folder never mixes
@@ -115,9 +118,9 @@ SIM_SETS = {
 SIM_USE = {"still": "train", "still-heldout": "eval"}
 
 
-BLIND_MODELS = ("blind", "blind2", "blind3", "blind4", "blind5", "blind6")
+BLIND_MODELS = ("blind", "blind2", "blind3", "blind4", "blind5", "blind6", "blind7")
 # their generators add their own capture noise
-OWN_NOISE_MODELS = ("blind2", "blind3", "blind4", "blind5", "blind6")
+OWN_NOISE_MODELS = ("blind2", "blind3", "blind4", "blind5", "blind6", "blind7")
 
 
 @dataclass(frozen=True, slots=True)
@@ -125,9 +128,10 @@ class BlindSet:
     """A set of an independent motion model's sequences: ``model`` ``blind`` (the third motion model,
     pipeline.sim.blind), ``blind2`` (the fourth, pipeline.sim.blind2), ``blind3`` (the fifth,
     pipeline.sim.blind3), ``blind4`` (the sixth, pipeline.sim.blind4), ``blind5`` (the seventh,
-    pipeline.sim.blind5) or ``blind6`` (the eighth, pipeline.sim.blind6; the capture noise of blind2
-    to blind6 is their own: 1.2 cm and 2 % of the joints, so ``noise_m`` and ``dropout`` must stay at
-    those values); how many, how long, seed, noise and dropped joints."""
+    pipeline.sim.blind5), ``blind6`` (the eighth, pipeline.sim.blind6) or ``blind7`` (the ninth,
+    pipeline.sim.blind7; the capture noise of blind2 to blind7 is their own: 1.2 cm and 2 % of the
+    joints, so ``noise_m`` and ``dropout`` must stay at those values); how many, how long, seed, noise
+    and dropped joints."""
 
     count: int
     duration_s: float
@@ -150,7 +154,7 @@ class BlindSet:
             )
 
 
-# held-out evaluation only: never trained on (blind4 to blind6 are never trained on at all; blind,
+# held-out evaluation only: never trained on (blind4 to blind7 are never trained on at all; blind,
 # blind2 and blind3 train with other seeds: corpus.independent_model)
 BLIND_SETS = {
     "blind-heldout": BlindSet(count=12, duration_s=60.0, seed=4242),
@@ -159,6 +163,7 @@ BLIND_SETS = {
     "blind4-heldout": BlindSet(count=12, duration_s=60.0, seed=60606, model="blind4"),
     "blind5-heldout": BlindSet(count=12, duration_s=60.0, seed=50505, model="blind5"),
     "blind6-heldout": BlindSet(count=12, duration_s=60.0, seed=60606, model="blind6"),
+    "blind7-heldout": BlindSet(count=12, duration_s=60.0, seed=70707, model="blind7"),
 }
 BLIND_ORIGINS = {
     "blind": "pipeline.sim.blind: a third motion model, written without reading the others",
@@ -171,6 +176,8 @@ BLIND_ORIGINS = {
     "foot-lock IK), written without reading the product's code",
     "blind6": "pipeline.sim.blind6: an eighth motion model (coupled Hopf oscillators set the rhythm, "
     "forward kinematics, IK legs, a pinned stance foot), written without reading the product's code",
+    "blind7": "pipeline.sim.blind7: a ninth motion model (a linear-inverted-pendulum centre of mass driven "
+    "by a capture-point plan through planned footsteps, IK legs), written without reading the product's code",
 }
 
 
@@ -296,7 +303,7 @@ def write_blind_set(folder: Path, spec: BlindSet, progress: Callable[[str], None
     if spec.model == "blind2":
         config = blind2.SetConfig(count=spec.count, seed=spec.seed, duration_s=spec.duration_s)
         paths = blind2.write_set(folder, config)
-    elif spec.model != "blind":  # blind3 to blind6: write_set(folder, count, seed, duration_s)
+    elif spec.model != "blind":  # blind3 to blind7: write_set(folder, count, seed, duration_s)
         model = importlib.import_module(f"pipeline.sim.{spec.model}")
         paths = model.write_set(folder, spec.count, spec.seed, spec.duration_s)
     else:

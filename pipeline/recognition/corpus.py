@@ -5,7 +5,7 @@ Sources (each a list of :class:`~pipeline.recognition.dataset.LabelledSequence`,
 - ``sim``: our own simulator's random routines (``pipeline.sim``);
 - ``gait``: the second motion model's routines (:func:`gait_model`); ``blind``, ``blind2`` and
   ``blind3``: the third, fourth and fifth (:func:`independent_model`, other seeds than their held-out
-  sets; the sixth to eighth, ``pipeline.sim.blind4``, ``blind5`` and ``blind6``, are never trained on);
+  sets; the sixth to ninth, ``pipeline.sim.blind4`` to ``blind7``, are never trained on);
 - any folder of labelled SPEC NPZ files (the still-behaviour library, the second motion model,
   converted real motion capture, recorded takes): :func:`from_folder`, the source named by the
   files' ``source`` or by the folder.

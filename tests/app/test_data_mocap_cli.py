@@ -65,6 +65,7 @@ def test_data_sources_writes_one_folder_per_named_source(
         "blind4-heldout",
         "blind5-heldout",
         "blind6-heldout",
+        "blind7-heldout",
     }
     for name, m in manifest.items():
         assert f"{name}={m['dir']}  [{m['use']}]" in res.output
@@ -101,7 +102,8 @@ def test_data_sources_writes_one_folder_per_named_source(
     assert manifest["blind-heldout"]["use"] == "eval" and len(blind) == 2
     assert all(len(s) == 360 and s.contacts is not None for s in blind)  # 12 s at 30 fps, with contacts
     assert manifest["blind-heldout"]["settings"]["noise_m"] == 0.012
-    for model in ("blind2", "blind3", "blind4", "blind5", "blind6"):  # the fourth to eighth motion models
+    # the fourth to ninth motion models
+    for model in ("blind2", "blind3", "blind4", "blind5", "blind6", "blind7"):
         entry = manifest[f"{model}-heldout"]
         seqs = from_folder(entry["dir"], source=f"{model}-heldout")
         assert entry["use"] == "eval" and len(seqs) == 2

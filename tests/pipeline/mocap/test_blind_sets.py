@@ -13,7 +13,7 @@ from pipeline.mocap.sources import BLIND_SETS, BlindSet, write_blind_set
 from pipeline.skeleton import load_npz
 
 
-def test_the_sets_name_a_known_model_and_blind2_to_blind6_keep_their_own_noise() -> None:
+def test_the_sets_name_a_known_model_and_blind2_to_blind7_keep_their_own_noise() -> None:
     assert {s.model for s in BLIND_SETS.values()} == {
         "blind",
         "blind2",
@@ -21,13 +21,15 @@ def test_the_sets_name_a_known_model_and_blind2_to_blind6_keep_their_own_noise()
         "blind4",
         "blind5",
         "blind6",
+        "blind7",
     }
     assert BLIND_SETS["blind5-heldout"] == BlindSet(count=12, duration_s=60.0, seed=50505, model="blind5")
     assert BLIND_SETS["blind6-heldout"] == BlindSet(count=12, duration_s=60.0, seed=60606, model="blind6")
+    assert BLIND_SETS["blind7-heldout"] == BlindSet(count=12, duration_s=60.0, seed=70707, model="blind7")
     assert BLIND_SETS["blind3-heldout"] == BlindSet(count=12, duration_s=60.0, seed=31337, model="blind3")
     assert BLIND_SETS["blind4-heldout"] == BlindSet(count=12, duration_s=60.0, seed=60606, model="blind4")
     with pytest.raises(InputError, match="model is one of"):
-        BlindSet(count=1, duration_s=10.0, seed=1, model="blind7")
+        BlindSet(count=1, duration_s=10.0, seed=1, model="blind8")
     with pytest.raises(InputError, match="blind2 sets have their own capture noise"):
         BlindSet(count=1, duration_s=10.0, seed=1, noise_m=0.0, model="blind2")
     with pytest.raises(InputError, match="blind3 sets have their own capture noise"):
@@ -38,11 +40,13 @@ def test_the_sets_name_a_known_model_and_blind2_to_blind6_keep_their_own_noise()
         BlindSet(count=1, duration_s=10.0, seed=1, dropout=0.05, model="blind5")
     with pytest.raises(InputError, match="blind6 sets have their own capture noise"):
         BlindSet(count=1, duration_s=10.0, seed=1, noise_m=0.0, model="blind6")
+    with pytest.raises(InputError, match="blind7 sets have their own capture noise"):
+        BlindSet(count=1, duration_s=10.0, seed=1, dropout=0.0, model="blind7")
     with pytest.raises(InputError, match="count >= 1"):
         BlindSet(count=0, duration_s=10.0, seed=1, model="blind2")
 
 
-@pytest.mark.parametrize("model", ["blind2", "blind3", "blind4", "blind5", "blind6"])
+@pytest.mark.parametrize("model", ["blind2", "blind3", "blind4", "blind5", "blind6", "blind7"])
 def test_a_set_of_an_own_noise_model_is_written_indexed_and_kept(tmp_path: Path, model: str) -> None:
     folder = tmp_path / f"{model}-heldout"
     spec = BlindSet(count=1, duration_s=10.0, seed=7, model=model)

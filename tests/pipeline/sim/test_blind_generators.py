@@ -1,7 +1,8 @@
-"""The blind5 and blind6 generators (pipeline.sim.blind5 and blind6, the seventh and eighth motion
-models): their files, their own checkers (which must pass on what they write and fail on a file
-that breaks their laws), their determinism, their refusals, their command lines and a fingerprint
-of the first file of each held-out set (blind5 seed 50505, blind6 seed 60606)."""
+"""The blind5, blind6 and blind7 generators (pipeline.sim.blind5 to blind7, the seventh to ninth
+motion models): their files, their own checkers (which must pass on what they write and fail on a
+file that breaks their laws), their determinism, their refusals, their command lines and a
+fingerprint of the first file of each held-out set (blind5 seed 50505, blind6 seed 60606, blind7
+seed 70707)."""
 
 from __future__ import annotations
 
@@ -14,9 +15,10 @@ import numpy as np
 import pytest
 
 from pipeline.errors import InputError
-from pipeline.sim import blind5, blind6
+from pipeline.sim import blind5, blind6, blind7
 from pipeline.sim.blind5.check import check_file as check5
 from pipeline.sim.blind6.check import check_file as check6
+from pipeline.sim.blind7.check import check_file as check7
 from pipeline.skeleton import load_npz
 from tests.pipeline.sim.npzfiles import arrays, assert_same_arrays, fingerprint, run_module
 
@@ -83,6 +85,35 @@ GENERATORS = {
             "nan_joints": 612,
             "mean_xyz": [-0.0833, -0.14627, 1.15143],
             "sd": 0.69098,
+        },
+    ),
+    "blind7": Generator(
+        blind7,
+        check7,
+        70707,
+        "duration_s must be",
+        {
+            "labels": {"forward": 301, "left": 277, "right": 288, "still": 934},
+            "tags": {
+                "": 288,
+                "bow": 93,
+                "heel_kick": 122,
+                "lean": 37,
+                "look_around": 151,
+                "march": 70,
+                "pause": 319,
+                "shuffle": 152,
+                "squat": 108,
+                "step_together": 203,
+                "sway": 81,
+                "tiptoe": 58,
+                "turn": 79,
+                "weight_shift": 39,
+            },
+            "contacts": [1521, 1519],
+            "nan_joints": 616,
+            "mean_xyz": [-0.03602, -0.08939, 1.0103],
+            "sd": 0.58916,
         },
     ),
 }

@@ -1,4 +1,4 @@
-"""The motion models written without reading the product (blind3 to blind6) depend on nothing of it:
+"""The motion models written without reading the product (blind3 to blind7) depend on nothing of it:
 their modules import only numpy, scipy, the standard library, ``pipeline.errors`` and their own
 package, and importing them loads no app code and no other motion model."""
 
@@ -18,6 +18,7 @@ MODELS = {
     "blind4": ({"__init__.py", "__main__.py", "sequence.py", "check.py", "com.py"}, "com"),
     "blind5": ({"__init__.py", "__main__.py", "script.py", "check.py", "skeleton.py"}, "skeleton"),
     "blind6": ({"__init__.py", "__main__.py", "script.py", "check.py", "oscillators.py"}, "oscillators"),
+    "blind7": ({"__init__.py", "__main__.py", "check.py", "behaviours.py", "body.py", "timeline.py"}, "body"),
 }
 
 
