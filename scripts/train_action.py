@@ -37,6 +37,7 @@ from pipeline.errors import InputError  # noqa: E402
 from pipeline.mocap.sources import evaluation_only  # noqa: E402
 from pipeline.recognition.features import FEATURE_CHANNELS, FEATURES_V2  # noqa: E402
 from pipeline.recognition.prepare import SourceSpec, prepare_corpus, split_items, to_dataset  # noqa: E402
+from pipeline.recognition.steps import StepConfig  # noqa: E402
 from pipeline.recognition.train import DataConfig, TrainConfig, export_onnx, train_model  # noqa: E402
 
 _D, _T = DataConfig(), TrainConfig()
@@ -145,6 +146,13 @@ def main() -> int:
         action="store_true",
         help="choose the gate's settings on the validation clips (evaluation.tune_gate)",
     )
+    ap.add_argument(
+        "--same-frame-landing",
+        action="store_true",
+        help="step evidence from the tracker as it was before 2026-12-06 late morning (a short move could "
+        "lift and land within one frame, unseen: StepConfig.defer_landing off), as the committed "
+        "networks were trained",
+    )
     add_arguments(ap)
     args = ap.parse_args()
     logging.basicConfig(level=logging.INFO, format="%(message)s")
@@ -158,11 +166,14 @@ def main() -> int:
     if args.members < 1:
         raise SystemExit(f"error: --members must be at least 1, got {args.members}")
     seeds = [args.seed + k for k in range(args.members)]
+    steps = StepConfig(defer_landing=not args.same_frame_landing)
     members, member_metrics = [], []
     t_data = 0.0
     for seed in seeds:  # each member: its own draw of the generated sources, its own weights
         t1 = time.monotonic()
-        items = prepare_corpus(sources, args.cache, args.sequences, args.duration, seed, progress=say)
+        items = prepare_corpus(
+            sources, args.cache, args.sequences, args.duration, seed, progress=say, steps=steps
+        )
         t_data += time.monotonic() - t1
         tr_items, val_items = split_items(items, _T.validation_fraction, seed)
         if seed == seeds[0]:

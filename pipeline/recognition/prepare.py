@@ -170,12 +170,14 @@ def prepare_corpus(
     seed: int = 0,
     noise: NoiseConfig | None = None,
     progress: Callable[[str], None] | None = None,
+    steps: StepConfig | None = None,
 ) -> list[Item]:
     """Every source prepared (see the module docstring); each source cached on its own in ``cache_dir``
-    (adding a source later prepares only that one)."""
+    (adding a source later prepares only that one). ``steps``: the step tracker of the evidence
+    channels (default: the run-time one)."""
     items: list[Item] = []
     for src in sources:
-        items += prepare_source(src, cache_dir, sim_count, sim_duration_s, seed, noise, progress)
+        items += prepare_source(src, cache_dir, sim_count, sim_duration_s, seed, noise, progress, steps)
     return items
 
 
@@ -187,15 +189,17 @@ def prepare_source(
     seed: int = 0,
     noise: NoiseConfig | None = None,
     progress: Callable[[str], None] | None = None,
+    steps: StepConfig | None = None,
 ) -> list[Item]:
     """One source prepared, from ``cache_dir`` when done before."""
     noise = noise or NoiseConfig()
+    steps = steps or StepConfig()
     key = {
         "source": (src.name, str(src.folder), src.fingerprint(), src.warp),
         "sim": (src.count or sim_count, sim_duration_s) if src.folder is None else None,
         "seed": seed,
         "noise": asdict(noise),
-        "steps": {k: v for k, v in asdict(StepConfig()).items() if k not in _NOT_IN_EVIDENCE},
+        "steps": {k: v for k, v in asdict(steps).items() if k not in _NOT_IN_EVIDENCE},
         "v": 7,
     }
     digest = hashlib.sha1(json.dumps(key, sort_keys=True, default=str).encode()).hexdigest()[:12]
@@ -213,7 +217,7 @@ def prepare_source(
     t0 = time.monotonic()
     for i, ((group, _, original), seq) in enumerate(zip(pairs, seqs, strict=True)):
         seq32 = replace(seq, joints_m=seq.joints_m.astype(np.float32))
-        items.append(Item(group, seq32, evidence_of(seq), original))
+        items.append(Item(group, seq32, evidence_of(seq, steps), original))
         if progress is not None and ((i + 1) % 100 == 0 or i + 1 == len(seqs)):
             progress(
                 f"{src.name}: captured + step evidence {i + 1}/{len(seqs)} ({time.monotonic() - t0:.0f} s)"

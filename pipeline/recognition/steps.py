@@ -87,6 +87,10 @@ class StepConfig:
     outlier_legs: a frame-to-frame ankle jump larger than this is ignored (a triangulation outlier).
     lost_s: a foot unknown for longer is reported unknown.
     rate_hz: the frame rate the per-frame weights are given for.
+    defer_landing: a swing lands at the earliest in the frame after its lift-off (once the foot's
+        jitter is measured: before that a departure and return within one frame is jitter). Off, a
+        slow move along the floor could lift off (back-dated) and land within one frame, and the
+        step was never reported (a shuffle's slides; the committed networks were trained so).
     """
 
     smooth_alpha: float = 0.6
@@ -112,6 +116,7 @@ class StepConfig:
     standing_tau_s: float = 8.0
     yaw_alpha: float = 0.3
     rate_hz: float = 30.0
+    defer_landing: bool = True
 
     def __post_init__(self) -> None:
         for name in ("smooth_alpha", "yaw_alpha"):
@@ -552,9 +557,11 @@ class StepTracker:
             f.anchor = list(f.pos)
             f.floor = f.pos[2]
             return
+        just_lifted = False
         if f.planted:
             up, horiz = self._departure(f)
             up_thr, side_thr = self._thresholds(f)
+            just_lifted = self.config.defer_landing and f.n_dev >= 15  # its jitter is measured
             if not ((up > up_thr or horiz > side_thr) and self._lift(k, t)):
                 settling = t - f.land_t < 0.25
                 w = self._w(0.08 if settling else c.anchor_tau_s, dt)
@@ -574,8 +581,8 @@ class StepTracker:
         if self._yaw is not None:
             f.turn = (self._yaw - f.lift_yaw + math.pi) % (2 * math.pi) - math.pi
         f.kind = step_kind(k, f.lateral, f.sagittal, f.vertical, self._leg, c)
-        if t - f.lift_t < c.min_swing_s:
-            return
+        if just_lifted or t - f.lift_t < c.min_swing_s:
+            return  # a step lands at the earliest in the next frame (its lift-off is seen first)
         if t - f.lift_t > c.max_swing_s:
             self._land(f, t)
             return

@@ -251,3 +251,26 @@ def test_a_kick_raises_the_leg_a_march_step_does_not(sideways: bool) -> None:
     assert 72.0 < raise_r.max() < 88.0, raise_r.max()
     assert raise_r[t < 0.9].max() < 12.0 and raise_l.max() < 12.0, "standing legs hang"
     assert frames[45].to_dict()["feet"][1]["raise_deg"] == pytest.approx(raise_r[45], abs=0.06)
+
+
+@pytest.mark.parametrize("duration_s", [0.5, 0.6])
+def test_a_slow_low_slide_is_reported_as_a_step(duration_s: float) -> None:
+    """A shuffle without a visible lift: the right foot slides 8 cm out and back, four times, each
+    slide taking half a second. Each slide is a step the tracker reports (a lift-off, then a
+    touch-down in a later frame, sideways): its lift-off is back-dated to where the slide began, and
+    with ``defer_landing`` off it landed in the same frame and no step was ever reported (0 of 4)."""
+    swings = tuple(
+        Swing(1, 2.0 + 1.5 * i, 2.0 + 1.5 * i + duration_s, lateral=0.08 if i % 2 == 0 else -0.08, peak=0.0)
+        for i in range(4)
+    )
+    joints, _ = render(Scene(9.0, swings))
+    j = noisy(joints, 0.012, 0.02, 0)
+    ev = step_evidence(j, FPS)
+    assert len(ev.lifts) == len(ev.lands) == 4, (ev.lifts, ev.lands)
+    assert (ev.lifts[:, 1] == 1).all()
+    for (lift, _), (land, _), sw in zip(ev.lifts, ev.lands, swings, strict=True):
+        assert sw.t0 - 0.2 <= lift < land <= sw.t1 + 0.4, (lift, land, sw)
+    kinds = {KINDS[k] for k in ev.kind[:, 1][~ev.planted[:, 1]]}
+    assert kinds & {"open", "close"}, kinds
+    unseen = step_evidence(j, FPS, StepConfig(defer_landing=False))
+    assert len(unseen.lifts) < 4
