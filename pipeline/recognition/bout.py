@@ -85,7 +85,10 @@ What a user expects (MODEL_CARD.md, "Behaviour"):
   ends it (it sees the arms stop; the legs-only one holds pauses too long). The start head is quiet
   for ``start_quiet_s`` after the body was crouched (standing up from a kneel brings a foot back) and
   while the body has turned ``start_quiet_deg`` within ``turn_window_s`` (a turn's pivots): the
-  full-body network knows those, the legs-only one less.
+  full-body network knows those, the legs-only one less. Standing up from a kneel brings the feet
+  back together from the kneel's split stance: within ``kneel_quiet_s`` after the body was crouched, a
+  step whose foot stood ``kneel_split_m`` or more ahead of or behind the other at its lift-off starts
+  no bout, whichever judge speaks.
 
 :class:`BoutGate` is streaming; it holds only what it needs (times of the bout's steps).
 """
@@ -212,6 +215,11 @@ class GateConfig:
     # squat brings a foot back) nor while the body has turned start_quiet_deg within turn_window_s
     # (the pivots of a turn on the spot): the full-body network knows those, the legs-only one less
     start_quiet_s: float = 1.5
+    # standing up from a kneel: within kneel_quiet_s after the body was crouched, a step whose foot
+    # stood kneel_split_m or more ahead of or behind the other one (the kneel's split stance) brings
+    # the feet back together and starts no bout (0: off)
+    kneel_quiet_s: float = 1.5
+    kneel_split_m: float = 0.25
     start_quiet_deg: float = 5.0
 
     def __post_init__(self) -> None:
@@ -240,6 +248,8 @@ class GateConfig:
             "split_allowance_s",
             "split_width_m",
             "split_memory_s",
+            "kneel_quiet_s",
+            "kneel_split_m",
         ):
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
@@ -757,6 +767,11 @@ class BoutGate:
             )
             sure = bool(stepping) and max(self._swing_maxp[k] for k in stepping) >= c.start_prob
             rhythmic = any(self._continues_rhythm(k, abs(turn[k])) for k in stepping)
+            standing_up = t - self._crouch_t < c.kneel_quiet_s and any(
+                abs(frame.feet[k].split_m) >= c.kneel_split_m for k in stepping
+            )  # NaN (unknown) compares False
+            if standing_up:
+                return GateVerdict(False, _STILL, "crouched", ev_name, self._allowance(), math.nan)
             if (sure or rhythmic) and not turning_in_place:
                 self._unknown = not sure
                 self._by_head = sure and heard

@@ -156,6 +156,8 @@ class FootState:
     jump: the current (or last) swing was part of a jump (both feet together).
     turn_deg: how far the body turned (yaw, counter-clockwise +) since lift-off: a pivot step of
         a turn on the spot turns the body, a step of walking or marching hardly does.
+    split_m: at the current (or last) lift-off, how far this foot stood ahead of the other one in the
+        body frame (negative: behind; a kneel's split stance is 0.4-0.6 m), NaN unknown.
     raise_deg: how far the leg is raised from straight down (hip to ankle, forward or to a side;
         a leg behind the hip counts only sideways): a kick raises it 60-90 degrees, a march step
         with a high knee or a walking stride about 25-40 (the ankle stays under the knee). NaN
@@ -177,6 +179,7 @@ class FootState:
     jump: bool
     turn_deg: float = 0.0
     raise_deg: float = math.nan
+    split_m: float = math.nan
 
 
 @dataclass(frozen=True, slots=True)
@@ -229,6 +232,7 @@ class StepFrame:
                     "jump": bool(f.jump),
                     "turn_deg": rounded(f.turn_deg, 1),
                     "raise_deg": rounded(f.raise_deg, 1),
+                    "split_m": rounded(f.split_m),
                 }
                 for name, f in zip(FEET, self.feet, strict=True)
             ],
@@ -324,6 +328,7 @@ class _Foot:
         self.kind = "none"
         self.jump = False
         self.outliers = 0
+        self.split = math.nan  # at the current (or last) lift-off: how far ahead of the other foot (m)
 
 
 class StepTracker:
@@ -496,6 +501,12 @@ class StepTracker:
         f.lift_pos = (f.anchor[0], f.anchor[1], f.anchor[2])
         f.lift_yaw = self._yaw if self._yaw is not None else 0.0
         f.lift_axes = body_axes(f.lift_yaw)
+        other_at = self._feet[1 - k].anchor
+        f.split = (
+            (f.anchor[0] - other_at[0]) * f.lift_axes[1][0] + (f.anchor[1] - other_at[1]) * f.lift_axes[1][1]
+            if other_at is not None
+            else math.nan
+        )
         f.turn = 0.0
         f.lateral = f.sagittal = f.vertical = 0.0
         f.kind = "small"
@@ -693,6 +704,7 @@ class StepTracker:
                     jump=f.jump,
                     turn_deg=math.degrees(f.turn),
                     raise_deg=raised[k],
+                    split_m=f.split,
                 )
             )
         return StepFrame(

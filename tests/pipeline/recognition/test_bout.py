@@ -206,7 +206,7 @@ def test_choose_direction_and_config_checks() -> None:
         GateConfig(first_turn_deg=0.0)
     with pytest.raises(ValueError, match="first_turn_open_deg"):
         GateConfig(first_turn_open_deg=-1.0)
-    for name in ("split_allowance_s", "split_width_m", "split_memory_s"):
+    for name in ("split_allowance_s", "split_width_m", "split_memory_s", "kneel_quiet_s", "kneel_split_m"):
         for bad in (-0.1, float("nan"), float("inf")):
             with pytest.raises(ValueError, match=name):
                 GateConfig(**{name: bad})
@@ -940,3 +940,52 @@ def test_the_start_head_is_quiet_after_a_crouch_and_while_the_body_turns() -> No
     for bad in ({"start_quiet_s": -1.0}, {"start_quiet_s": INF}, {"start_quiet_deg": -1.0}):
         with pytest.raises(ValueError, match=next(iter(bad))):
             GateConfig(**bad)
+
+
+def _standing_up(split_m: float, step_at: float, crouched_until: float = 1.0) -> list[StepFrame]:
+    """Kneeling (crouched) until ``crouched_until``, then standing with the right foot ``split_m``
+    ahead of the left (negative: behind); at ``step_at`` it steps 0.4 s forward to beside it."""
+    out = []
+    for i in range(round((step_at + 1.5) * FPS)):
+        t = i / FPS
+        up = step_at <= t < step_at + 0.4
+        lifted, landed = abs(t - step_at) < 0.5 / FPS, abs(t - step_at - 0.4) < 0.5 / FPS
+        moved = -split_m * min(max((t - step_at) / 0.4, 0.0), 1.0)
+        right = FootState(
+            known=True, planted=not up, rising=False, lifted=lifted, landed=landed,
+            event_t=step_at if lifted else (step_at + 0.4 if landed else math.nan),
+            height_m=0.05 if up else 0.0, swing_s=t - step_at if up else 0.0, lateral_m=0.0,
+            sagittal_m=moved, vertical_m=0.05, kind="forward" if t >= step_at else "none", jump=False,
+            split_m=split_m if t >= step_at else math.nan,
+        )  # fmt: skip
+        left = FootState(True, True, False, False, False, math.nan, 0.0, 0.0, 0.0, 0.0, 0.0, "none", False)
+        low = t < crouched_until
+        out.append(StepFrame(t, (left, right), 0.9, low, 0.6 if low else 1.0, 1 if t >= step_at else -1,
+                             step_at if t >= step_at else math.nan, math.nan))  # fmt: skip
+    return out
+
+
+@pytest.mark.parametrize(
+    ("split_m", "step_at", "starts"),
+    [(-0.45, 1.3, False), (0.45, 1.3, False), (-0.45, 2.7, True), (-0.1, 1.3, True)],
+)
+def test_standing_up_from_a_kneel_brings_the_feet_together_without_a_bout(
+    split_m: float, step_at: float, starts: bool
+) -> None:
+    """After kneeling (crouched until 1.0 s) the foot that stood 0.45 m behind (or ahead of) the
+    other steps back beside it while a network calls it forward: within ``kneel_quiet_s`` (1.5 s) of
+    the crouch that is standing up, no bout; later, or from feet side by side (0.1 m), a step starts
+    one as always. With the rule off the stand-up step starts a bout (blind7's kneels: 55 % of their
+    frames were movement, half of them the stand-up)."""
+    frames = _standing_up(split_m, step_at)
+
+    def labels(config: GateConfig) -> np.ndarray:
+        gate = BoutGate(config)
+        return np.array([gate.update(f, FWD, f.t).label for f in frames])
+
+    got = labels(GateConfig())
+    assert (got != S).any() == starts, got
+    if not starts:
+        assert (labels(GateConfig(kneel_quiet_s=0.0)) != S).any(), (
+            "without the rule the stand-up step starts a bout"
+        )
