@@ -215,12 +215,12 @@ class GateConfig:
     # squat brings a foot back) nor while the body has turned start_quiet_deg within turn_window_s
     # (the pivots of a turn on the spot): the full-body network knows those, the legs-only one less
     start_quiet_s: float = 1.5
+    start_quiet_deg: float = 5.0
     # standing up from a kneel: within kneel_quiet_s after the body was crouched, a step whose foot
     # stood kneel_split_m or more ahead of or behind the other one (the kneel's split stance) brings
-    # the feet back together and starts no bout (0: off)
+    # the feet back together and starts no bout, whichever judge speaks (0: off)
     kneel_quiet_s: float = 1.5
     kneel_split_m: float = 0.25
-    start_quiet_deg: float = 5.0
 
     def __post_init__(self) -> None:
         if self.rhythm not in RHYTHMS:
