@@ -473,7 +473,7 @@ class BoutGate:
         step that opened ``split_width_m`` or more, as long as the person's own rhythm says (slow side
         steps rest with the foot out), up to ``split_allowance_s``."""
         c = self.config
-        if not self._opened[k] or c.split_allowance_s <= c.max_allowance_s:
+        if not self._opened[k]:
             return c.max_allowance_s
         return max(c.max_allowance_s, self._allowance(longest=c.split_allowance_s))
 

@@ -56,6 +56,7 @@ _HIP = (J["l_hip"], J["r_hip"])
 _SHOULDER = (J["l_shoulder"], J["r_shoulder"])
 DEFAULT_LEG_M = 0.85
 _MAD_SIGMA = 1.4826 / math.sqrt(6.0)  # sigma of white noise from the median |second difference|
+_JITTER_SAMPLES = 15  # raw second differences of a foot before its jitter (sigma) is measured
 
 
 def _median(values: deque[float]) -> float:
@@ -439,7 +440,7 @@ class StepTracker:
                 f.dev_h.append(abs(x - 2 * x1 + x0))
                 f.dev_h.append(abs(y - 2 * y1 + y0))
                 f.n_dev += 1
-                if f.n_dev >= 15 and f.n_dev % 10 == 0:
+                if f.n_dev >= _JITTER_SAMPLES and f.n_dev % 10 == 0:
                     # white noise: the second difference has sqrt(6) sigma; sigma = 1.4826 x MAD
                     f.sigma_z = _MAD_SIGMA * _median(f.dev_z)
                     f.sigma_h = _MAD_SIGMA * _median(f.dev_h)
@@ -572,7 +573,7 @@ class StepTracker:
         if f.planted:
             up, horiz = self._departure(f)
             up_thr, side_thr = self._thresholds(f)
-            just_lifted = self.config.defer_landing and f.n_dev >= 15  # its jitter is measured
+            just_lifted = self.config.defer_landing and f.n_dev >= _JITTER_SAMPLES  # its jitter is measured
             if not ((up > up_thr or horiz > side_thr) and self._lift(k, t)):
                 settling = t - f.land_t < 0.25
                 w = self._w(0.08 if settling else c.anchor_tau_s, dt)
