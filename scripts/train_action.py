@@ -150,8 +150,9 @@ def main() -> int:
         "--same-frame-landing",
         action="store_true",
         help="step evidence from the tracker as it was before 2026-12-06 late morning (a short move could "
-        "lift and land within one frame, unseen: StepConfig.defer_landing off), as the committed "
-        "networks were trained",
+        "lift and land within one frame, unseen: StepConfig.defer_landing off; and a quick way back "
+        "and step out merged into one swing: StepConfig.turn_split off), as the committed networks "
+        "were trained",
     )
     add_arguments(ap)
     args = ap.parse_args()
@@ -166,7 +167,7 @@ def main() -> int:
     if args.members < 1:
         raise SystemExit(f"error: --members must be at least 1, got {args.members}")
     seeds = [args.seed + k for k in range(args.members)]
-    steps = StepConfig(defer_landing=not args.same_frame_landing)
+    steps = StepConfig(defer_landing=not args.same_frame_landing, turn_split=not args.same_frame_landing)
     members, member_metrics = [], []
     t_data = 0.0
     for seed in seeds:  # each member: its own draw of the generated sources, its own weights

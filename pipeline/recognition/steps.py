@@ -92,6 +92,15 @@ class StepConfig:
         jitter is measured: before that a departure and return within one frame is jitter). Off, a
         slow move along the floor could lift off (back-dated) and land within one frame, and the
         step was never reported (a shuffle's slides; the committed networks were trained so).
+    turn_far / turn_low / turn_split: a swing that went ``turn_far`` (legs) or more sideways and
+        inwards (towards the other foot) from its lift-off, low at its farthest point (under
+        ``turn_low`` legs or the lift-off height threshold above the standing level: the smoothed
+        ankle of a two- or three-frame touch-down stays 2-3 cm up) and coming back out by the
+        horizontal lift-off threshold touched down there and lifted off again: two steps (a way
+        back, or a step-together's follow, and the next step out at once; merged, they cancel and
+        the step looks like a march). A tap out and straight back (a dance's) and a sagittal
+        turnaround (a kick, a treadmill's stance) stay one swing. ``turn_split`` off: one swing
+        (before 2026-12-06 midday).
     """
 
     smooth_alpha: float = 0.6
@@ -118,6 +127,9 @@ class StepConfig:
     yaw_alpha: float = 0.3
     rate_hz: float = 30.0
     defer_landing: bool = True
+    turn_far: float = 0.09
+    turn_low: float = 0.04
+    turn_split: bool = True
 
     def __post_init__(self) -> None:
         for name in ("smooth_alpha", "yaw_alpha"):
@@ -128,7 +140,7 @@ class StepConfig:
             "anchor_tau_s", "lift_up", "lift_side", "noise_k", "max_rise_s", "land_window_s", "land_box",
             "land_height", "hold_s", "raw_land_k", "max_swing_s", "jump_sync_s", "outlier_legs", "lost_s",
             "floor_tau_s",
-            "standing_tau_s", "rate_hz", "max_tilt_deg",
+            "standing_tau_s", "rate_hz", "max_tilt_deg", "turn_far", "turn_low",
         ):  # fmt: skip
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
@@ -330,6 +342,9 @@ class _Foot:
         self.jump = False
         self.outliers = 0
         self.split = math.nan  # at the current (or last) lift-off: how far ahead of the other foot (m)
+        self.far = 0.0  # the current swing's farthest horizontal distance from its lift-off (m) ...
+        self.far_pos = (0.0, 0.0, 0.0)  # ... where the smoothed ankle was then ...
+        self.far_t = -math.inf  # ... and when
 
 
 class StepTracker:
@@ -510,6 +525,7 @@ class StepTracker:
         )
         f.turn = 0.0
         f.lateral = f.sagittal = f.vertical = 0.0
+        f.far, f.far_pos, f.far_t = 0.0, f.lift_pos, start
         f.kind = "small"
         f.still_since = math.nan
         other = self._feet[1 - k]
@@ -595,6 +611,8 @@ class StepTracker:
         f.kind = step_kind(k, f.lateral, f.sagittal, f.vertical, self._leg, c)
         if just_lifted or t - f.lift_t < c.min_swing_s:
             return  # a step lands at the earliest in the next frame (its lift-off is seen first)
+        if c.turn_split and self._turned_back(k, f, t, math.hypot(dx, dy)):
+            return
         if t - f.lift_t > c.max_swing_s:
             self._land(f, t)
             return
@@ -609,6 +627,34 @@ class StepTracker:
         low = f.pos[2] - f.floor < max(c.land_height * self._leg, 0.5 * self._thresholds(f)[0])
         if low or t - f.still_since >= c.hold_s:
             self._land(f, max(f.still_since - 0.5 * self._lag_s(), f.lift_t + c.min_swing_s))
+
+    def _turned_back(self, k: int, f: _Foot, t: float, dist: float) -> bool:
+        """Land a swing at its farthest point if it went inwards, touched down there and is going
+        back out (see ``StepConfig.turn_far``); the foot lifts off again from there in a later
+        frame. True = landed."""
+        assert f.pos is not None and f.floor is not None
+        if dist > f.far:
+            f.far, f.far_pos, f.far_t = dist, (f.pos[0], f.pos[1], f.pos[2]), t
+            return False
+        up_thr, side_thr = self._thresholds(f)
+        (rx, ry), (fx, fy) = f.lift_axes
+        dx, dy = f.far_pos[0] - f.lift_pos[0], f.far_pos[1] - f.lift_pos[1]
+        lateral, sagittal = dx * rx + dy * ry, dx * fx + dy * fy
+        if not (
+            f.far >= self.config.turn_far * self._leg
+            and abs(lateral) >= 1.2 * abs(sagittal)  # sideways (a walk's or a kick's swing is not)
+            and (lateral if k == 0 else -lateral) > 0  # inwards, then out (a dance's tap: out, back)
+            and f.far - dist >= side_thr
+            and f.far_pos[2] - f.floor < max(up_thr, self.config.turn_low * self._leg)
+            and f.far_t - f.lift_t >= self.config.min_swing_s
+        ):
+            return False
+        # the step in as it was at its farthest point: its displacement and kind
+        f.lateral, f.sagittal = lateral, sagittal
+        f.kind = step_kind(k, f.lateral, f.sagittal, f.vertical, self._leg, self.config)
+        self._land(f, f.far_t)
+        f.anchor = list(f.far_pos)  # the next lift-off starts where it touched down
+        return True
 
     def _update_pelvis(self, j: NDArray[np.float64], dt: float) -> None:
         c = self.config

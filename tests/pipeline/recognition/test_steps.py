@@ -274,3 +274,49 @@ def test_a_slow_low_slide_is_reported_as_a_step(duration_s: float) -> None:
     assert kinds & {"open", "close"}, kinds
     unseen = step_evidence(j, FPS, StepConfig(defer_landing=False))
     assert len(unseen.lifts) < 4
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_quick_way_back_and_out_again_is_two_steps(seed: int) -> None:
+    """Side steps out and back: the right foot stands 18 cm out, comes back beside the left one,
+    reaches the floor there as it turns and goes straight out again (the step out begins two frames
+    before the way back has settled), three times. The way back and the step out are two steps
+    each (the turnaround splits the swing, ``StepConfig.turn_split``): the way back lands beside the
+    other foot ("close"), the step out lifts off there and lands out ("open"). Merged (the split
+    off), they cancel (fewer touch-downs; the step looks like a march). A dance's quick tap, out
+    and straight back, and the same forwards (a treadmill's stance sliding back) stay one swing:
+    only a turnaround beside the other foot splits."""
+
+    def turns(lateral: float, sagittal: float) -> tuple[Swing, ...]:
+        out = [Swing(1, 1.5, 1.9, lateral=lateral, sagittal=sagittal, peak=0.06)]
+        for i in range(3):
+            t0 = 2.5 + 1.5 * i
+            out.append(Swing(1, t0, t0 + 0.4, lateral=-lateral, sagittal=-sagittal, peak=0.06))
+            out.append(Swing(1, t0 + 0.333, t0 + 0.733, lateral=lateral, sagittal=sagittal, peak=0.06))
+        return tuple(out)
+
+    joints, _ = render(Scene(8.0, turns(0.18, 0.0)))
+    j = noisy(joints, 0.012, 0.02, seed)
+    ev = step_evidence(j, FPS)
+    assert len(ev.lands) == 7 and (ev.lands[:, 1] == 1).all(), ev.lands
+    for i in range(3):  # each way back touched down where it turned; each step out lifted there
+        t_turn = 2.5 + 1.5 * i + 0.37
+        assert any(abs(t - t_turn) <= 0.15 for t, _ in ev.lands), (t_turn, ev.lands)
+        assert any(abs(t - t_turn) <= 0.2 for t, _ in ev.lifts), (t_turn, ev.lifts)
+    kinds = [KINDS[ev.kind[round(t * FPS), 1]] for t, _ in ev.lands[1:]]
+    assert kinds == ["close", "open"] * 3, kinds
+    merged = step_evidence(j, FPS, StepConfig(turn_split=False))
+    assert len(merged.lands) < 7, merged.lands
+
+    for lateral, sagittal in ((0.0, 0.18), (0.18, 0.0)):  # forwards; a tap out and straight back
+        swings = tuple(
+            sw
+            for i in range(3)
+            for sw in (
+                Swing(1, 2.0 + 1.5 * i, 2.4 + 1.5 * i, lateral=lateral, sagittal=sagittal, peak=0.06),
+                Swing(1, 2.333 + 1.5 * i, 2.733 + 1.5 * i, lateral=-lateral, sagittal=-sagittal, peak=0.06),
+            )
+        )
+        jo = noisy(render(Scene(8.0, swings))[0], 0.012, 0.02, seed)
+        on, off = step_evidence(jo, FPS), step_evidence(jo, FPS, StepConfig(turn_split=False))
+        assert len(on.lands) == len(off.lands), (lateral, sagittal, on.lands, off.lands)
