@@ -301,8 +301,7 @@ def convert_c3d(
     """A Plug-in Gait C3D trial (:mod:`pipeline.mocap.markers`) as a labelled sequence at 30 fps."""
     pts = read_c3d(data, spec.id)
     joints, feet, pelvis = pig_to_coco(pts)
-    t_src = np.arange(len(joints)) / pts.rate_hz
-    return finish(*_resampled(t_src, joints, feet, pelvis), spec, contact_cfg)
+    return finish(*_resampled(pts.rate_hz, joints, feet, pelvis), spec, contact_cfg)
 
 
 def convert_c3d_jc(
@@ -319,16 +318,14 @@ def convert_c3d_jc(
             f"{spec.id}: the joint centres are known for only {(b - a) / pts.rate_hz:.2f} s in a row "
             f"(need {MIN_SPAN_S} s)"
         )
-    t_src = np.arange(b - a) / pts.rate_hz
-    return finish(*_resampled(t_src, joints[a:b], feet[a:b], pelvis[a:b]), spec, contact_cfg)
+    return finish(*_resampled(pts.rate_hz, joints[a:b], feet[a:b], pelvis[a:b]), spec, contact_cfg)
 
 
 def convert_trc(text: str, spec: ClipSpec, contact_cfg: ContactConfig = ContactConfig()) -> SkeletonSequence:
     """An OpenSim TRC marker trial (:mod:`pipeline.mocap.trc`) as a labelled sequence at 30 fps."""
     pts = read_trc(text, spec.id)
     joints, feet, pelvis = trc_to_coco(pts)
-    t_src = np.arange(len(joints)) / pts.rate_hz
-    return finish(*_resampled(t_src, joints, feet, pelvis), spec, contact_cfg)
+    return finish(*_resampled(pts.rate_hz, joints, feet, pelvis), spec, contact_cfg)
 
 
 def convert_acclaim(asf: str, amc: str, spec: ClipSpec, rate_hz: float = 120.0,
@@ -336,8 +333,7 @@ def convert_acclaim(asf: str, amc: str, spec: ClipSpec, rate_hz: float = 120.0,
     """An ASF/AMC clip (:mod:`pipeline.mocap.acclaim`, CMU's 120 Hz) as a labelled sequence at 30 fps."""
     skeleton = acclaim.parse_asf(asf, spec.skeleton)
     posed = acclaim.forward_kinematics(skeleton, acclaim.parse_amc(amc, skeleton, spec.path))
-    t_src = np.arange(len(posed.joints)) / rate_hz
-    return finish(*_resampled(t_src, posed.joints, posed.foot_points, posed.pelvis), spec, contact_cfg)
+    return finish(*_resampled(rate_hz, posed.joints, posed.foot_points, posed.pelvis), spec, contact_cfg)
 
 
 def convert_landmarks(
@@ -345,8 +341,7 @@ def convert_landmarks(
 ) -> SkeletonSequence:
     """A gaitkit landmark trial (:mod:`pipeline.mocap.landmarks`) as a labelled sequence at 30 fps."""
     joints, feet, pelvis, fps = read_landmarks(text, spec.up_axis, spec.id)
-    t_src = np.arange(len(joints)) / fps
-    return finish(*_resampled(t_src, joints, feet, pelvis), spec, contact_cfg)
+    return finish(*_resampled(fps, joints, feet, pelvis), spec, contact_cfg)
 
 
 def convert_amp(data: bytes, spec: ClipSpec,
@@ -355,12 +350,13 @@ def convert_amp(data: bytes, spec: ClipSpec,
     its floor's drift in time removed first (:func:`pipeline.mocap.amp.level_floor`)."""
     joints, feet, pelvis, fps = read_amp_motion(data, spec.id)
     joints, feet, pelvis = level_floor(joints, feet, pelvis, fps)
-    t_src = np.arange(len(joints)) / fps
-    return finish(*_resampled(t_src, joints, feet, pelvis), spec, contact_cfg)
+    return finish(*_resampled(fps, joints, feet, pelvis), spec, contact_cfg)
 
 
-def _resampled(t_src: F64, joints: F64, feet: F64, pelvis: F64) -> tuple[F64, F64, F64]:
-    """Joints, foot points and pelvis resampled from the times ``t_src`` to :data:`FPS`."""
+def _resampled(rate_hz: float, joints: F64, feet: F64, pelvis: F64) -> tuple[F64, F64, F64]:
+    """Joints, foot points and pelvis sampled at ``rate_hz`` (frame k at k / rate_hz) resampled to
+    :data:`FPS`."""
+    t_src = np.arange(len(joints)) / rate_hz
     t = resample_times(float(t_src[-1]), FPS)
     return (
         resample_linear(t_src, joints, t),

@@ -14,6 +14,16 @@ from pipeline.errors import InputError
 F64 = NDArray[np.float64]
 
 
+def unit_rows(v: F64) -> F64:
+    """Each vector of ``v`` (..., 3) scaled to length 1 (a zero vector stays zero)."""
+    return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-9)
+
+
+def unit_across(v: F64, s: F64) -> F64:
+    """Each vector of ``v`` made orthogonal to the unit vector ``s`` beside it, then of length 1."""
+    return unit_rows(v - np.sum(v * s, axis=-1, keepdims=True) * s)
+
+
 def quat_normalize(q: F64) -> F64:
     """Unit quaternions (..., 4) (w, x, y, z); raises on a zero quaternion."""
     n = np.linalg.norm(q, axis=-1, keepdims=True)

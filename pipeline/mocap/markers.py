@@ -34,7 +34,7 @@ import numpy as np
 
 from pipeline.errors import InputError
 from pipeline.mocap.c3d import C3DPoints
-from pipeline.mocap.kinematics import F64
+from pipeline.mocap.kinematics import F64, unit_across, unit_rows
 from pipeline.skeleton import NUM_JOINTS, J
 
 JOINT_POINTS: dict[str, tuple[str, ...]] = {
@@ -56,10 +56,6 @@ HEAD_MARKERS = ("LFHD", "RFHD", "LBHD", "RBHD")
 PELVIS_POINT = "PELO"
 
 
-def _unit(v: F64) -> F64:
-    return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-9)
-
-
 def _mean_of(pts: C3DPoints, xyz: F64, names: tuple[str, ...]) -> F64 | None:
     """Mean of the named points that the file has (NaN-aware per frame), None if it has none."""
     have = [pts.labels.index(n) for n in names if n in pts.labels]
@@ -78,9 +74,9 @@ def _place_face(out: F64, pts: C3DPoints, xyz: F64) -> None:
     lf, rf, lb, rb = (xyz[:, pts.labels.index(m)] for m in HEAD_MARKERS)
     centre = (lf + rf + lb + rb) / 4
     front = (lf + rf) / 2
-    f = _unit(front - (lb + rb) / 2)
+    f = unit_rows(front - (lb + rb) / 2)
     s = (lf + lb) / 2 - (rf + rb) / 2
-    s = _unit(s - np.sum(s * f, axis=-1, keepdims=True) * f)
+    s = unit_across(s, f)
     u = np.cross(f, s)
     out[:, J["nose"]] = front + 0.02 * f - 0.05 * u
     for side, sign in (("l", 1.0), ("r", -1.0)):

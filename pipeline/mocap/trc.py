@@ -32,7 +32,7 @@ import numpy as np
 
 from pipeline.errors import InputError
 from pipeline.mocap.c3d import C3DPoints
-from pipeline.mocap.kinematics import F64
+from pipeline.mocap.kinematics import F64, unit_across, unit_rows
 from pipeline.skeleton import NUM_JOINTS, J
 
 Y_UP_TO_Z_UP: F64 = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
@@ -89,10 +89,6 @@ def _marker(pts: C3DPoints, xyz: F64, name: str) -> F64 | None:
     return xyz[:, pts.labels.index(name)] if name in pts.labels else None
 
 
-def _unit(v: F64) -> F64:
-    return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-9)
-
-
 def _bell_hips(pts: C3DPoints, xyz: F64) -> tuple[F64, F64] | None:
     """(right, left) hip joint centres from the pelvis markers (Bell et al. 1982), None if absent."""
     r_asis, l_asis = _marker(pts, xyz, "R.ASIS"), _marker(pts, xyz, "L.ASIS")
@@ -104,9 +100,9 @@ def _bell_hips(pts: C3DPoints, xyz: F64) -> tuple[F64, F64] | None:
     if r_asis is None or l_asis is None or sacral is None:
         return None
     width = np.linalg.norm(l_asis - r_asis, axis=-1, keepdims=True)
-    s = _unit(l_asis - r_asis)  # left
+    s = unit_rows(l_asis - r_asis)  # left
     f = (r_asis + l_asis) / 2 - sacral
-    f = _unit(f - np.sum(f * s, axis=-1, keepdims=True) * s)  # forward
+    f = unit_across(f, s)  # forward
     u = np.cross(f, s)  # up
     down, back, inwards = BELL
     off = -down * u - back * f
@@ -126,7 +122,7 @@ def trc_to_coco(pts: C3DPoints) -> tuple[F64, F64, F64]:
     hips = (r_hjc, l_hjc) if r_hjc is not None and l_hjc is not None else _bell_hips(pts, xyz)
     if hips is not None:
         out[:, J["r_hip"]], out[:, J["l_hip"]] = hips
-        left = _unit(hips[1] - hips[0])
+        left = unit_rows(hips[1] - hips[0])
         for joint, (name, inwards) in LATERAL_ONLY.items():
             lateral = _marker(pts, xyz, name)
             if lateral is not None and np.isnan(out[:, J[joint]]).all():
@@ -134,9 +130,9 @@ def trc_to_coco(pts: C3DPoints) -> tuple[F64, F64, F64]:
     rt, lt, top = (_marker(pts, xyz, n) for n in ("R.Temple", "L.Temple", "Top.Head"))
     if rt is not None and lt is not None and top is not None:
         mid = (rt + lt) / 2
-        s = _unit(lt - rt)
+        s = unit_rows(lt - rt)
         u = top - mid
-        u = _unit(u - np.sum(u * s, axis=-1, keepdims=True) * s)
+        u = unit_across(u, s)
         f = np.cross(s, u)
         out[:, J["nose"]] = mid + 0.09 * f - 0.03 * u
         out[:, J["l_eye"]], out[:, J["r_eye"]] = mid + 0.06 * f + 0.032 * s, mid + 0.06 * f - 0.032 * s
