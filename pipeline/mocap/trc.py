@@ -73,11 +73,14 @@ def read_trc(text: str, name: str = "trc") -> C3DPoints:
     if not labels or not rate > 0:
         raise InputError(f"{name}: TRC needs marker names and a positive DataRate, got {rate}")
     rows = []
-    for line in lines[5:]:
+    for n, line in enumerate(lines[5:], start=6):
         fields = line.split("\t")
         if not line.strip() or len(fields) < 2:
             continue
-        vals = [float(v) if v.strip() else np.nan for v in fields[2 : 2 + 3 * len(labels)]]
+        try:
+            vals = [float(v) if v.strip() else np.nan for v in fields[2 : 2 + 3 * len(labels)]]
+        except ValueError as exc:
+            raise InputError(f"{name}: line {n} has a field that is not a number ({exc})") from exc
         rows.append(vals + [np.nan] * (3 * len(labels) - len(vals)))
     if len(rows) < 2:
         raise InputError(f"{name}: TRC has fewer than 2 frames")

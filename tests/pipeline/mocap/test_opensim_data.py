@@ -122,6 +122,11 @@ def test_trc_reader_header_units_and_gaps() -> None:
         read_trc("hello\n" * 10)
     with pytest.raises(InputError, match="fewer than 2 frames"):
         read_trc(trc_text(STATIC, frames=1))
+    garbled = trc_text(STATIC, frames=4).splitlines()
+    fields = garbled[6].split("\t")
+    garbled[6] = "\t".join([*fields[:2], "1O0.0", *fields[3:]])  # a letter O in a coordinate
+    with pytest.raises(InputError, match="line 7 has a field that is not a number"):
+        read_trc("\n".join(garbled))
 
 
 def test_trc_mapping_turns_y_up_to_z_up_and_places_hips_by_bell() -> None:
