@@ -76,6 +76,9 @@ What a user expects (MODEL_CARD.md, "Behaviour"):
   side steps that travelled) the bout turns to that side then. A march step (a foot up
   ``march_confirm_s`` without moving sideways, or landed so) turns a side-step bout forward if the
   network agrees and no foot steps sideways (and makes the place of the march the side steps' home);
+  so does a swing that rose ``march_lift_m`` without opening sideways while the full-body network
+  gives forward ``march_sure_prob`` of its moving probability (a march that begins on the way back
+  from a side step: the foot comes home with a high knee lift);
   a closing step inside a forward bout after side steps (a march does not close) lets the network
   choose the direction again (``close_rechoose``).
 - **Two judges** (a model with a start head, ``start_network``): while no bout is on, the gate reads
@@ -185,6 +188,10 @@ class GateConfig:
     # step, not a pivot of a turn on the spot: the body's turn just before it (a turn that has ended)
     # neither vetoes its start nor ends its bout (inf: never)
     march_lift_m: float = 0.10
+    # a side-step bout turns forward while a foot that has risen march_lift_m swings without opening
+    # sideways and the full-body network gives forward this share of its moving probability (a march
+    # that begins on the way back from a side step; 1: never by this)
+    march_sure_prob: float = 0.8
     # Stepping the network does not know: rhythm_steps alternating steps in a row (left, right, left:
     # each lift-off within rhythm_gap_s of the other foot's, each swing turning the body less than
     # rhythm_turn_deg, none a jump or a kick) start a bout even while the network calls them still,
@@ -225,7 +232,14 @@ class GateConfig:
     def __post_init__(self) -> None:
         if self.rhythm not in RHYTHMS:
             raise ValueError(f"rhythm must be one of {', '.join(RHYTHMS)}, got {self.rhythm!r}")
-        for name in ("start_prob", "stop_prob", "pause_still_prob", "hold_still_prob", "late_still_prob"):
+        for name in (
+            "start_prob",
+            "stop_prob",
+            "pause_still_prob",
+            "hold_still_prob",
+            "late_still_prob",
+            "march_sure_prob",
+        ):
             v = getattr(self, name)
             if not 0 <= v <= 1:
                 raise ValueError(f"{name} must be in [0, 1], got {v}")
@@ -805,6 +819,14 @@ class BoutGate:
         if swings:
             k = frame.stepping
             if (
+                sideways
+                and c.march_sure_prob < 1
+                and p[_FORWARD] >= c.march_sure_prob * p_move
+                and any(self._swing_top[j] >= c.march_lift_m and frame.feet[j].kind != "open" for j in swings)
+            ):
+                # a high swing the network is sure marches: the march begins on the way back
+                self._label = _FORWARD
+            elif (
                 sideways
                 and ev == _FORWARD
                 and k >= 0

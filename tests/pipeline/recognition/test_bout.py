@@ -830,6 +830,40 @@ def test_a_closing_step_inside_a_forward_bout_lets_the_network_choose_the_side()
         )
 
 
+def test_a_march_that_begins_on_the_way_back_from_a_side_step_turns_the_bout_at_once() -> None:
+    """Two side steps out to the left and back, then the left foot steps out again and comes back
+    with a high knee lift (15 cm: the first step of a march) while the network is sure of forward,
+    then the right foot marches: the bout turns forward during that high way back. The same high way
+    back while the network still names the side keeps the side (a side step lifted high), and with
+    ``march_sure_prob`` 1 the bout keeps the side until a march step shows without moving sideways."""
+    side = [
+        Swing(0, 1.0, 1.35, lateral=-0.25, peak=0.04),
+        Swing(0, 1.6, 1.95, lateral=0.25, peak=0.04),
+        Swing(0, 2.2, 2.55, lateral=-0.25, peak=0.04),
+    ]
+    back = Swing(0, 2.8, 3.25, lateral=0.25, peak=0.15)  # the way back, high: the march begins
+    march = [Swing(1, 3.5, 3.9, peak=0.15), Swing(0, 4.2, 4.6, peak=0.15)]
+    duration = 5.2
+    t = np.arange(round(duration * FPS)) / FPS
+    left = np.array([0.04, 0.08, 0.84, 0.04])
+    sure = np.array([0.04, 0.86, 0.06, 0.04])  # forward: 0.9 of the moving probability
+    scene = Scene(duration, (*side, back, *march))
+    during = (t > back.t0 + 0.25) & (t < back.t1)
+    for probs_back, config, want in (
+        (sure, GateConfig(), F),
+        (left, GateConfig(), L),
+        (FWD, GateConfig(), L),  # forward only 0.78 of the moving probability: not sure enough
+        (sure, GateConfig(march_sure_prob=1.0), L),
+    ):
+        probs = [probs_back if ti >= back.t0 else left for ti in t]
+        labels, _, _ = _gate(scene, probs, config=config)
+        assert (labels[(t > 1.2) & (t < back.t0)] == L).all(), "the side steps are left"
+        got = np.bincount(labels[during], minlength=4)
+        assert got[want] >= 0.8 * during.sum(), f"{config.march_sure_prob}, {probs_back}: {got}"
+    with pytest.raises(ValueError, match="march_sure_prob"):
+        GateConfig(march_sure_prob=1.5)
+
+
 def test_a_new_side_forgets_a_way_home_still_pending() -> None:
     """A shuffle that travels two pairs to the right; the left foot then steps left three times (the
     first two the way home, the third beyond it: the bout turns left) and closes back. That closing
