@@ -46,7 +46,10 @@ What a user expects (MODEL_CARD.md, "Behaviour"):
   of goes on through it: a run's flight) or a body that is not upright (bent far over, lying,
   crawling: an unfamiliar posture) ends it at once, and so does a kick (a swing that raises the leg
   ``kick_deg`` from straight down, forward or to a side; no march step or stride does: its ankle
-  stays under the knee; the kick's landing is no step, so no pause is held after it), and a pivot
+  stays under the knee; the kick's landing is no step, so no pause is held after it), so does a
+  foot sliding back low while the other stands (``back_slide_m`` behind where it lifted off, never
+  higher than ``back_slide_low_m`` this swing: the rear leg of a kneel or a lunge going down; it
+  starts no bout either), and a pivot
   (the body turning more than ``max_turn_deg`` during one swing in place, twice that for a step that
   moves the foot ``turn_travel_m`` forward or back: walking a curve). Rhythmic pivot steps turn the
   body less per swing but keep turning: a swing while the steps turn the body (``swing_turn_deg``,
@@ -112,7 +115,8 @@ from pipeline.skeleton import ACTIONS
 _STILL, _FORWARD, _LEFT, _RIGHT = (ACTIONS.index(a) for a in ("still", "forward", "left", "right"))
 RHYTHMS = ("max", "median")
 REASONS = ("planted", "lifting", "stepping", "pause", "rhythm-broke", "jump", "crouched", "pivot",
-           "network-still", "feet-unknown", "not-upright", "kick", "rhythm", "start-head")  # fmt: skip
+           "network-still", "feet-unknown", "not-upright", "kick", "rhythm", "start-head",
+           "step-back")  # fmt: skip
 
 
 @dataclass(frozen=True, slots=True)
@@ -172,6 +176,13 @@ class GateConfig:
     # stance turns the hips and shoulders a little)
     steer_steps: int = 2  # ... unless the bout has already landed this many steps: steering while marching
     # (0: a turning bout always ends)
+    # a foot sliding back low while the other stands, back_slide_m behind where it lifted off and never
+    # higher than back_slide_low_m this swing: the rear leg of a kneel or a lunge going down (a heel
+    # kick rises as it goes back; no step in place slides a foot that far back; on a treadmill the
+    # belt carries the stance foot back while the other swings): it ends a bout and starts none
+    # (inf: never)
+    back_slide_m: float = 0.22
+    back_slide_low_m: float = 0.06
     kick_deg: float = 55.0  # a swing raising the leg this far (hip to ankle, from straight down) is a kick
     # the feet apart after an opening step (a foot out to the side): the way back is still to come, so
     # the pause holds up to max_allowance_s after that landing, whatever the rhythm, unless the network
@@ -283,6 +294,9 @@ class GateConfig:
             )
         if not self.march_lift_m > 0:
             raise ValueError(f"march_lift_m must be > 0 (inf: never), got {self.march_lift_m}")
+        if not (self.back_slide_m > 0 and self.back_slide_low_m > 0):
+            got = f"{self.back_slide_m}, {self.back_slide_low_m}"
+            raise ValueError(f"back_slide_m and back_slide_low_m must be > 0 (inf: never), got {got}")
         if not self.kick_deg > 0:
             raise ValueError(f"kick_deg must be > 0 (inf: never), got {self.kick_deg}")
         if not self.first_turn_deg > 0:
@@ -767,6 +781,15 @@ class BoutGate:
             return self._end("not-upright", ev_name)
         if kicking:
             return self._end("kick", ev_name)
+        if any(
+            not f.planted
+            and frame.feet[1 - k].planted
+            and self._land_seen[1 - k] < self._swing_lift[k]  # it stood through the whole slide
+            and f.sagittal_m <= -c.back_slide_m
+            and self._swing_top[k] < c.back_slide_low_m
+            for k, f in enumerate(frame.feet)
+        ):  # NaN (unknown) compares False
+            return self._end("step-back", ev_name)
         if jumping and not (
             self._active and 0 < c.jump_steps <= self._bout_steps and p[_STILL] < c.hold_still_prob
         ):  # an established bout the network is sure of goes on through a flight phase (running)

@@ -22,6 +22,7 @@ const REASON_TEXT = {
   "feet-unknown": "a foot is not seen",
   "not-upright": "the body is not upright (bent over, lying): no movement",
   kick: "the leg was raised far (a kick): no step, no movement",
+  "step-back": "a foot slid far back low (going down into a kneel or a lunge): no step, no movement",
   rhythm: "steps in a steady rhythm the network does not recognise: moving on the steps alone",
   "start-head": "a step the legs-only start head is sure of; the full-body network is not yet",
 };

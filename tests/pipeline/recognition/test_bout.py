@@ -864,6 +864,37 @@ def test_a_march_that_begins_on_the_way_back_from_a_side_step_turns_the_bout_at_
         GateConfig(march_sure_prob=1.5)
 
 
+@pytest.mark.parametrize(
+    ("peak", "other_swings", "ends"), [(0.03, False, True), (0.15, False, False), (0.03, True, False)]
+)
+def test_a_foot_sliding_back_low_ends_the_bout(peak: float, other_swings: bool, ends: bool) -> None:
+    """A march, a step forward, then the other foot sliding 35 cm back low (the rear leg of a kneel
+    going down) while the network is sure of forward: the bout ends once the foot is 22 cm back and
+    stays ended; with ``back_slide_m`` off it goes on through the slide. A foot going back as far but
+    lifted high (15 cm), or sliding back while the other foot swings (a treadmill's belt carrying the
+    stance foot), is not the kneel's slide and ends nothing by this rule."""
+    march = [Swing(k % 2, 1.0 + 0.5 * k, 1.35 + 0.5 * k, peak=0.12) for k in range(4)]
+    ahead = Swing(0, 3.0, 3.4, sagittal=0.2, peak=0.05)
+    slide = Swing(1, 3.6, 4.3, sagittal=-0.35, peak=peak)
+    swings = (*march, ahead, slide) + ((Swing(0, 3.5, 3.9, peak=0.12),) if other_swings else ())
+    duration = 4.8
+    scene = Scene(duration, swings)
+    t = np.arange(round(duration * FPS)) / FPS
+    labels, verdicts, _ = _gate(scene, FWD)
+    back = next((i for i, v in enumerate(verdicts) if v.reason == "step-back"), None)
+    assert (labels[(t > 1.3) & (t < 3.4)] == F).all(), "the march and the step forward move"
+    if ends:
+        assert back is not None and t[back] < slide.t1, "the slide ends the bout before it lands"
+        assert (labels[back:] == S).all(), f"still from the slide on: {np.bincount(labels[back:], minlength=4)}"
+    else:
+        assert back is None, f"step-back at {t[back]:.2f} s"
+    off, _, _ = _gate(scene, FWD, config=GateConfig(back_slide_m=float("inf")))
+    during = (t > slide.t0 + 0.2) & (t < slide.t1)
+    assert (off[during] == F).all(), f"rule off: the bout goes on ({np.bincount(off[during], minlength=4)})"
+    with pytest.raises(ValueError, match="back_slide_m"):
+        GateConfig(back_slide_low_m=0.0)
+
+
 def test_a_new_side_forgets_a_way_home_still_pending() -> None:
     """A shuffle that travels two pairs to the right; the left foot then steps left three times (the
     first two the way home, the third beyond it: the bout turns left) and closes back. That closing
