@@ -885,7 +885,8 @@ def test_a_foot_sliding_back_low_ends_the_bout(peak: float, other_swings: bool, 
     assert (labels[(t > 1.3) & (t < 3.4)] == F).all(), "the march and the step forward move"
     if ends:
         assert back is not None and t[back] < slide.t1, "the slide ends the bout before it lands"
-        assert (labels[back:] == S).all(), f"still from the slide on: {np.bincount(labels[back:], minlength=4)}"
+        after = np.bincount(labels[back:], minlength=4)
+        assert (labels[back:] == S).all(), f"still from the slide on: {after}"
     else:
         assert back is None, f"step-back at {t[back]:.2f} s"
     off, _, _ = _gate(scene, FWD, config=GateConfig(back_slide_m=float("inf")))
