@@ -294,9 +294,9 @@ class GateConfig:
             )
         if not self.march_lift_m > 0:
             raise ValueError(f"march_lift_m must be > 0 (inf: never), got {self.march_lift_m}")
-        if not (self.back_slide_m > 0 and self.back_slide_low_m > 0):
-            got = f"{self.back_slide_m}, {self.back_slide_low_m}"
-            raise ValueError(f"back_slide_m and back_slide_low_m must be > 0 (inf: never), got {got}")
+        for name in ("back_slide_m", "back_slide_low_m"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"{name} must be > 0 (inf: never), got {getattr(self, name)}")
         if not self.kick_deg > 0:
             raise ValueError(f"kick_deg must be > 0 (inf: never), got {self.kick_deg}")
         if not self.first_turn_deg > 0:

@@ -892,8 +892,10 @@ def test_a_foot_sliding_back_low_ends_the_bout(peak: float, other_swings: bool, 
     off, _, _ = _gate(scene, FWD, config=GateConfig(back_slide_m=float("inf")))
     during = (t > slide.t0 + 0.2) & (t < slide.t1)
     assert (off[during] == F).all(), f"rule off: the bout goes on ({np.bincount(off[during], minlength=4)})"
-    with pytest.raises(ValueError, match="back_slide_m"):
+    with pytest.raises(ValueError, match="back_slide_low_m must be > 0"):
         GateConfig(back_slide_low_m=0.0)
+    with pytest.raises(ValueError, match=r"^back_slide_m must be > 0"):
+        GateConfig(back_slide_m=-0.1)
 
 
 def test_a_new_side_forgets_a_way_home_still_pending() -> None:
