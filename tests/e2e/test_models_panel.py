@@ -9,7 +9,7 @@ import pytest
 
 from tests.app.conftest import Served, make_settings
 from tests.app.models.onnx_files import three_class_model, with_metadata
-from tests.app.models.takes_data import index_takes, simulated_takes, teach_take
+from tests.app.models.takes_data import index_takes, one_heldout_source, simulated_takes, teach_take
 from tests.browser import CHROMIUM, chromium, watched_page
 
 pytestmark = [pytest.mark.e2e, pytest.mark.slow]
@@ -65,6 +65,11 @@ def test_the_fine_tune_button_runs_a_job_with_progress_and_registers_the_model(
     from playwright.sync_api import expect, sync_playwright
 
     settings = make_settings(tmp_path)
+    # the worker's own cache with one short held-out clip for the card (the user's cache may hold every
+    # held-out source, each evaluated with both models: minutes)
+    cache = tmp_path / "cache"
+    one_heldout_source(cache)
+    settings = settings.model_copy(update={"paths": settings.paths.model_copy(update={"cache_dir": cache})})
     with Served(settings, autostart=None, pipeline_factory=None) as served, sync_playwright() as pw:
         with served.app.state.session_factory() as db:
             index_takes(db, simulated_takes(tmp_path / "takes", duration_s=10.0))
@@ -92,6 +97,7 @@ def test_the_fine_tune_button_runs_a_job_with_progress_and_registers_the_model(
             panel.screenshot(path=str(artifacts_dir / "models-fine-tuned.png"))
             row.locator("button.model-card-button").click()
             expect(panel.locator("#model-card")).to_contain_text("Leave-one-participant-out")
+            expect(panel.locator("#model-card")).to_contain_text("blind-heldout")
         assert not errors, f"page errors: {errors}"
 
 

@@ -4,6 +4,7 @@ captured through the simulated CAVE cameras with their noise) written as takes b
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 from sqlalchemy.orm import Session
@@ -31,6 +32,22 @@ def unlabelled_take(root: Path) -> Path:
     (folder,) = simulated_takes(root, participants=1, duration_s=6.0, seed=5)
     relabel_take(folder, [])
     return folder
+
+
+def one_heldout_source(cache: Path) -> None:
+    """What `cavewalk data sources` leaves for a fine-tuned model's card, in the cache folder ``cache``:
+    a manifest naming an eval-only folder (one short clip of the third motion model here). A test that
+    trains gives its worker this cache, not the user's: the card evaluates every held-out source it
+    finds there."""
+    from pipeline.mocap.sources import MANIFEST, BlindSet, sources_dir, write_blind_set
+
+    folder = sources_dir(cache) / "blind-heldout"
+    write_blind_set(folder, BlindSet(count=1, duration_s=8.0, seed=5), progress=lambda _m: None)
+    manifest = {
+        "blind-heldout": {"dir": str(folder), "use": "eval"},
+        "gait": {"dir": str(folder), "use": "train"},
+    }
+    (sources_dir(cache) / MANIFEST).write_text(json.dumps(manifest))
 
 
 def index_takes(db: Session, folders: list[Path]) -> list[int]:

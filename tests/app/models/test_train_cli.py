@@ -13,7 +13,7 @@ import pytest
 
 from pipeline.takes.model_file import check_model_file
 from tests.app.models.cli import run
-from tests.app.models.takes_data import simulated_takes, unlabelled_take
+from tests.app.models.takes_data import one_heldout_source, simulated_takes, unlabelled_take
 
 TINY = ["--epochs", "1", "--windows-per-epoch", "256", "--sim", "1", "--sim-duration", "6", "--heldout", "1"]
 
@@ -38,24 +38,10 @@ def takes(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return root
 
 
-def _one_heldout_source(cache: Path) -> None:
-    """What `cavewalk data sources` leaves for the card: a manifest naming an eval-only folder (one
-    short clip of the third motion model here)."""
-    from pipeline.mocap.sources import MANIFEST, BlindSet, sources_dir, write_blind_set
-
-    folder = sources_dir(cache) / "blind-heldout"
-    write_blind_set(folder, BlindSet(count=1, duration_s=8.0, seed=5), progress=lambda _m: None)
-    manifest = {
-        "blind-heldout": {"dir": str(folder), "use": "eval"},
-        "gait": {"dir": str(folder), "use": "train"},
-    }
-    (sources_dir(cache) / MANIFEST).write_text(json.dumps(manifest))
-
-
 @pytest.mark.slow
 def test_train_one_epoch_evaluate_activate_and_roll_back(takes: Path, tmp_path: Path, cavewalk: Cli) -> None:
     db, out = str(tmp_path / "c.db"), tmp_path / "lab.onnx"
-    _one_heldout_source(tmp_path / "cache")
+    one_heldout_source(tmp_path / "cache")
     code, stdout, stderr = cavewalk("train", "--takes", str(takes), "--out", str(out), *TINY, "--db", db)
     assert code == 0, stdout + stderr
     assert "registered as model 2" in stdout, stdout
