@@ -136,7 +136,7 @@ class GateConfig:
     max_turn_deg: float = 30.0  # one swing in place turning the body this far is a pivot (twice: walking)
     pause_still_prob: float = 0.75
     min_pause_s: float = 0.1
-    max_interval_s: float = 2.2
+    max_interval_s: float = 2.6
     min_swing_s: float = 0.1
     rhythm: str = "max"  # the person's step interval: "max" or "median" of their last three
     hold_still_prob: float = 0.35  # the deadline waits while the network's p(still) stays below this

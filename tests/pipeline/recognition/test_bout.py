@@ -400,7 +400,8 @@ def test_a_one_step_side_bout_keeps_its_side_for_the_way_back_after_a_pause(stay
     assert "rhythm-broke" in reasons, reasons
     way_back = labels[(t > back.t0 + 0.2) & (t < back.t1)]
     assert (way_back == R).mean() > 0.9, f"way back: {np.bincount(way_back, minlength=4)}"
-    if stay_s > 2.2:  # longer than max_interval_s: without the foot's memory the side is forgotten
+    if stay_s > 2.2:  # lift-offs 2.9 s apart, more than max_interval_s: without the foot's memory
+        # the side is forgotten
         forgot, _, _ = _gate(Scene(duration, (out, back)), probs, config=GateConfig(split_memory_s=0.0))
         assert (forgot[(t > back.t0 + 0.2) & (t < back.t1)] != R).any()
 
