@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -347,6 +348,14 @@ class _Foot:
         self.far_t = -math.inf  # ... and when
 
 
+def _from_lift(f: _Foot, pos: Sequence[float]) -> tuple[float, float]:
+    """(lateral, sagittal) metres of ``pos`` from foot ``f``'s lift-off point, in the body frame of
+    that lift-off (+right, +forward)."""
+    (rx, ry), (fx, fy) = f.lift_axes
+    dx, dy = pos[0] - f.lift_pos[0], pos[1] - f.lift_pos[1]
+    return dx * rx + dy * ry, dx * fx + dy * fy
+
+
 class StepTracker:
     """Streaming step evidence: ``update(joints (17, 3), t)`` -> :class:`StepFrame` per frame."""
 
@@ -601,17 +610,14 @@ class StepTracker:
                     f.floor += self._w(c.floor_tau_s, dt) * (f.anchor[2] - f.floor)
                 return
         # swinging
-        (rx, ry), (fx, fy) = f.lift_axes
-        dx, dy = f.pos[0] - f.lift_pos[0], f.pos[1] - f.lift_pos[1]
-        f.lateral = dx * rx + dy * ry
-        f.sagittal = dx * fx + dy * fy
+        f.lateral, f.sagittal = _from_lift(f, f.pos)
         f.vertical = max(f.vertical, f.pos[2] - f.lift_pos[2])
         if self._yaw is not None:
             f.turn = (self._yaw - f.lift_yaw + math.pi) % (2 * math.pi) - math.pi
         f.kind = step_kind(k, f.lateral, f.sagittal, f.vertical, self._leg, c)
         if just_lifted or t - f.lift_t < c.min_swing_s:
             return  # a step lands at the earliest in the next frame (its lift-off is seen first)
-        if c.turn_split and self._turned_back(k, f, t, math.hypot(dx, dy)):
+        if c.turn_split and self._turned_back(k, f, t):
             return
         if t - f.lift_t > c.max_swing_s:
             self._land(f, t)
@@ -628,18 +634,17 @@ class StepTracker:
         if low or t - f.still_since >= c.hold_s:
             self._land(f, max(f.still_since - 0.5 * self._lag_s(), f.lift_t + c.min_swing_s))
 
-    def _turned_back(self, k: int, f: _Foot, t: float, dist: float) -> bool:
+    def _turned_back(self, k: int, f: _Foot, t: float) -> bool:
         """Land a swing at its farthest point if it went inwards, touched down there and is going
         back out (see ``StepConfig.turn_far``); the foot lifts off again from there in a later
         frame. True = landed."""
         assert f.pos is not None and f.floor is not None
+        dist = math.hypot(f.pos[0] - f.lift_pos[0], f.pos[1] - f.lift_pos[1])
         if dist > f.far:
             f.far, f.far_pos, f.far_t = dist, (f.pos[0], f.pos[1], f.pos[2]), t
             return False
         up_thr, side_thr = self._thresholds(f)
-        (rx, ry), (fx, fy) = f.lift_axes
-        dx, dy = f.far_pos[0] - f.lift_pos[0], f.far_pos[1] - f.lift_pos[1]
-        lateral, sagittal = dx * rx + dy * ry, dx * fx + dy * fy
+        lateral, sagittal = _from_lift(f, f.far_pos)
         if not (
             f.far >= self.config.turn_far * self._leg
             and abs(lateral) >= 1.2 * abs(sagittal)  # sideways (a walk's or a kick's swing is not)
