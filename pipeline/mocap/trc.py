@@ -33,6 +33,7 @@ import numpy as np
 from pipeline.errors import InputError
 from pipeline.mocap.c3d import C3DPoints
 from pipeline.mocap.kinematics import F64, unit_across, unit_rows
+from pipeline.mocap.markers import foot_points
 from pipeline.skeleton import NUM_JOINTS, J
 
 Y_UP_TO_Z_UP: F64 = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
@@ -142,7 +143,5 @@ def trc_to_coco(pts: C3DPoints) -> tuple[F64, F64, F64]:
         out[:, J["l_ear"]], out[:, J["r_ear"]] = lt - 0.03 * f - 0.02 * u, rt - 0.03 * f - 0.02 * u
     if np.isnan(out[:, [J["l_ankle"], J["r_ankle"]]]).all():
         raise InputError("TRC file has no ankle markers of a known marker set")
-    feet = [xyz[:, pts.labels.index(m)] for m in FOOT_MARKERS if m in pts.labels]
-    feet += [out[:, J["l_ankle"]], out[:, J["r_ankle"]]]
     pelvis = np.nanmean(out[:, [J["l_hip"], J["r_hip"]]], axis=1)
-    return out, np.stack(feet, axis=1), pelvis
+    return out, foot_points(pts, xyz, FOOT_MARKERS, out), pelvis
