@@ -142,7 +142,8 @@ def main() -> int:
                 out[key][spec.name] = m
                 say(
                     f"{key:>28} {spec.name:>8}: acc {m['accuracy']} F1 {m['macro_f1']} false {m['false_movement']} "  # noqa: E501
-                    f"detected {m['movement_detected']} start {m['start_median_s']}/{m['start_p95_s']} "
+                    f"(starts {m['false_starts']}) detected {m['movement_detected']} "
+                    f"start {m['start_median_s']}/{m['start_p95_s']} "
                     f"stop {m['stop_median_s']}/{m['stop_p95_s']} beyond {m['stop_beyond_rhythm_median_s']}/"
                     f"{m['stop_beyond_rhythm_p95_s']} flicker {m['flicker']}"
                 )

@@ -55,6 +55,8 @@ def summary(ev: Evaluation) -> dict[str, object]:
         "accuracy": q(ev.accuracy),
         "macro_f1": q(ev.macro_f1),
         "false_movement": q(ev.overall.false_movement),
+        "false_movement_after_bout": q(ev.overall.false_after_bout),
+        "false_starts": q(ev.overall.false_starts),
         "still_frames": ev.overall.still_frames,
         "movement_detected": q(ev.overall.movement_detected),
         "moving_frames": ev.overall.moving_frames,

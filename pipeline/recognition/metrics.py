@@ -186,6 +186,10 @@ class GroupStats:
     """Frame counts of one tag or one sequence (after the exclusions of the accuracy figures).
 
     still_frames / false_moving: truly still frames and those predicted moving;
+    false_after / false_without: of those, the frames of a predicted bout that met a true bout before
+    them (the command held on past the bout's end) and of a predicted bout that meets none (a false
+    start: movement nobody stepped for); the rest are a predicted bout that began before its true
+    one (see :func:`false_movement_kinds`);
     moving_frames / detected_moving: truly moving frames and those predicted as any movement;
     correct: frames predicted with the exact true class.
     """
@@ -197,6 +201,8 @@ class GroupStats:
     false_moving: int
     moving_frames: int
     detected_moving: int
+    false_after: int
+    false_without: int
 
     @property
     def accuracy(self) -> float | None:
@@ -205,6 +211,22 @@ class GroupStats:
     @property
     def false_movement(self) -> float | None:
         return self.false_moving / self.still_frames if self.still_frames else None
+
+    @property
+    def false_after_bout(self) -> float | None:
+        """Share of the truly still frames held moving after a true bout (the hold, a late stop)."""
+        return self.false_after / self.still_frames if self.still_frames else None
+
+    @property
+    def false_starts(self) -> float | None:
+        """Share of the truly still frames in a predicted bout that meets no true bout."""
+        return self.false_without / self.still_frames if self.still_frames else None
+
+    @property
+    def false_before_bout(self) -> float | None:
+        """Share of the truly still frames in a predicted bout that began before its true one."""
+        early = self.false_moving - self.false_after - self.false_without
+        return early / self.still_frames if self.still_frames else None
 
     @property
     def movement_detected(self) -> float | None:
@@ -217,6 +239,9 @@ class GroupStats:
             "accuracy": self.accuracy,
             "still_frames": self.still_frames,
             "false_movement": self.false_movement,
+            "false_movement_after_bout": self.false_after_bout,
+            "false_movement_before_bout": self.false_before_bout,
+            "false_starts": self.false_starts,
             "moving_frames": self.moving_frames,
             "movement_detected": self.movement_detected,
         }
@@ -278,6 +303,9 @@ class Evaluation:
             "stop_latency": self.stop.to_dict(),
             "stop_latency_beyond_rhythm": self.stop_beyond_rhythm.to_dict(),
             "false_movement": self.overall.false_movement,
+            "false_movement_after_bout": self.overall.false_after_bout,
+            "false_movement_before_bout": self.overall.false_before_bout,
+            "false_starts": self.overall.false_starts,
             "still_frames": self.overall.still_frames,
             "movement_detected": self.overall.movement_detected,
             "moving_frames": self.overall.moving_frames,
@@ -323,9 +351,43 @@ def rhythm_pauses_s(moving: NDArray[np.bool_], contacts: NDArray[np.bool_] | Non
     return out
 
 
-def _group(name: str, truth: NDArray[np.int64], pred: NDArray[np.int64]) -> GroupStats:
+AFTER_BOUT, BEFORE_BOUT, NO_BOUT = 1, 2, 3  # see false_movement_kinds
+
+
+def false_movement_kinds(truth: NDArray[np.int64], pred: NDArray[np.int64]) -> NDArray[np.int8]:
+    """Why each truly still frame predicted moving is so (0 for every other frame), by the predicted
+    bout (run of moving frames) it lies in: ``AFTER_BOUT`` the run met a true bout before this frame
+    (the command held on past that bout's end: the pause the person's rhythm allows, or a late stop);
+    ``BEFORE_BOUT`` it meets a true bout only later (it began before the labelled onset);
+    ``NO_BOUT`` it meets no true bout at all (a false start). ``truth`` without ``ignore`` frames
+    (:func:`fill_ignore`)."""
+    t, p = np.asarray(truth), np.asarray(pred)
+    if t.shape != p.shape:
+        raise ValueError(f"truth {t.shape} and pred {p.shape} must be alike")
+    out = np.zeros(t.shape, dtype=np.int8)
+    moving_p, moving_t = p != _STILL, t != _STILL
+    change = np.flatnonzero(moving_p[1:] != moving_p[:-1]) + 1
+    for a, b in itertools.pairwise([0, *change.tolist(), len(p)]):
+        if not moving_p[a]:
+            continue
+        met = np.flatnonzero(moving_t[a:b])
+        run = out[a:b]  # a view: written through
+        if met.size == 0:
+            run[:] = NO_BOUT
+            continue
+        still = ~moving_t[a:b]
+        at = np.arange(b - a)
+        run[still & (at < met[0])] = BEFORE_BOUT
+        run[still & (at > met[0])] = AFTER_BOUT
+    return out
+
+
+def _group(
+    name: str, truth: NDArray[np.int64], pred: NDArray[np.int64], kinds: NDArray[np.int8] | None = None
+) -> GroupStats:
     still = truth == _STILL
     moving = truth > _STILL
+    k = np.zeros(truth.shape, np.int8) if kinds is None else kinds
     return GroupStats(
         name=name,
         frames=int(truth.size),
@@ -334,6 +396,8 @@ def _group(name: str, truth: NDArray[np.int64], pred: NDArray[np.int64]) -> Grou
         false_moving=int(np.sum(still & (pred != _STILL))),
         moving_frames=int(moving.sum()),
         detected_moving=int(np.sum(moving & (pred != _STILL))),
+        false_after=int(np.sum(k == AFTER_BOUT)),
+        false_without=int(np.sum(k == NO_BOUT)),
     )
 
 
@@ -346,7 +410,9 @@ def evaluate(sequences: list[ScoredSequence], exclude_s: float = 0.3) -> Evaluat
     to the first frame predicted moving within that bout; stop latency: from each true end (the
     last touch-down) to the first frame predicted still within the following still stretch;
     ``stop_beyond_rhythm``: the stop latency minus the bout's own typical pause between steps
-    (from ground-truth contacts when the file has them, else nothing is subtracted).
+    (from ground-truth contacts when the file has them, else nothing is subtracted). False movement
+    is also split by the predicted bout it lies in (:func:`false_movement_kinds`): held on after a
+    true bout, or a false start (a predicted bout that meets no true one).
     """
     if exclude_s < 0:
         raise ValueError(f"exclude_s must be >= 0, got {exclude_s}")
@@ -355,18 +421,17 @@ def evaluate(sequences: list[ScoredSequence], exclude_s: float = 0.3) -> Evaluat
     stops: list[float] = []
     beyond: list[float] = []
     n_start_missed = n_stop_missed = 0
-    tag_t: dict[str, list[NDArray[np.int64]]] = {}
-    tag_p: dict[str, list[NDArray[np.int64]]] = {}
+    Part = tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int8]]  # truth, pred, false kinds
+    by_tag: dict[str, list[Part]] = {}
     per_seq: list[GroupStats] = []
-    src_t: dict[str, list[NDArray[np.int64]]] = {}
-    src_p: dict[str, list[NDArray[np.int64]]] = {}
+    by_src: dict[str, list[Part]] = {}
     true_changes = pred_changes = 0
     for s in sequences:
         truth = np.asarray(s.truth, dtype=np.int64)
         pred = np.asarray(s.pred, dtype=np.int64)
         filled = fill_ignore(truth)
         keep = transition_mask(filled, s.fps, exclude_s) & (truth >= 0)
-        t_k, p_k = truth[keep], pred[keep]
+        t_k, p_k, k_k = truth[keep], pred[keep], false_movement_kinds(filled, pred)[keep]
         conf += confusion(t_k, p_k)
         lat = latencies(filled, pred, s.fps)
         starts += [float(v) for v in lat.start_s if np.isfinite(v)]
@@ -384,29 +449,29 @@ def evaluate(sequences: list[ScoredSequence], exclude_s: float = 0.3) -> Evaluat
         tags = np.asarray(s.tags).astype(str)[keep]
         for tag in np.unique(tags).tolist():
             sel = tags == tag
-            key = tag or UNTAGGED
-            tag_t.setdefault(key, []).append(t_k[sel])
-            tag_p.setdefault(key, []).append(p_k[sel])
-        per_seq.append(_group(s.name, t_k, p_k))
-        src_t.setdefault(s.source, []).append(t_k)
-        src_p.setdefault(s.source, []).append(p_k)
+            by_tag.setdefault(tag or UNTAGGED, []).append((t_k[sel], p_k[sel], k_k[sel]))
+        per_seq.append(_group(s.name, t_k, p_k, k_k))
+        by_src.setdefault(s.source, []).append((t_k, p_k, k_k))
 
-    Parts = dict[str, list[NDArray[np.int64]]]
+    def joined(name: str, parts: list[Part]) -> GroupStats:
+        if not parts:
+            return _group(name, np.zeros(0, np.int64), np.zeros(0, np.int64))
+        truth_all = np.concatenate([part[0] for part in parts])
+        pred_all = np.concatenate([part[1] for part in parts])
+        return _group(name, truth_all, pred_all, np.concatenate([part[2] for part in parts]))
 
-    def groups(tt: Parts, pp: Parts) -> tuple[GroupStats, ...]:
-        return tuple(_group(k, np.concatenate(tt[k]), np.concatenate(pp[k])) for k in sorted(tt))
+    def groups(by: dict[str, list[Part]]) -> tuple[GroupStats, ...]:
+        return tuple(joined(k, by[k]) for k in sorted(by))
 
-    all_t = np.concatenate([g for v in src_t.values() for g in v]) if src_t else np.zeros(0, np.int64)
-    all_p = np.concatenate([g for v in src_p.values() for g in v]) if src_p else np.zeros(0, np.int64)
     return Evaluation(
         confusion=conf,
         start=LatencyStats(tuple(starts), n_start_missed),
         stop=LatencyStats(tuple(stops), n_stop_missed),
         stop_beyond_rhythm=LatencyStats(tuple(beyond), n_stop_missed),
-        overall=_group("all", all_t, all_p),
-        per_tag=groups(tag_t, tag_p),
+        overall=joined("all", [part for parts in by_src.values() for part in parts]),
+        per_tag=groups(by_tag),
         per_sequence=tuple(per_seq),
-        per_source=groups(src_t, src_p),
+        per_source=groups(by_src),
         true_changes=true_changes,
         predicted_changes=pred_changes,
         exclude_s=exclude_s,
@@ -445,11 +510,14 @@ def text_report(ev: Evaluation) -> str:
         lines.append(
             f"{title}: n={lat.n} median {_ms(lat.median_s)} ms, p95 {_ms(lat.p95_s)} ms, missed {lat.missed}"
         )
+    o = ev.overall
     lines += [
         "",
-        f"false movement (truly still frames predicted moving): {_pct(ev.overall.false_movement)} "
-        f"of {ev.overall.still_frames}; movement detected: {_pct(ev.overall.movement_detected)} "
-        f"of {ev.overall.moving_frames} moving frames",
+        f"false movement (truly still frames predicted moving): {_pct(o.false_movement)} "
+        f"of {o.still_frames}; movement detected: {_pct(o.movement_detected)} "
+        f"of {o.moving_frames} moving frames",
+        f"  of the still frames: held on after a bout {_pct(o.false_after_bout)}, begun before a bout "
+        f"{_pct(o.false_before_bout)}, false starts (a command with no bout) {_pct(o.false_starts)}",
         "command changes per true change: " + ("—" if ev.flicker is None else f"{ev.flicker:.2f}"),
         "",
     ]
@@ -457,12 +525,13 @@ def text_report(ev: Evaluation) -> str:
         w = max([len(title), *(len(g.name) for g in rows)]) + 2
         lines.append(
             f"{title:<{w}}{'frames':>8}{'accuracy':>10}{'still':>8}{'false mov.':>12}"
-            f"{'moving':>8}{'detected':>10}"
+            f"{'false st.':>11}{'moving':>8}{'detected':>10}"
         )
         for g in rows:
             lines.append(
                 f"{g.name:<{w}}{g.frames:>8}{_pct(g.accuracy):>10}{g.still_frames:>8}"
-                f"{_pct(g.false_movement):>12}{g.moving_frames:>8}{_pct(g.movement_detected):>10}"
+                f"{_pct(g.false_movement):>12}{_pct(g.false_starts):>11}{g.moving_frames:>8}"
+                f"{_pct(g.movement_detected):>10}"
             )
         lines.append("")
     return "\n".join(lines).rstrip() + "\n"

@@ -70,6 +70,7 @@ def test_evaluate_prints_the_report_and_writes_json(
         "start latency",
         "stop latency",
         "false movement",
+        "false starts (a command with no bout)",
         "stand",
         "(untagged)",
         "a.npz",
@@ -88,6 +89,9 @@ def test_evaluate_prints_the_report_and_writes_json(
     tags = {g["name"]: g for g in rep["per_tag"]}
     assert set(tags) == {"stand", "(untagged)"} and tags["stand"]["moving_frames"] == 0
     assert tags["stand"]["false_movement"] == 0.0, "plain standing is never movement"
+    parts = ("false_movement_after_bout", "false_movement_before_bout", "false_starts")
+    assert sum(rep[k] for k in parts) == pytest.approx(rep["false_movement"]), "the split adds up"
+    assert rep["false_starts"] == 0.0, "no command without a bout in a plain routine"
     assert {g["name"] for g in rep["per_source"]} == {"unit", "b"}, "source from the file, else its name"
     assert rep["per_class"]["left"]["support"] > 0 and rep["per_class"]["right"]["support"] == 0
     assert rep["per_class"]["right"]["recall"] is None

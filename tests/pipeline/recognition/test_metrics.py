@@ -136,3 +136,52 @@ def test_stop_beyond_rhythm_subtracts_the_bouts_own_pause() -> None:
 def test_scored_sequence_checks_its_shapes() -> None:
     with pytest.raises(ValueError, match="must be"):
         ScoredSequence("x", "s", np.zeros(5, np.int64), np.zeros(4, np.int64), np.array([""] * 5), 10.0)
+
+
+def test_false_movement_is_split_by_the_predicted_bout_it_lies_in() -> None:
+    from pipeline.recognition.metrics import AFTER_BOUT, BEFORE_BOUT, NO_BOUT, false_movement_kinds
+
+    truth = [S] * 4 + [F] * 4 + [S] * 6 + [S] * 6
+    # begun 2 frames early, held 3 frames past the end; then a bout nobody stepped for (2 frames)
+    pred = [S] * 2 + [F] * 9 + [S] * 4 + [F] * 2 + [S] * 3
+    kinds = false_movement_kinds(np.array(truth), np.array(pred))
+    assert (
+        kinds.tolist()
+        == [0, 0, BEFORE_BOUT, BEFORE_BOUT] + [0] * 4 + [AFTER_BOUT] * 3 + [0] * 4 + [NO_BOUT] * 2 + [0] * 3
+    )
+    ev = evaluate([_seq(truth, pred, tags=["wave"] * 8 + ["kneel"] * 12)], exclude_s=0.0)
+    o = ev.overall
+    assert (o.still_frames, o.false_moving, o.false_after, o.false_without) == (16, 7, 3, 2)
+    assert o.false_after_bout == pytest.approx(3 / 16) and o.false_starts == pytest.approx(2 / 16)
+    assert o.false_before_bout == pytest.approx(2 / 16)
+    tag = {g.name: g for g in ev.per_tag}
+    assert (tag["kneel"].false_after, tag["kneel"].false_without) == (3, 2) and tag["wave"].false_after == 0
+    d = ev.to_dict()
+    assert d["false_starts"] == pytest.approx(2 / 16) and d["false_movement_after_bout"] == pytest.approx(
+        3 / 16
+    )
+    assert d["per_source"][0]["false_starts"] == pytest.approx(2 / 16)  # type: ignore[index]
+
+
+def test_a_command_bridging_two_bouts_is_held_on_after_the_first() -> None:
+    from pipeline.recognition.metrics import AFTER_BOUT, false_movement_kinds
+
+    truth = np.array([F] * 3 + [S] * 3 + [L] * 3 + [S] * 2)
+    pred = np.array([F] * 9 + [S] * 2)
+    assert false_movement_kinds(truth, pred).tolist() == [0] * 3 + [AFTER_BOUT] * 3 + [0] * 5
+    with pytest.raises(ValueError, match="alike"):
+        false_movement_kinds(truth, pred[:-1])
+
+
+def test_the_text_report_names_the_split() -> None:
+    from pipeline.recognition.metrics import text_report
+
+    truth = [S] * 4 + [F] * 4 + [S] * 12
+    pred = [S] * 4 + [F] * 6 + [S] * 6 + [R] * 2 + [S] * 2
+    text = text_report(evaluate([_seq(truth, pred)], exclude_s=0.0))
+    # 16 still frames: 2 held on after the bout, 2 in a bout of their own
+    assert (
+        "held on after a bout 12.50 %, begun before a bout 0.00 %, "
+        "false starts (a command with no bout) 12.50 %" in text
+    )
+    assert "false st." in text
