@@ -81,7 +81,9 @@ What a user expects (MODEL_CARD.md, "Behaviour"):
   network agrees and no foot steps sideways (and makes the place of the march the side steps' home);
   so does a swing that rose ``march_lift_m`` without opening sideways while the full-body network
   gives forward ``march_sure_prob`` of its moving probability (a march that begins on the way back
-  from a side step: the foot comes home with a high knee lift);
+  from a side step: the foot comes home with a high knee lift), or rose ``march_low_lift_m`` while it
+  gives forward ``march_surest_prob`` (a march from a side step's wide stance begins with low steps
+  that bring the feet together);
   a closing step inside a forward bout after side steps (a march does not close) lets the network
   choose the direction again (``close_rechoose``).
 - **Two judges** (a model with a start head, ``start_network``): while no bout is on, the gate reads
@@ -201,8 +203,13 @@ class GateConfig:
     march_lift_m: float = 0.10
     # a side-step bout turns forward while a foot that has risen march_lift_m swings without opening
     # sideways and the full-body network gives forward this share of its moving probability (a march
-    # that begins on the way back from a side step; 1: never by this)
+    # that begins on the way back from a side step; 1: never by this) ...
     march_sure_prob: float = 0.8
+    # ... and so does one that has risen march_low_lift_m while the network gives forward this share
+    # (a march from the wide stance of a side step begins with low steps that bring the feet together;
+    # 1: never by this)
+    march_low_lift_m: float = 0.05
+    march_surest_prob: float = 0.9
     # Stepping the network does not know: rhythm_steps alternating steps in a row (left, right, left:
     # each lift-off within rhythm_gap_s of the other foot's, each swing turning the body less than
     # rhythm_turn_deg, none a jump or a kick) start a bout even while the network calls them still,
@@ -250,6 +257,7 @@ class GateConfig:
             "hold_still_prob",
             "late_still_prob",
             "march_sure_prob",
+            "march_surest_prob",
         ):
             v = getattr(self, name)
             if not 0 <= v <= 1:
@@ -292,8 +300,9 @@ class GateConfig:
                 f"start_turn_deg must be > 0 (inf: never) and start_travel_m >= 0, got "
                 f"{self.start_turn_deg}, {self.start_travel_m}"
             )
-        if not self.march_lift_m > 0:
-            raise ValueError(f"march_lift_m must be > 0 (inf: never), got {self.march_lift_m}")
+        for name in ("march_lift_m", "march_low_lift_m"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"{name} must be > 0 (inf: never), got {getattr(self, name)}")
         for name in ("back_slide_m", "back_slide_low_m"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be > 0 (inf: never), got {getattr(self, name)}")
@@ -841,13 +850,17 @@ class BoutGate:
             self._label = _FORWARD
         if swings:
             k = frame.stepping
-            if (
-                sideways
-                and c.march_sure_prob < 1
-                and p[_FORWARD] >= c.march_sure_prob * p_move
-                and any(self._swing_top[j] >= c.march_lift_m and frame.feet[j].kind != "open" for j in swings)
+            if sideways and any(
+                prob < 1
+                and p[_FORWARD] >= prob * p_move
+                and any(self._swing_top[j] >= lift and frame.feet[j].kind != "open" for j in swings)
+                for prob, lift in (
+                    (c.march_sure_prob, c.march_lift_m),
+                    (c.march_surest_prob, c.march_low_lift_m),
+                )
             ):
-                # a high swing the network is sure marches: the march begins on the way back
+                # a swing the network is sure marches (a high one, or a low one it is surer of): the
+                # march begins on the way back, or from the side step's wide stance
                 self._label = _FORWARD
             elif (
                 sideways

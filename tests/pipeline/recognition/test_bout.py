@@ -865,6 +865,41 @@ def test_a_march_that_begins_on_the_way_back_from_a_side_step_turns_the_bout_at_
         GateConfig(march_sure_prob=1.5)
 
 
+def test_a_march_from_a_side_steps_wide_stance_turns_the_bout_on_its_low_first_steps() -> None:
+    """A step out to the right leaves the feet 0.3 m apart; a march begins there with two low steps
+    (7 cm) that bring the feet together (each a closing step), then marches in place. The network is
+    sure of forward (0.95 of its moving probability) from the first of them: the bout turns forward
+    during it. Not when the network is only 0.85 sure (a low swing needs ``march_surest_prob``),
+    nor for a swing 3 cm high (below ``march_low_lift_m``), nor with ``march_surest_prob`` 1."""
+    out = Swing(1, 1.0, 1.4, lateral=0.30, peak=0.04)
+    duration = 4.6
+    t = np.arange(round(duration * FPS)) / FPS
+    right = np.array([0.04, 0.06, 0.04, 0.86])
+    surest = np.array([0.02, 0.93, 0.02, 0.03])
+    sure = np.array([0.02, 0.83, 0.02, 0.13])  # forward 0.85 of the moving probability
+    for peak, probs_march, config, want in (
+        (0.07, surest, GateConfig(), F),
+        (0.07, sure, GateConfig(), R),
+        (0.03, surest, GateConfig(), R),
+        (0.07, surest, GateConfig(march_surest_prob=1.0), R),
+    ):
+        first = Swing(0, 1.8, 2.2, lateral=0.15, peak=peak)  # the left foot in, towards the right one
+        second = Swing(1, 2.5, 2.9, lateral=-0.15, peak=peak)  # the right foot in
+        march = (Swing(0, 3.2, 3.6, peak=peak), Swing(1, 3.9, 4.3, peak=peak))
+        probs = [probs_march if ti >= first.t0 else right for ti in t]
+        labels, _, _ = _gate(Scene(duration, (out, first, second, *march)), probs, config=config)
+        assert (labels[(t > out.t0 + 0.3) & (t < first.t0)] == R).all(), "the step out is right"
+        during = (t > first.t0 + 0.25) & (t < first.t1)
+        got = np.bincount(labels[during], minlength=4)
+        assert got[want] >= 0.8 * during.sum(), (
+            f"peak {peak}, {probs_march}, {config.march_surest_prob}: {got}"
+        )
+    with pytest.raises(ValueError, match="march_surest_prob"):
+        GateConfig(march_surest_prob=1.5)
+    with pytest.raises(ValueError, match="march_low_lift_m"):
+        GateConfig(march_low_lift_m=0.0)
+
+
 @pytest.mark.parametrize(
     ("peak", "other_swings", "ends"), [(0.03, False, True), (0.15, False, False), (0.03, True, False)]
 )
