@@ -208,25 +208,27 @@ class GroupStats:
     def accuracy(self) -> float | None:
         return self.correct / self.frames if self.frames else None
 
+    def _of_still(self, n: int) -> float | None:
+        return n / self.still_frames if self.still_frames else None
+
     @property
     def false_movement(self) -> float | None:
-        return self.false_moving / self.still_frames if self.still_frames else None
+        return self._of_still(self.false_moving)
 
     @property
     def false_after_bout(self) -> float | None:
         """Share of the truly still frames held moving after a true bout (the hold, a late stop)."""
-        return self.false_after / self.still_frames if self.still_frames else None
+        return self._of_still(self.false_after)
 
     @property
     def false_starts(self) -> float | None:
         """Share of the truly still frames in a predicted bout that meets no true bout."""
-        return self.false_without / self.still_frames if self.still_frames else None
+        return self._of_still(self.false_without)
 
     @property
     def false_before_bout(self) -> float | None:
         """Share of the truly still frames in a predicted bout that began before its true one."""
-        early = self.false_moving - self.false_after - self.false_without
-        return early / self.still_frames if self.still_frames else None
+        return self._of_still(self.false_moving - self.false_after - self.false_without)
 
     @property
     def movement_detected(self) -> float | None:
