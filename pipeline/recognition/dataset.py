@@ -89,6 +89,8 @@ def encode_labels(labels: Sequence[str] | NDArray[np.str_], where: str = "labels
 def load_labelled(path: str | Path) -> LabelledSequence:
     """Read and check a labelled skeleton NPZ; :class:`InputError` with one clear message."""
     p = Path(path)
+    if p.is_dir():
+        raise InputError(f"{p} is a folder, not an NPZ skeleton file (give its files: {p / '*.npz'})")
     if not p.is_file():
         raise InputError(f"skeleton file not found: {p}")
     if not zipfile.is_zipfile(p):

@@ -117,11 +117,14 @@ def _bad(tmp: Path) -> dict[str, tuple[Path, str]]:
     text.write_text("joints, fps, labels")
     cases["text"] = (text, "not an NPZ file")
     cases["missing"] = (tmp / "nope.npz", "not found")
+    folder = tmp / "takes"
+    folder.mkdir()
+    cases["folder"] = (folder, r"is a folder, not an NPZ skeleton file \(give its files: .*takes/\*\.npz\)")
     return cases
 
 
 @pytest.mark.parametrize(
-    "case", ["nolabels", "shape", "unknown", "length", "contacts", "tags", "text", "missing"]
+    "case", ["nolabels", "shape", "unknown", "length", "contacts", "tags", "text", "missing", "folder"]
 )
 def test_bad_input_ends_with_one_error_line(
     case: str,
