@@ -337,6 +337,7 @@ def summary(ev: Evaluation) -> dict[str, Any]:
         "macro_f1": ev.macro_f1,
         "frames": ev.frames,
         "false_movement": ev.overall.false_movement,
+        "false_starts": ev.overall.false_starts,
         "movement_detected": ev.overall.movement_detected,
         "confusion": ev.confusion.tolist(),
     }
@@ -587,14 +588,16 @@ def card_markdown(card: dict[str, Any]) -> str:
     if f.get("heldout_sources"):
         lines += [
             "| source | clips | base accuracy | fine-tuned accuracy | base false movement | "
-            "fine-tuned false movement | base detected | fine-tuned detected |",
-            "|---|---|---|---|---|---|---|---|",
+            "fine-tuned false movement | base false starts | fine-tuned false starts | base detected | "
+            "fine-tuned detected |",
+            "|---|---|---|---|---|---|---|---|---|---|",
         ]
         for name, h in f["heldout_sources"].items():
             b, t = h["base"], h["fine_tuned"]
             lines.append(
                 f"| {name} | {h['clips']} | {_f(b['accuracy'])} | {_f(t['accuracy'])} "
                 f"| {_f(b['false_movement'])} | {_f(t['false_movement'])} "
+                f"| {_f(b.get('false_starts'))} | {_f(t.get('false_starts'))} "
                 f"| {_f(b['movement_detected'])} | {_f(t['movement_detected'])} |"
             )
     else:

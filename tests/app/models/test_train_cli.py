@@ -57,9 +57,13 @@ def test_train_one_epoch_evaluate_activate_and_roll_back(takes: Path, tmp_path: 
     held = card["figures"]["heldout_sources"]
     assert list(held) == ["blind-heldout"], "the eval sources only, not a training one"
     assert held["blind-heldout"]["clips"] == 1 and held["blind-heldout"]["base"]["frames"] > 0
+    for model in ("base", "fine_tuned"):  # a command with no bout, beside the false movement
+        fs, fm = held["blind-heldout"][model]["false_starts"], held["blind-heldout"][model]["false_movement"]
+        assert 0.0 <= fs <= fm <= 1.0, (model, fs, fm)
     md = out.with_suffix(".md").read_text()
     assert "Leave-one-participant-out" in md and "| P2 | 1 |" in md and "truth \\ predicted" in md
     assert "| blind-heldout | 1 |" in md, "the recognition issue's held-out sources in the card"
+    assert "| base false starts | fine-tuned false starts |" in md
 
     listed = cavewalk("models", "list", "--db", db)[1].splitlines()
     assert listed[1].startswith("    2  trained") and info.sha256[:12] in listed[1], listed
