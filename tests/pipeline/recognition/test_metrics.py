@@ -6,12 +6,21 @@ import numpy as np
 import pytest
 
 from pipeline.recognition.metrics import (
+    AFTER_BOUT,
+    BEFORE_BOUT,
+    NO_BOUT,
+    ScoredSequence,
     angle_error_deg,
     confusion,
+    evaluate,
+    false_movement_kinds,
+    fill_ignore,
     latencies,
     macro_f1,
+    rhythm_pauses_s,
     text_confusion,
     text_histogram,
+    text_report,
     transition_mask,
 )
 
@@ -65,8 +74,6 @@ def test_text_histogram_counts_and_misses() -> None:
 
 
 # ------------------------------------------------------------------ the evaluation report
-
-from pipeline.recognition.metrics import ScoredSequence, evaluate, fill_ignore, rhythm_pauses_s  # noqa: E402
 
 
 def _seq(truth: list[int], pred: list[int], tags: list[str] | None = None, contacts=None, name: str = "s"):  # type: ignore[no-untyped-def]
@@ -139,8 +146,6 @@ def test_scored_sequence_checks_its_shapes() -> None:
 
 
 def test_false_movement_is_split_by_the_predicted_bout_it_lies_in() -> None:
-    from pipeline.recognition.metrics import AFTER_BOUT, BEFORE_BOUT, NO_BOUT, false_movement_kinds
-
     truth = [S] * 4 + [F] * 4 + [S] * 6 + [S] * 6
     # begun 2 frames early, held 3 frames past the end; then a bout nobody stepped for (2 frames)
     pred = [S] * 2 + [F] * 9 + [S] * 4 + [F] * 2 + [S] * 3
@@ -164,8 +169,6 @@ def test_false_movement_is_split_by_the_predicted_bout_it_lies_in() -> None:
 
 
 def test_a_command_bridging_two_bouts_is_held_on_after_the_first() -> None:
-    from pipeline.recognition.metrics import AFTER_BOUT, false_movement_kinds
-
     truth = np.array([F] * 3 + [S] * 3 + [L] * 3 + [S] * 2)
     pred = np.array([F] * 9 + [S] * 2)
     assert false_movement_kinds(truth, pred).tolist() == [0] * 3 + [AFTER_BOUT] * 3 + [0] * 5
@@ -174,8 +177,6 @@ def test_a_command_bridging_two_bouts_is_held_on_after_the_first() -> None:
 
 
 def test_the_text_report_names_the_split() -> None:
-    from pipeline.recognition.metrics import text_report
-
     truth = [S] * 4 + [F] * 4 + [S] * 12
     pred = [S] * 4 + [F] * 6 + [S] * 6 + [R] * 2 + [S] * 2
     text = text_report(evaluate([_seq(truth, pred)], exclude_s=0.0))
