@@ -292,7 +292,7 @@ class GateConfig:
                 f"min_allowance_s ({self.min_allowance_s}) must not exceed "
                 f"max_allowance_s ({self.max_allowance_s})"
             )
-        for name in ("slide_step_m", "way_back_m", "start_quiet_deg"):
+        for name in ("slide_step_m", "way_back_m", "start_quiet_deg", "rise_wait_s", "jump_air_s"):
             if not getattr(self, name) >= 0:
                 raise ValueError(f"{name} must be >= 0 (inf: never), got {getattr(self, name)}")
         if not (self.start_turn_deg > 0 and self.start_travel_m >= 0):
@@ -300,24 +300,12 @@ class GateConfig:
                 f"start_turn_deg must be > 0 (inf: never) and start_travel_m >= 0, got "
                 f"{self.start_turn_deg}, {self.start_travel_m}"
             )
-        for name in ("march_lift_m", "march_low_lift_m"):
+        for name in (
+            "march_lift_m", "march_low_lift_m", "back_slide_m", "back_slide_low_m", "kick_deg",
+            "first_turn_deg", "first_turn_open_deg", "max_window_turn_deg",
+        ):  # fmt: skip
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be > 0 (inf: never), got {getattr(self, name)}")
-        for name in ("back_slide_m", "back_slide_low_m"):
-            if not getattr(self, name) > 0:
-                raise ValueError(f"{name} must be > 0 (inf: never), got {getattr(self, name)}")
-        if not self.kick_deg > 0:
-            raise ValueError(f"kick_deg must be > 0 (inf: never), got {self.kick_deg}")
-        if not self.first_turn_deg > 0:
-            raise ValueError(f"first_turn_deg must be > 0 (inf: never), got {self.first_turn_deg}")
-        if not self.first_turn_open_deg > 0:
-            raise ValueError(f"first_turn_open_deg must be > 0 (inf: never), got {self.first_turn_open_deg}")
-        if not self.max_window_turn_deg > 0:
-            raise ValueError(f"max_window_turn_deg must be > 0 (inf: never), got {self.max_window_turn_deg}")
-        if not self.rise_wait_s >= 0:
-            raise ValueError(f"rise_wait_s must be >= 0 (inf: never), got {self.rise_wait_s}")
-        if not self.jump_air_s >= 0:
-            raise ValueError(f"jump_air_s must be >= 0 (inf: never), got {self.jump_air_s}")
         if self.jump_steps < 0:
             raise ValueError(f"jump_steps must be >= 0 (0: never), got {self.jump_steps}")
         if self.rhythm_steps < 0 or self.rhythm_steps == 1:

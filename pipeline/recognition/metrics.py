@@ -385,11 +385,10 @@ def false_movement_kinds(truth: NDArray[np.int64], pred: NDArray[np.int64]) -> N
 
 
 def _group(
-    name: str, truth: NDArray[np.int64], pred: NDArray[np.int64], kinds: NDArray[np.int8] | None = None
+    name: str, truth: NDArray[np.int64], pred: NDArray[np.int64], kinds: NDArray[np.int8]
 ) -> GroupStats:
     still = truth == _STILL
     moving = truth > _STILL
-    k = np.zeros(truth.shape, np.int8) if kinds is None else kinds
     return GroupStats(
         name=name,
         frames=int(truth.size),
@@ -398,8 +397,8 @@ def _group(
         false_moving=int(np.sum(still & (pred != _STILL))),
         moving_frames=int(moving.sum()),
         detected_moving=int(np.sum(moving & (pred != _STILL))),
-        false_after=int(np.sum(k == AFTER_BOUT)),
-        false_without=int(np.sum(k == NO_BOUT)),
+        false_after=int(np.sum(kinds == AFTER_BOUT)),
+        false_without=int(np.sum(kinds == NO_BOUT)),
     )
 
 
@@ -457,7 +456,7 @@ def evaluate(sequences: list[ScoredSequence], exclude_s: float = 0.3) -> Evaluat
 
     def joined(name: str, parts: list[Part]) -> GroupStats:
         if not parts:
-            return _group(name, np.zeros(0, np.int64), np.zeros(0, np.int64))
+            return _group(name, np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int8))
         truth_all = np.concatenate([part[0] for part in parts])
         pred_all = np.concatenate([part[1] for part in parts])
         return _group(name, truth_all, pred_all, np.concatenate([part[2] for part in parts]))

@@ -597,7 +597,7 @@ def card_markdown(card: dict[str, Any]) -> str:
             lines.append(
                 f"| {name} | {h['clips']} | {_f(b['accuracy'])} | {_f(t['accuracy'])} "
                 f"| {_f(b['false_movement'])} | {_f(t['false_movement'])} "
-                f"| {_f(b.get('false_starts'))} | {_f(t.get('false_starts'))} "
+                f"| {_f(b['false_starts'])} | {_f(t['false_starts'])} "
                 f"| {_f(b['movement_detected'])} | {_f(t['movement_detected'])} |"
             )
     else:
