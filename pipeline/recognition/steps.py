@@ -30,7 +30,10 @@ What a person can check on the dashboard's step strip, and what the recogniser's
 Noise: the ankle goes through a median of three frames (single-frame outliers vanish) and an
 EMA; jumps larger than ``outlier_legs`` are ignored; each foot's jitter while planted is measured
 and raises the thresholds of that foot; unknown joints hold the last state (a foot unknown
-longer than ``lost_s`` is reported ``known=False`` and never starts a step).
+longer than ``lost_s`` is reported ``known=False`` and never starts a step). A foot's first frames
+(a new navigator, or after a reset): no lift-off before its median of three runs, and a lone
+outlier in its first frame (ankle or knee, off the next two points that agree) is neither its
+anchor nor its knee-ankle baseline: finding a standing person is no step.
 :class:`StepTracker` is the streaming form (one frame at a time, the recogniser's);
 :func:`step_evidence` runs it over a whole sequence.
 """
@@ -58,6 +61,15 @@ _SHOULDER = (J["l_shoulder"], J["r_shoulder"])
 DEFAULT_LEG_M = 0.85
 _MAD_SIGMA = 1.4826 / math.sqrt(6.0)  # sigma of white noise from the median |second difference|
 _JITTER_SAMPLES = 15  # raw second differences of a foot before its jitter (sigma) is measured
+
+
+_KNEE_AGREE_LEGS = 0.04  # a leg's first three knee-ankle heights: two within this (legs) of each other ...
+
+
+def _lone_first(samples: Sequence[float], tol: float) -> bool:
+    """... and the first farther than twice that from both: the first was an outlier."""
+    a, b, c = samples[0], samples[1], samples[2]
+    return abs(b - c) < tol and abs(a - b) > 2 * tol and abs(a - c) > 2 * tol
 
 
 def _median(values: deque[float]) -> float:
@@ -319,6 +331,8 @@ class _Foot:
         self.pos: list[float] | None = None  # smoothed ankle x, y, z
         self.raw: deque[tuple[float, float, float]] = deque(maxlen=3)
         self.shank: float | None = None  # knee minus ankle height while planted (running mean)
+        self.first_shanks: list[float] = []  # its first three samples (a first-frame knee outlier)
+        self.first_points: list[tuple[float, float, float, float]] = []  # first three (x, y, z, shank)
         # jitter (sigma, m) of the raw foot point, vertical and per horizontal axis, from the
         # median absolute second difference over the last 3 s
         self.dev_z: deque[float] = deque(maxlen=90)
@@ -330,6 +344,7 @@ class _Foot:
         self.hist: deque[tuple[float, float, float, float]] = deque(maxlen=64)  # (t, x, y, z)
         self.planted = True
         self.anchor: list[float] | None = None
+        self.first_checked = True  # the first three raw points were looked at for an outlier
         self.floor: float | None = None
         self.lift_t = -math.inf
         self.land_t = -math.inf
@@ -424,8 +439,14 @@ class StepTracker:
             return None
         x, y, z = float(ankle[0]), float(ankle[1]), float(ankle[2])
         kz = float(knee[2])
+        if len(f.first_points) < 3:
+            f.first_points.append((x, y, z, kz - z))
         if math.isfinite(kz):
             shank = kz - z
+            if len(f.first_shanks) < 3:
+                f.first_shanks.append(shank)
+                if len(f.first_shanks) == 3 and _lone_first(f.first_shanks, _KNEE_AGREE_LEGS * self._leg):
+                    f.shank = 0.5 * (f.first_shanks[1] + f.first_shanks[2])  # the first was an outlier
             if f.shank is None:
                 f.shank = shank
             else:  # fast: posture (a shank tilting in a crouch) is followed, only noise is averaged
@@ -586,6 +607,19 @@ class StepTracker:
         f.hist.append((t, mid[0], mid[1], mid[2]))
         self._land(f, max(t - 2.0 / c.rate_hz, f.lift_t + c.min_swing_s))
 
+    def _first_was_outlier(self, f: _Foot) -> bool:
+        """The ankle's first point lies off the next two, which agree with each other (within the
+        lift-off thresholds): an outlier, not a foot already moving when it was first seen."""
+        if len(f.first_points) < 3:
+            return False
+        up_thr, side_thr = self._thresholds(f)
+        (x0, y0, z0, _), (x1, y1, z1, _), (x2, y2, z2, _) = f.first_points
+        return (
+            abs(z1 - z2) < up_thr
+            and math.hypot(x1 - x2, y1 - y2) < side_thr
+            and (abs(z0 - z1) >= up_thr or math.hypot(x0 - x1, y0 - y1) >= side_thr)
+        )
+
     def _update_foot(self, k: int, t: float, dt: float) -> None:
         c = self.config
         f = self._feet[k]
@@ -593,13 +627,31 @@ class StepTracker:
         if f.anchor is None:
             f.anchor = list(f.pos)
             f.floor = f.pos[2]
+            f.first_checked = False
             return
+        if not f.first_checked and len(f.raw) == 3:
+            # no lift-off before the median of three runs (below: a lone outlier passes the first
+            # frames' smoothing); then, if the first point was one, it is not the anchor: the foot
+            # would look lifted until the anchor caught up (a step nobody made)
+            f.first_checked = True
+            if self._first_was_outlier(f):
+                # the three points again, with the knee-ankle baseline as it is now
+                base = f.shank
+                f.raw.clear()
+                for x, y, z, shank in f.first_points:
+                    fix = 0.5 * (shank - base) if base is not None and math.isfinite(shank) else 0.0
+                    f.raw.append((x, y, z + fix))
+                f.pos = [sorted(r[i] for r in f.raw)[1] for i in range(3)]
+                f.anchor, f.floor = list(f.pos), f.pos[2]
+                f.hist.clear()
+                f.hist.append((t, f.pos[0], f.pos[1], f.pos[2]))
+                return
         just_lifted = False
         if f.planted:
             up, horiz = self._departure(f)
             up_thr, side_thr = self._thresholds(f)
             just_lifted = self.config.defer_landing and f.n_dev >= _JITTER_SAMPLES  # its jitter is measured
-            if not ((up > up_thr or horiz > side_thr) and self._lift(k, t)):
+            if not ((up > up_thr or horiz > side_thr) and f.first_checked and self._lift(k, t)):
                 settling = t - f.land_t < 0.25
                 w = self._w(0.08 if settling else c.anchor_tau_s, dt)
                 f.anchor = [a + w * (p - a) for a, p in zip(f.anchor, f.pos, strict=True)]

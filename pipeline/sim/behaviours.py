@@ -16,6 +16,11 @@ the rising part of a crouch, squat or kneel is tagged ``stand-up``.
   rear knee goes down where the rear foot stood; then up, and the front foot steps back. Not in
   the routines' random draws yet (``ranges``): a script names it (the recogniser's known limit,
   MODEL_CARD.md "Limits").
+- ``lunge``: to reach for something, punch, strike or look closer: one foot steps 0.3-0.6 m
+  forward (body scaled, a little to its side), the body goes onto it (the pelvis forward past the
+  feet's midpoint and 3-10 % of the leg lower, trunk 10-30 deg forward), one arm reaches or punches
+  out ahead; held, then the front foot steps back home. Not in the routines' random draws
+  (``ranges``): a script names it (the behaviour test that a lunge is at most a short nudge).
 - ``step-back``: making room or backing off from a wall: one foot steps back 0.25-0.5 m (body
   scaled), the other follows beside it, and the person stays there (a real step back is no
   command: there is no ``backward``). Not in the routines' random draws (``ranges``): a script
@@ -208,6 +213,37 @@ def _step_back(ctx: Ctx, seg: Segment, t0: float, t1: float, k: float) -> None:
         )  # fmt: skip
 
 
+def _lunge(ctx: Ctx, seg: Segment, t0: float, t1: float, k: float) -> None:
+    """One foot steps out ahead, the body goes onto it with an arm reaching out; then back home."""
+    ch, rng, body = ctx.ch, ctx.rng, ctx.body
+    yaw = ch.yaw_at(t0)
+    fwd, right = forward_xy(yaw), right_xy(yaw)
+    scale = body.height_m / 1.75
+    front = int(rng.integers(2))
+    ahead = _between(k, 0.3, 0.6) * scale
+    out = float(rng.uniform(0.0, 0.06)) * SIDE_SIGN[front]
+    home = ctx.feet.xy[front].copy()
+    dur = t1 - t0
+    step_s = _phase_s(dur, 0.4, 0.7, rng, 0.2)
+    s_out0 = t0 + 0.02
+    s_back1 = t1 - 0.02
+    s_back0 = s_back1 - step_s
+    foot_yaw = ctx.feet_yaw(yaw, front)
+    ctx.feet.move(front, s_out0, s_out0 + step_s, home + ahead * fwd + out * right, foot_yaw,
+                  lift_m=float(rng.uniform(0.03, 0.10)))  # fmt: skip
+    ctx.feet.move(front, s_back0, s_back1, home, foot_yaw, lift_m=float(rng.uniform(0.03, 0.10)))
+    onto = _phase_s(dur, 0.3, 0.6, rng, 0.2)
+    w = _env(ch.t, s_out0 + 0.5 * step_s, s_back0 + 0.3 * step_s, onto, onto)
+    ch.pelvis[:, 1] += float(rng.uniform(0.1, 0.3)) * ahead * w  # past the feet's midpoint
+    ch.pelvis[:, 2] -= float(rng.uniform(0.03, 0.10)) * (body.thigh_m + body.shin_m) * w
+    ch.trunk_pitch += math.radians(_between(k, 10.0, 30.0)) * w
+    ch.load += SIDE_SIGN[front] * 0.3 * w  # the weight goes onto the front foot
+    side = 1 if rng.random() < 0.5 else -1
+    reach = body.upper_arm_m + 0.99 * body.forearm_m
+    hand = (side * 0.08, reach * 0.95, float(rng.uniform(0.0, 0.2)))  # out ahead, at or above the shoulder
+    _arm(ctx, side, w, hand, "trunk", (side * 0.6, -0.4, -1.0))
+
+
 def _bend(ctx: Ctx, seg: Segment, t0: float, t1: float, k: float) -> None:
     ch, rng, body = ctx.ch, ctx.rng, ctx.body
     dur = t1 - t0
@@ -398,6 +434,7 @@ LIBRARY: dict[str, Callable[[Ctx, Segment, float, float, float], None]] = {
     "kneel": _kneel,
     "kneel-forward": functools.partial(_kneel, front_steps=True),
     "step-back": _step_back,
+    "lunge": _lunge,
     "bend": _bend,
     "lean": _lean,
     "tiptoe": _tiptoe,

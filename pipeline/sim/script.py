@@ -45,6 +45,7 @@ STILL_BEHAVIOURS: tuple[str, ...] = (
     "kneel",
     "kneel-forward",
     "step-back",
+    "lunge",
     "bend",
     "lean",
     "tiptoe",

@@ -18,6 +18,7 @@ from pipeline.recognition.types import ActionEstimate
 from pipeline.sim.body import body_from_height
 from pipeline.sim.motion import UserMotion, simulate_user
 from pipeline.sim.script import MotionScript, Segment
+from pipeline.skeleton import J
 
 FPS = 30.0
 
@@ -106,6 +107,34 @@ def test_kneeling_that_begins_with_a_step_forward_is_at_most_a_short_nudge(
     for first, end, label in runs:
         assert label == "forward" and (end - first) / FPS <= 0.6, runs
         assert end <= low, f"moving until frame {end}, the body was low from frame {low}"
+
+
+def test_a_lunge_is_at_most_one_short_forward_nudge(recognizer: ActionRecognizer) -> None:
+    """A lunge (reaching for something, a punch, a strike, a closer look: one foot 0.3-0.6 m ahead,
+    the body onto it, then back) is the known limit's cousin above: its step out is a first
+    forward step until it lands and the other foot does not follow, so it may start one short
+    forward nudge (0.43-1.3 s, median 0.7 s over twelve seeds x 3 / 5 s); never more than one,
+    never to a side, over long before the step back, and the step back never moves."""
+    lengths = []
+    for seed in range(6):
+        segs = (
+            Segment("still", 2.0, gestures=()),
+            Segment("still", 3.0 + 2.0 * (seed % 2), behaviour="lunge"),
+            Segment("still", 2.0, gestures=()),
+        )
+        motion, est = _estimates(recognizer, segs, seed)
+        assert set(motion.labels) == {"still"} and "lunge" in motion.tags
+        runs = _moving_runs([e.label for e in est])
+        assert len(runs) <= 1, f"seed {seed}: one nudge at most, got {runs}"
+        lifts = np.flatnonzero(~motion.contacts.all(axis=1))
+        back = int(np.flatnonzero(np.diff(lifts) > 1)[-1]) + 1  # the step back's first frame off the floor
+        for first, end, label in runs:
+            assert label == "forward", runs
+            assert first >= lifts[0] and end + FPS <= lifts[back], (
+                f"seed {seed}: {runs}, step back at {lifts[back]}"
+            )
+            lengths.append((end - first) / FPS)
+    assert max(lengths) <= 1.5 and float(np.median(lengths)) <= 0.9, lengths
 
 
 @pytest.mark.parametrize(
@@ -253,6 +282,29 @@ def test_turning_on_the_spot_is_still(recognizer: ActionRecognizer) -> None:
     assert set(motion.labels) == {"still"}
     share = float(np.mean([lab != "still" for lab in labels]))
     assert share <= 0.05, f"{100 * share:.1f} % of a turn on the spot called moving"
+
+
+def test_tracking_that_begins_with_an_outlier_never_moves(recognizer: ActionRecognizer) -> None:
+    """The person is found (walks in, or is seen again after a reset) while standing, and the first
+    triangulated frame has a knee 19 cm too low (this capture's own outlier): no command. Before,
+    the knee-ankle baseline began at the outlier, the foot looked 5 cm up for 0.3 s, a lift-off,
+    and the start head moved the person forward for 0.23 s (1 of 100 simulated standing
+    acquisitions, ``scripts``-free: the seed below is that capture)."""
+    segs = (
+        Segment("still", 2.0, gestures=()),
+        Segment("still", 3.0, behaviour="lunge"),
+        Segment("still", 2.0, gestures=()),
+    )
+    motion = simulate_user(
+        MotionScript(segs, start_xy_m=(0.2, -0.1), start_yaw_deg=30.0), body_from_height(1.75), FPS, seed=7
+    )
+    joints = capture(motion.joints_m, np.random.default_rng(7), NoiseConfig(), FPS)
+    knee = J["l_knee"]
+    assert joints[0, knee, 2] < motion.joints_m[0, knee, 2] - 0.15, "the first frame's knee outlier"
+    standing = joints[: int(1.5 * FPS)]  # before the lunge
+    labels = [e.label for e in recognize_sequence(recognizer, standing, FPS)]
+    moving = [i for i, lab in enumerate(labels) if lab != "still"]
+    assert not moving, f"{len(moving)} frames called moving, first at {moving[0] / FPS:.2f} s"
 
 
 def test_an_unfamiliar_posture_is_still_with_low_confidence(recognizer: ActionRecognizer) -> None:

@@ -64,7 +64,7 @@ def test_each_behaviour_is_physical_still_and_returns_to_standing(name: str, hei
     assert m.joints_m[:, ANKLES, 2].min() > 0.9 * body_from_height(height).ankle_height_m - 1e-3
     assert np.all(np.isfinite(m.joints_m))
     moving_feet = ~m.contacts
-    if name not in ("kneel", "kneel-forward", "jump", "step-back"):
+    if name not in ("kneel", "kneel-forward", "lunge", "jump", "step-back"):
         assert not moving_feet.any(), f"{name} keeps both feet planted"
     # back to standing where it started (a step back stands where it stepped to): the same feet,
     # the pelvis at its standing height
@@ -117,6 +117,30 @@ def test_kneeling_forward_steps_the_front_foot_out_and_back(height: float) -> No
     other = m.joints_m[:, ANKLES[1 - foot], :2]
     assert np.allclose(other, other[0], atol=1e-9), "the rear foot stays where it stood"
     assert "stand-up" in m.tags and m.tags.index("stand-up") > m.tags.index("kneel-forward")
+
+
+@pytest.mark.parametrize("height", HEIGHTS)
+def test_a_lunge_steps_one_foot_out_ahead_and_back_with_the_body_onto_it(height: float) -> None:
+    short = _behave("lunge", height, seed=5, intensity=0.0, dur=3.0)
+    far = _behave("lunge", height, seed=5, intensity=1.0, dur=3.0)
+    facing = np.array([-np.sin(np.radians(-40.0)), np.cos(np.radians(-40.0))])  # the script's start yaw
+    reach = []
+    for m in (short, far):
+        lifts = np.flatnonzero((m.contacts[:-1] & ~m.contacts[1:]).any(axis=1))
+        assert len(lifts) == 2, f"one step out and one back, got {len(lifts)} lift-offs"
+        (foot,) = {int(np.flatnonzero(~m.contacts[i + 1])[0]) for i in lifts}  # the same foot both times
+        ankle, other = m.joints_m[:, ANKLES[foot], :2], m.joints_m[:, ANKLES[1 - foot], :2]
+        held = (lifts[0] + lifts[1]) // 2
+        reach.append(float((ankle[held] - ankle[0]) @ facing))
+        assert np.allclose(other, other[0], atol=1e-9), "the other foot stays where it stood"
+        hips = m.joints_m[:, [J["l_hip"], J["r_hip"]]].mean(axis=1)
+        mid = 0.5 * (ankle[held] + other[held])
+        assert (hips[held, :2] - mid) @ facing > 0.02, "the body is onto the front foot"
+        assert hips[held, 2] < hips[0, 2] - 0.01, "the front knee bends"
+        wrists = m.joints_m[held, [J["l_wrist"], J["r_wrist"]], :2]
+        assert ((wrists - hips[held, :2]) @ facing).max() > 0.4 * height / 1.75, "an arm reaches out ahead"
+    scale = height / 1.75
+    assert 0.27 * scale < reach[0] < 0.33 * scale and 0.55 * scale < reach[1] < 0.65 * scale, reach
 
 
 @pytest.mark.parametrize("height", HEIGHTS)
