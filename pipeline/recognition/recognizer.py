@@ -18,7 +18,11 @@ a wrong shape, raises :class:`InputError` and changes nothing. A gap longer than
 coordinates (NaN, inf) are unknown; a frame without any known leg joint (hips,
 knees, ankles) is no data and counts as a gap: shorter than ``max_gap_s`` the
 command holds, longer (or before any data) it is ``still`` with confidence 0 and
-``no_data`` set, and a warning is logged once per such stretch.
+``no_data`` set, and a warning is logged once per such stretch. When data comes back
+within ``max_gap_s``, the model frames of the stretch glide from the last frame with data
+to the new one; a joint that the last frame put off its path (more than ``_BRIDGE_OUTLIER_M``
+from both its previous point and where it was heading: a single-frame outlier) glides from
+its previous point instead.
 """
 
 from __future__ import annotations
@@ -214,6 +218,25 @@ def ema(
     return alpha * v + (1.0 - alpha) * np.asarray(previous, dtype=np.float64)
 
 
+_BRIDGE_OUTLIER_M = 0.1  # a joint this far off both its previous point and their path is an outlier
+
+
+def _without_outliers(last: NDArray[np.float64], recent: deque[NDArray[np.float64]]) -> NDArray[np.float64]:
+    """``last`` (the newest of ``recent``, the last three frames with data) with each joint that lies
+    more than ``_BRIDGE_OUTLIER_M`` both from its previous point and from where its two previous
+    points were heading (a moving foot is where it was heading; an outlier is off its path) put
+    back at its previous point."""
+    if len(recent) < 3:
+        return last
+    before, prev = recent[0], recent[1]
+    off = (np.linalg.norm(last - prev, axis=1) > _BRIDGE_OUTLIER_M) & (
+        np.linalg.norm(last - (2.0 * prev - before), axis=1) > _BRIDGE_OUTLIER_M
+    )  # NaN compares False: kept
+    out = last.copy()
+    out[off] = prev[off]
+    return out
+
+
 def _interpolate(a: NDArray[np.float64], b: NDArray[np.float64], w: float) -> NDArray[np.float64]:
     """Linear interpolation a -> b at w in [0, 1]; where one side is unknown, the nearer frame's value."""
     lin = (1.0 - w) * a + w * b
@@ -334,6 +357,8 @@ class ActionRecognizer:
         self._forget()
 
     def _forget(self) -> None:
+        self._gap = False  # frames without data came since the newest frame with data ...
+        self._recent: deque[NDArray[np.float64]] = deque(maxlen=3)  # ... and the last three with data
         self._frames.clear()
         self._evidence.clear()
         self._yaw.reset()
@@ -406,6 +431,7 @@ class ActionRecognizer:
             if self._last_t is None and not self._warned_no_data:
                 log.warning("no known leg joint in the navigator's skeleton: still, confidence 0")
                 self._warned_no_data = True
+            self._gap = self._last_t is not None
             return self._estimate()  # holds within max_gap_s, no data after it
         self._warned_no_data = False
 
@@ -416,16 +442,23 @@ class ActionRecognizer:
             ticks = 1
         else:
             span = t - self._last_t
+            # across a stretch without data the skeleton glides from the last frame with data, but a
+            # joint that frame put far off its path starts from its previous point: a single-frame
+            # outlier just before the stretch would otherwise become a smooth move the step tracker
+            # takes for a step
+            start = _without_outliers(self._last_j, self._recent) if self._gap else self._last_j
             while (tick := self._tick0 + self._ticks * self._dt) <= t + 1e-9:
                 w = (tick - self._last_t) / span
                 # the clock of every model frame is k / fps, as training and the replay
                 # (evaluation.step_frames) time the step tracker: k x (1 / fps) differs in the last
                 # bit, and a swing exactly 3 frames long must be 0.1 s in all of them or in none
-                frame = _interpolate(self._last_j, j, min(max(w, 0.0), 1.0))
+                frame = _interpolate(start, j, min(max(w, 0.0), 1.0))
                 self._add_frame(frame, self._ticks / self.info.fps)
                 self._ticks += 1
                 ticks += 1
         self._last_t, self._last_j = t, j
+        self._recent.append(j)
+        self._gap = False
         self._yaw.update(raw_yaw_deg(j), t)
         if ticks:
             self._step(ticks)
