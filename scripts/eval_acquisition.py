@@ -43,6 +43,9 @@ def main() -> int:
     if args.sequences < 1:
         print("error: --sequences must be at least 1", file=sys.stderr)
         return 2
+    if args.json is not None and not args.json.parent.is_dir():
+        print(f"error: --json {args.json}: no folder {args.json.parent} to write it in", file=sys.stderr)
+        return 2
     recognizer = ActionRecognizer.from_config(RecognizerConfig())
     moving = early = frames = 0
     for n in range(args.sequences):

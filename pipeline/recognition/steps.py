@@ -63,11 +63,12 @@ _MAD_SIGMA = 1.4826 / math.sqrt(6.0)  # sigma of white noise from the median |se
 _JITTER_SAMPLES = 15  # raw second differences of a foot before its jitter (sigma) is measured
 
 
-_KNEE_AGREE_LEGS = 0.04  # a leg's first three knee-ankle heights: two within this (legs) of each other ...
+_KNEE_AGREE_LEGS = 0.04  # a foot's first three knee-ankle heights: see _lone_first
 
 
 def _lone_first(samples: Sequence[float], tol: float) -> bool:
-    """... and the first farther than twice that from both: the first was an outlier."""
+    """The first of three samples was an outlier: the other two agree within ``tol`` and the first
+    lies more than twice ``tol`` from both."""
     a, b, c = samples[0], samples[1], samples[2]
     return abs(b - c) < tol and abs(a - b) > 2 * tol and abs(a - c) > 2 * tol
 
@@ -331,7 +332,6 @@ class _Foot:
         self.pos: list[float] | None = None  # smoothed ankle x, y, z
         self.raw: deque[tuple[float, float, float]] = deque(maxlen=3)
         self.shank: float | None = None  # knee minus ankle height while planted (running mean)
-        self.first_shanks: list[float] = []  # its first three samples (a first-frame knee outlier)
         self.first_points: list[tuple[float, float, float, float]] = []  # first three (x, y, z, shank)
         # jitter (sigma, m) of the raw foot point, vertical and per horizontal axis, from the
         # median absolute second difference over the last 3 s
@@ -441,12 +441,12 @@ class StepTracker:
         kz = float(knee[2])
         if len(f.first_points) < 3:
             f.first_points.append((x, y, z, kz - z))
+            shanks = [p[3] for p in f.first_points]
+            known = len(shanks) == 3 and all(map(math.isfinite, shanks))
+            if known and _lone_first(shanks, _KNEE_AGREE_LEGS * self._leg):  # a first-frame knee outlier
+                f.shank = 0.5 * (shanks[1] + shanks[2])  # is not the knee-ankle baseline
         if math.isfinite(kz):
             shank = kz - z
-            if len(f.first_shanks) < 3:
-                f.first_shanks.append(shank)
-                if len(f.first_shanks) == 3 and _lone_first(f.first_shanks, _KNEE_AGREE_LEGS * self._leg):
-                    f.shank = 0.5 * (f.first_shanks[1] + f.first_shanks[2])  # the first was an outlier
             if f.shank is None:
                 f.shank = shank
             else:  # fast: posture (a shank tilting in a crouch) is followed, only noise is averaged
