@@ -31,6 +31,7 @@ from pipeline.sim.motion import simulate_user  # noqa: E402
 from pipeline.sim.script import MotionScript, Segment  # noqa: E402
 
 FPS = 30.0
+STAND_S = 3.0  # each acquisition: this long standing
 WARM_S = 0.7
 
 
@@ -47,12 +48,12 @@ def main() -> int:
         print(f"error: --json {args.json}: no folder {args.json.parent} to write it in", file=sys.stderr)
         return 2
     recognizer = ActionRecognizer.from_config(RecognizerConfig())
-    moving = early = frames = 0
+    moving = early = frames = total = 0
     for n in range(args.sequences):
         seed = args.seed + n
         rng = np.random.default_rng(seed)
         script = MotionScript(
-            (Segment("still", 3.0, gestures=()),),
+            (Segment("still", STAND_S, gestures=()),),
             start_xy_m=(0.2, -0.1),
             start_yaw_deg=float(rng.uniform(-90.0, 90.0)),
         )
@@ -63,6 +64,7 @@ def main() -> int:
         moving += bool(called)
         early += bool(called) and called[0] < WARM_S * FPS
         frames += len(called)
+        total += len(labels)
     result = {
         "sequences": args.sequences,
         "seed": args.seed,
@@ -70,12 +72,12 @@ def main() -> int:
         "moving_within_warmup": early,
         "warmup_s": WARM_S,
         "moving_frames": frames,
-        "frames": args.sequences * int(3.0 * FPS),
+        "frames": total,
     }
     last = args.seed + args.sequences - 1
     print(
-        f"standing acquisitions: {args.sequences} x 3 s (seeds {args.seed}..{last}): {moving} called "
-        f"moving, {early} within the first {WARM_S} s, {frames} moving frames of {result['frames']}"
+        f"standing acquisitions: {args.sequences} x {STAND_S:g} s (seeds {args.seed}..{last}): "
+        f"{moving} called moving, {early} within the first {WARM_S} s, {frames} moving frames of {total}"
     )
     if args.json is not None:
         args.json.write_text(json.dumps(result, indent=2) + "\n")

@@ -221,11 +221,12 @@ def ema(
 _BRIDGE_OUTLIER_M = 0.1  # a joint this far off both its previous point and their path is an outlier
 
 
-def _without_outliers(last: NDArray[np.float64], recent: deque[NDArray[np.float64]]) -> NDArray[np.float64]:
-    """``last`` (the newest of ``recent``, the last three frames with data) with each joint that lies
-    more than ``_BRIDGE_OUTLIER_M`` both from its previous point and from where its two previous
-    points were heading (a moving foot is where it was heading; an outlier is off its path) put
-    back at its previous point."""
+def _without_outliers(recent: deque[NDArray[np.float64]]) -> NDArray[np.float64]:
+    """The newest of ``recent`` (the last three frames with data) with each joint that lies more than
+    ``_BRIDGE_OUTLIER_M`` both from its previous point and from where its two previous points were
+    heading (a moving foot is where it was heading; an outlier is off its path) put back at its
+    previous point."""
+    last = recent[-1]
     if len(recent) < 3:
         return last
     before, prev = recent[0], recent[1]
@@ -363,7 +364,6 @@ class ActionRecognizer:
         self._evidence.clear()
         self._yaw.reset()
         self._last_t: float | None = None
-        self._last_j: NDArray[np.float64] | None = None
         # model frame n is taken at tick0 + n / fps; the tracker, filter and gate count time from
         # tick0 (n / fps exactly, as in the replay of a recorded sequence: no summed drift, and
         # durations that are whole frames compare the same way on any clock)
@@ -436,7 +436,7 @@ class ActionRecognizer:
         self._warned_no_data = False
 
         ticks = 0
-        if self._last_t is None or self._last_j is None:
+        if self._last_t is None or not self._recent:
             self._tick0, self._ticks = t, 1
             self._add_frame(j, 0.0)
             ticks = 1
@@ -446,7 +446,7 @@ class ActionRecognizer:
             # joint that frame put far off its path starts from its previous point: a single-frame
             # outlier just before the stretch would otherwise become a smooth move the step tracker
             # takes for a step
-            start = _without_outliers(self._last_j, self._recent) if self._gap else self._last_j
+            start = _without_outliers(self._recent) if self._gap else self._recent[-1]
             while (tick := self._tick0 + self._ticks * self._dt) <= t + 1e-9:
                 w = (tick - self._last_t) / span
                 # the clock of every model frame is k / fps, as training and the replay
@@ -456,7 +456,7 @@ class ActionRecognizer:
                 self._add_frame(frame, self._ticks / self.info.fps)
                 self._ticks += 1
                 ticks += 1
-        self._last_t, self._last_j = t, j
+        self._last_t = t
         self._recent.append(j)
         self._gap = False
         self._yaw.update(raw_yaw_deg(j), t)
