@@ -44,6 +44,9 @@ def main() -> int:
     if args.sequences < 1:
         print("error: --sequences must be at least 1", file=sys.stderr)
         return 2
+    if args.seed < 0:
+        print(f"error: --seed must be >= 0, got {args.seed}", file=sys.stderr)
+        return 2
     if args.json is not None and not args.json.parent.is_dir():
         print(f"error: --json {args.json}: no folder {args.json.parent} to write it in", file=sys.stderr)
         return 2
