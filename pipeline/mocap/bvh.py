@@ -1,0 +1,286 @@
+"""Biovision Hierarchy (BVH) motion capture to COCO-17.
+
+A BVH file has a ``HIERARCHY`` (``ROOT`` / ``JOINT`` blocks, each with its ``OFFSET`` from the
+parent's origin and its ``CHANNELS``; ``End Site`` blocks close a chain) and a ``MOTION`` section
+(``Frames:``, ``Frame Time:``, then one line of channel values per frame, in the order the channels
+were declared). Forward kinematics (the format's convention): a joint's local rotation is the
+product of its rotation channels in the order they are listed (``Zrotation Xrotation Yrotation``
+is Rz Rx Ry, degrees); its world rotation W = W_parent R; its origin = the parent's origin +
+W_parent (offset + its position channels, where it has them).
+
+Files do not agree on units or axes, so :func:`to_cave` reads both from the body itself: up is the
+axis along which the head stands above the feet at rest, forward is where the toes point from the
+ankles, and the scale makes the body ``height_m`` tall (the distance from the soles to the top of
+the head at rest). The person's left must then lie to the left of forward: a file whose left
+joints come out on the right is mirrored and refused.
+
+Joint mapping (by name; two naming schemes: the Mixamo-style ``LeftArm`` / ``LeftForeArm`` /
+``LeftHand`` / ``LeftUpLeg`` / ``LeftLeg`` / ``LeftFoot`` / ``LeftToeBase`` and the CMU-converted
+``LeftShoulder`` / ``LeftElbow`` / ``LeftWrist`` / ``LeftHip`` / ``LeftKnee`` / ``LeftAnkle`` /
+``LeftToe``): each COCO joint is the origin of that BVH joint. Face: the ``Head`` joint's origin to
+its end (its End Site, or its child) is the head bone; with H its midpoint, f forward (the body's
+forward turned with the head), s the head's left and u up the bone: nose = H + 0.095 f - 0.01 u,
+eyes = H + 0.08 f + 0.03 u +- 0.032 s, ears = H +- 0.075 s (the face rule of
+:mod:`pipeline.mocap.acclaim`). Foot points for the floor: the ankles and the toes.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from pipeline.errors import InputError
+from pipeline.mocap.kinematics import F64
+from pipeline.skeleton import NUM_JOINTS, J
+
+NAMES = {  # COCO joint -> the BVH joint names that may stand for it (first match wins)
+    "l_shoulder": ("LeftArm", "LeftShoulder"),
+    "r_shoulder": ("RightArm", "RightShoulder"),
+    "l_elbow": ("LeftForeArm", "LeftElbow"),
+    "r_elbow": ("RightForeArm", "RightElbow"),
+    "l_wrist": ("LeftHand", "LeftWrist"),
+    "r_wrist": ("RightHand", "RightWrist"),
+    "l_hip": ("LeftUpLeg", "LeftHip"),
+    "r_hip": ("RightUpLeg", "RightHip"),
+    "l_knee": ("LeftLeg", "LeftKnee"),
+    "r_knee": ("RightLeg", "RightKnee"),
+    "l_ankle": ("LeftFoot", "LeftAnkle"),
+    "r_ankle": ("RightFoot", "RightAnkle"),
+}
+TOES = (("LeftToeBase", "LeftToe"), ("RightToeBase", "RightToe"))
+FACE = {  # (forward, up, left) offsets from the head bone's midpoint, metres
+    "nose": (0.095, -0.010, 0.0),
+    "l_eye": (0.080, 0.030, 0.032),
+    "r_eye": (0.080, 0.030, -0.032),
+    "l_ear": (0.0, 0.0, 0.075),
+    "r_ear": (0.0, 0.0, -0.075),
+}
+_CHANNELS = ("Xposition", "Yposition", "Zposition", "Xrotation", "Yrotation", "Zrotation")
+
+
+@dataclass(frozen=True, slots=True)
+class Joint:
+    """One joint of the hierarchy: its parent (index, -1 for the root), offset and channels."""
+
+    name: str
+    parent: int
+    offset: tuple[float, float, float]
+    channels: tuple[str, ...]
+    end: tuple[float, float, float] | None = None  # its End Site's offset, if it has one
+
+
+@dataclass(frozen=True, slots=True)
+class Bvh:
+    """A parsed BVH file: its joints (parents before children), frame time and channel values."""
+
+    joints: tuple[Joint, ...]
+    frame_time_s: float
+    values: F64  # (T, channels)
+
+    def index(self, *names: str) -> int | None:
+        """The index of the first joint named one of ``names`` (None if none is there)."""
+        for n in names:
+            for i, j in enumerate(self.joints):
+                if j.name == n:
+                    return i
+        return None
+
+
+def parse_bvh(text: str, name: str = "bvh") -> Bvh:
+    """Parse a BVH file; :class:`InputError` (naming ``name``) when it is not one."""
+    head, sep, motion = text.partition("MOTION")
+    if not sep or "HIERARCHY" not in head:
+        raise InputError(f"{name}: not a BVH file (no HIERARCHY and MOTION sections)")
+    tokens = head.split("HIERARCHY", 1)[1].split()
+    joints: list[Joint] = []
+    stack: list[int] = []  # the open blocks: joint indices, -2 for an End Site
+    name_next: str | None = None  # the joint whose block opens next (None: an End Site's)
+    i = 0
+    try:
+        while i < len(tokens):
+            tok = tokens[i]
+            if tok in ("ROOT", "JOINT"):
+                name_next = tokens[i + 1]
+                i += 2
+            elif tok == "End":  # End Site
+                name_next = None
+                i += 2
+            elif tok == "{":
+                if name_next is None:
+                    stack.append(-2)
+                else:
+                    joints.append(Joint(name_next, stack[-1] if stack else -1, (0.0, 0.0, 0.0), ()))
+                    stack.append(len(joints) - 1)
+                i += 1
+            elif tok == "}":
+                stack.pop()
+                i += 1
+            elif tok == "OFFSET":
+                off = (float(tokens[i + 1]), float(tokens[i + 2]), float(tokens[i + 3]))
+                top = stack[-1]
+                if top == -2:  # an End Site: the end of the joint that holds it
+                    owner = stack[-2]
+                    joints[owner] = _with(joints[owner], end=off)
+                else:
+                    joints[top] = _with(joints[top], offset=off)
+                i += 4
+            elif tok == "CHANNELS":
+                n = int(tokens[i + 1])
+                chans = tuple(tokens[i + 2 : i + 2 + n])
+                bad = [c for c in chans if c not in _CHANNELS]
+                if bad:
+                    raise InputError(f"{name}: unknown channels {bad}")
+                joints[stack[-1]] = _with(joints[stack[-1]], channels=chans)
+                i += 2 + n
+            else:
+                raise InputError(f"{name}: unexpected {tok!r} in the hierarchy")
+    except (IndexError, ValueError) as exc:
+        raise InputError(f"{name}: malformed hierarchy ({exc})") from exc
+    if not joints or stack:
+        raise InputError(f"{name}: the hierarchy has no joints or unbalanced braces")
+    frames = re.search(r"Frames:\s*(\d+)", motion)
+    ftime = re.search(r"Frame Time:\s*([0-9.eE+-]+)", motion)
+    if frames is None or ftime is None:
+        raise InputError(f"{name}: MOTION lacks Frames: or Frame Time:")
+    body = motion[ftime.end() :].split()
+    width = sum(len(j.channels) for j in joints)
+    n = int(frames.group(1))
+    try:
+        values = np.asarray(body, dtype=np.float64)
+    except ValueError as exc:
+        raise InputError(f"{name}: non-numeric motion values ({exc})") from exc
+    if n < 2 or values.size < n * width:
+        raise InputError(f"{name}: {values.size} motion values for {n} frames of {width} channels")
+    dt = float(ftime.group(1))
+    if not dt > 0:
+        raise InputError(f"{name}: Frame Time must be positive, got {dt}")
+    return Bvh(tuple(joints), dt, values[: n * width].reshape(n, width))
+
+
+def _with(j: Joint, **changes: object) -> Joint:
+    return replace(j, **changes)  # type: ignore[arg-type]
+
+
+def _rot(axis: str, deg: F64) -> F64:
+    """(T, 3, 3) rotations about ``axis`` (x, y or z) by ``deg`` degrees."""
+    a = np.radians(deg)
+    c, s = np.cos(a), np.sin(a)
+    o, z = np.ones_like(a), np.zeros_like(a)
+    if axis == "x":
+        m = [[o, z, z], [z, c, -s], [z, s, c]]
+    elif axis == "y":
+        m = [[c, z, s], [z, o, z], [-s, z, c]]
+    else:
+        m = [[c, -s, z], [s, c, z], [z, z, o]]
+    return np.moveaxis(np.asarray(m, dtype=np.float64), (0, 1), (-2, -1))
+
+
+def world(bvh: Bvh) -> tuple[F64, F64, F64]:
+    """Each joint's world origin (T, N, 3), rotation (T, N, 3, 3) and end (T, N, 3: its End Site,
+    or its first child's origin; its origin if it has neither), in the file's axes and units."""
+    t = len(bvh.values)
+    n = len(bvh.joints)
+    origin = np.zeros((t, n, 3))
+    rot = np.zeros((t, n, 3, 3))
+    col = 0
+    for k, j in enumerate(bvh.joints):
+        local = np.broadcast_to(np.eye(3), (t, 3, 3)).copy()
+        shift = np.broadcast_to(np.asarray(j.offset), (t, 3)).copy()
+        for c in j.channels:
+            v = bvh.values[:, col]
+            col += 1
+            axis = c[0].lower()
+            if c.endswith("position"):
+                shift[:, "xyz".index(axis)] += v
+            else:
+                local = local @ _rot(axis, v)
+        if j.parent < 0:
+            origin[:, k], rot[:, k] = shift, local
+        else:
+            origin[:, k] = origin[:, j.parent] + np.einsum("tij,tj->ti", rot[:, j.parent], shift)
+            rot[:, k] = rot[:, j.parent] @ local
+    end = origin.copy()
+    for k, j in enumerate(bvh.joints):
+        if j.end is not None:
+            end[:, k] = origin[:, k] + np.einsum("tij,j->ti", rot[:, k], np.asarray(j.end))
+        else:
+            child = next((c for c, cj in enumerate(bvh.joints) if cj.parent == k), None)
+            if child is not None:
+                end[:, k] = origin[:, child]
+    return origin, rot, end
+
+
+@dataclass(frozen=True, slots=True)
+class Posed:
+    """COCO-17 joints (T, 17, 3), foot points (T, 4, 3) and pelvis (T, 3), CAVE axes, metres."""
+
+    joints: F64
+    foot_points: F64
+    pelvis: F64
+
+
+def _need(bvh: Bvh, names: tuple[str, ...], name: str) -> int:
+    k = bvh.index(*names)
+    if k is None:
+        raise InputError(f"{name}: no joint named {' or '.join(names)}")
+    return k
+
+
+def to_cave(bvh: Bvh, height_m: float, name: str = "bvh") -> Posed:
+    """The clip's COCO-17 joints in CAVE axes (X right, Y forward, Z up) and metres, the body
+    ``height_m`` tall (see the module docstring)."""
+    if not 0.5 < height_m < 2.5:
+        raise InputError(f"{name}: height_m must be in (0.5, 2.5) m, got {height_m}")
+    origin, rot, end = world(bvh)
+    idx = {coco: _need(bvh, names, name) for coco, names in NAMES.items()}
+    head = _need(bvh, ("Head",), name)
+    toes = [_need(bvh, names, name) for names in TOES]
+    ankles = [idx["l_ankle"], idx["r_ankle"]]
+    top = end[:, head]
+    feet_mid = origin[:, ankles + toes].mean(axis=1)
+    up_vec = np.median(top - feet_mid, axis=0)
+    up_axis = int(np.argmax(np.abs(up_vec)))
+    up = np.zeros(3)
+    up[up_axis] = np.sign(up_vec[up_axis])
+    # forward: where the toes point from the ankles, in the frame where they point most alike (a yaw
+    # of the whole clip does not matter: the recogniser reads the body's own facing)
+    toe_dir = (origin[:, toes] - origin[:, ankles]).mean(axis=1)
+    toe_dir -= np.outer(toe_dir @ up, up)
+    fwd = toe_dir[int(np.argmax(np.linalg.norm(toe_dir, axis=1)))]
+    if np.linalg.norm(fwd) < 1e-9:
+        raise InputError(f"{name}: the toes do not point anywhere (cannot tell forward)")
+    fwd = fwd / np.linalg.norm(fwd)
+    left = np.cross(up, fwd)  # in a right-handed frame, up x forward points to the person's left
+    per_frame_left = np.cross(up, toe_dir)
+    side = np.median(np.einsum("ti,ti->t", origin[:, idx["l_hip"]] - origin[:, idx["r_hip"]], per_frame_left))
+    if side <= 0:
+        raise InputError(f"{name}: the left hip lies to the right of forward (a mirrored file)")
+    # rows: CAVE X (right) = -left, Y = forward, Z = up
+    to_cave_m = np.stack([-left, fwd, up])
+    # standing height: the head's top above the lowest foot point, at the clip's tallest (95th
+    # percentile); the soles lie about 4 % of the height below the ankles
+    lowest = np.min(origin[:, ankles + toes] @ up, axis=1)
+    height_units = float(np.percentile(top @ up - lowest, 95)) / 0.96
+    if not height_units > 0:
+        raise InputError(f"{name}: the head is not above the feet")
+    scale = height_m / height_units
+    pts = origin @ to_cave_m.T * scale
+    out = np.full((len(origin), NUM_JOINTS, 3), np.nan)
+    for coco, k in idx.items():
+        out[:, J[coco]] = pts[:, k]
+    h0 = origin[:, head] @ to_cave_m.T * scale
+    h1 = end[:, head] @ to_cave_m.T * scale
+    mid = 0.5 * (h0 + h1)
+    u = h1 - h0
+    u /= np.maximum(np.linalg.norm(u, axis=-1, keepdims=True), 1e-9)
+    # the head's own frame: the rest forward / left turned with the head's world rotation
+    r_head = np.einsum("ij,tjk,kl->til", to_cave_m, rot[:, head] @ np.linalg.inv(rot[0, head]), to_cave_m.T)
+    f = np.einsum("tij,j->ti", r_head, np.array([0.0, 1.0, 0.0]))
+    s = np.einsum("tij,j->ti", r_head, np.array([-1.0, 0.0, 0.0]))
+    for coco, (df, du, ds) in FACE.items():
+        out[:, J[coco]] = mid + df * f + du * u + ds * s
+    feet = pts[:, ankles + toes]
+    pelvis = 0.5 * (out[:, J["l_hip"]] + out[:, J["r_hip"]])
+    return Posed(out, feet, pelvis)

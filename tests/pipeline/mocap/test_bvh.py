@@ -1,0 +1,175 @@
+"""The BVH reader (pipeline.mocap.bvh) on small files written here, whose joint positions follow
+from the format's rules by hand, and on the committed real clips (facebookresearch/AnimatedDrawings)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pipeline.errors import InputError
+from pipeline.mocap import bvh
+from pipeline.mocap.fetch import PACKAGES, convert_bvh, load_catalogue, vendored_members
+from pipeline.skeleton import J
+
+# A humanoid in the Mixamo convention: +Y up, facing +Z, the person's left at +X; centimetres.
+# Hips 85 above the floor, ankles 5, toes at the floor 12 ahead, the head's top at 159.
+LEG = """JOINT {side}UpLeg
+{{
+OFFSET {x} 0 0
+CHANNELS 3 Zrotation Xrotation Yrotation
+JOINT {side}Leg
+{{
+OFFSET 0 -40 0
+CHANNELS 3 Zrotation Xrotation Yrotation
+JOINT {side}Foot
+{{
+OFFSET 0 -40 0
+CHANNELS 3 Zrotation Xrotation Yrotation
+JOINT {side}ToeBase
+{{
+OFFSET 0 -5 12
+CHANNELS 3 Zrotation Xrotation Yrotation
+End Site
+{{
+OFFSET 0 0 4
+}}
+}}
+}}
+}}
+}}
+"""
+ARM = """JOINT {side}Arm
+{{
+OFFSET {x} 35 0
+CHANNELS 3 Zrotation Xrotation Yrotation
+JOINT {side}ForeArm
+{{
+OFFSET {x2} 0 0
+CHANNELS 3 Zrotation Xrotation Yrotation
+JOINT {side}Hand
+{{
+OFFSET {x2} 0 0
+CHANNELS 3 Zrotation Xrotation Yrotation
+End Site
+{{
+OFFSET 5 0 0
+}}
+}}
+}}
+}}
+"""
+CHANNELS_PER_FRAME = 6 + 3 * (4 + 4 + 1 + 1 + 1 + 3 + 3)
+
+
+def humanoid(frames: list[list[float]], mirror: bool = False) -> str:
+    """The humanoid BVH with ``frames`` (each CHANNELS_PER_FRAME values; zeros = standing at rest);
+    ``mirror``: the left joints at -X (a mirrored file)."""
+    s = -1 if mirror else 1
+    legs = LEG.format(side="Left", x=10 * s) + LEG.format(side="Right", x=-10 * s)
+    arms = ARM.format(side="Left", x=18 * s, x2=26 * s) + ARM.format(side="Right", x=-18 * s, x2=-26 * s)
+    spine = (
+        "JOINT Spine\n{\nOFFSET 0 10 0\nCHANNELS 3 Zrotation Xrotation Yrotation\n"
+        "JOINT Neck\n{\nOFFSET 0 40 0\nCHANNELS 3 Zrotation Xrotation Yrotation\n"
+        "JOINT Head\n{\nOFFSET 0 8 0\nCHANNELS 3 Zrotation Xrotation Yrotation\n"
+        "End Site\n{\nOFFSET 0 16 0\n}\n}\n}\n" + arms + "}\n"
+    )
+    head = (
+        "HIERARCHY\nROOT Hips\n{\nOFFSET 0 0 0\n"
+        "CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n" + legs + spine + "}\n"
+    )
+    rows = "\n".join(" ".join(f"{v:g}" for v in f) for f in frames)
+    return f"{head}MOTION\nFrames: {len(frames)}\nFrame Time: 0.0333333\n{rows}\n"
+
+
+def rest(**channels: float) -> list[float]:
+    """One frame standing at rest (hips 85 up), with some channels set: ``name_axis=deg``."""
+    f = [0.0] * CHANNELS_PER_FRAME
+    f[1] = 85.0
+    parsed = bvh.parse_bvh(humanoid([f, f]))
+    col = 0
+    where: dict[str, int] = {}
+    for j in parsed.joints:
+        for c in j.channels:
+            where[f"{j.name}_{c[0].lower()}{'pos' if c.endswith('position') else ''}"] = col
+            col += 1
+    for key, value in channels.items():
+        f[where[key]] = value
+    return f
+
+
+def test_forward_kinematics_follows_the_channel_order() -> None:
+    """Channels ``Zrotation Xrotation Yrotation`` make R = Rz Rx Ry: with Z = X = 90 deg the thigh
+    (0, -40, 0) turns to (0, 0, -40); the other order, Rx Rz, would give (40, 0, 0)."""
+    clip = bvh.parse_bvh(humanoid([rest(), rest(LeftUpLeg_z=90.0, LeftUpLeg_x=90.0)]))
+    origin, _, end = bvh.world(clip)
+    hip, knee = clip.index("LeftUpLeg"), clip.index("LeftLeg")
+    assert hip is not None and knee is not None
+    np.testing.assert_allclose(origin[0, hip], [10, 85, 0], atol=1e-9)
+    np.testing.assert_allclose(origin[0, knee], [10, 45, 0], atol=1e-9)
+    np.testing.assert_allclose(origin[1, knee] - origin[1, hip], [0, 0, -40], atol=1e-9)
+    head = clip.index("Head")
+    assert head is not None
+    np.testing.assert_allclose(end[0, head], [0, 159, 0], atol=1e-9)  # the End Site
+    # the root's rotation turns everything below it: Ry(90) takes the left hip (10, 0, 0) to (0, 0, -10)
+    turned = bvh.world(bvh.parse_bvh(humanoid([rest(), rest(Hips_y=90.0)])))[0]
+    np.testing.assert_allclose(turned[1, hip], [0, 85, -10], atol=1e-9)
+
+
+def test_to_cave_finds_up_forward_left_and_the_scale() -> None:
+    clip = bvh.parse_bvh(humanoid([rest(), rest(Hips_xpos=30.0)]))
+    posed = bvh.to_cave(clip, 1.70, "synthetic")
+    scale = 1.70 * 0.96 / 159.0  # the head's top 159 above the toes, the soles 4 % of the height lower
+    j = posed.joints[0]
+    np.testing.assert_allclose(j[J["l_hip"]], [-10 * scale, 0, 85 * scale], atol=1e-9)  # left = -X
+    np.testing.assert_allclose(j[J["r_ankle"]], [10 * scale, 0, 5 * scale], atol=1e-9)
+    np.testing.assert_allclose(j[J["l_wrist"]], [-70 * scale, 0, 130 * scale], atol=1e-9)
+    assert j[J["nose"], 1] > 0 and j[J["nose"], 2] > j[J["l_shoulder"], 2]  # the face forward, above
+    assert j[J["l_eye"], 0] < j[J["r_eye"], 0] and j[J["l_ear"], 0] < j[J["r_ear"], 0]
+    # the file's +X (the person's left) is CAVE -X: moving the hips 30 to +X moves them 30 to the left
+    np.testing.assert_allclose(posed.pelvis[1] - posed.pelvis[0], [-30 * scale, 0, 0], atol=1e-9)
+    assert posed.foot_points.shape == (2, 4, 3)
+
+
+def test_bad_bvh_input_is_one_clear_error() -> None:
+    good = humanoid([rest(), rest()])
+    with pytest.raises(InputError, match="not a BVH file"):
+        bvh.parse_bvh("hello", "x.bvh")
+    with pytest.raises(InputError, match="motion values"):
+        bvh.parse_bvh(good.rsplit("\n", 2)[0], "x.bvh")  # the last frame cut off
+    with pytest.raises(InputError, match="unknown channels"):
+        bvh.parse_bvh(good.replace("Zrotation Xrotation Yrotation", "Zrotation Xrotation Wrotation", 1))
+    with pytest.raises(InputError, match="mirrored"):
+        bvh.to_cave(bvh.parse_bvh(humanoid([rest(), rest()], mirror=True)), 1.70)
+    no_head = bvh.parse_bvh(good.replace("JOINT Head", "JOINT Skull"))
+    with pytest.raises(InputError, match="no joint named Head"):
+        bvh.to_cave(no_head, 1.70)
+    with pytest.raises(InputError, match="height_m"):
+        bvh.to_cave(bvh.parse_bvh(good), 3.0)
+
+
+def test_the_committed_real_clips_convert_to_standing_people() -> None:
+    """Each of AnimatedDrawings' clips (two skeletons, +Z up and +Y up) becomes a 1.70 m person on
+    the floor, upright, left on the left; the wave keeps both feet planted; the zombie walk goes
+    7 m and labels its steps forward."""
+    specs = {c.id: c for c in load_catalogue() if c.package == "animated-drawings"}
+    assert set(specs) == {"ad-wave-hello", "ad-dab", "ad-jumping", "ad-zombie", "ad-cmu-jumping-jacks"}
+    files = vendored_members(PACKAGES["animated-drawings"], sorted(c.path for c in specs.values()))
+    for spec in specs.values():
+        seq = convert_bvh(files[spec.path].decode("latin-1"), spec)
+        j = seq.joints_m
+        assert seq.fps == 30.0 and np.isfinite(j).all()
+        assert 1.55 < np.percentile(j[:, J["nose"], 2], 90) < 1.70, spec.id
+        ankles = j[:, [J["l_ankle"], J["r_ankle"]], 2]
+        assert 0.03 < np.percentile(ankles, 5) < 0.12, spec.id
+        # the person's left hip lies to the left of where the toes point
+        across = j[:, J["l_hip"], :2] - j[:, J["r_hip"], :2]
+        facing = j[:, J["nose"], :2] - 0.5 * (j[:, J["l_ear"], :2] + j[:, J["r_ear"], :2])
+        cross = facing[:, 0] * across[:, 1] - facing[:, 1] * across[:, 0]
+        assert np.median(cross) > 0, spec.id  # CAVE: the left of forward turns counter-clockwise
+        if spec.id == "ad-wave-hello":
+            assert set(seq.labels or ()) == {"still"} and np.ptp(ankles) < 0.02
+        if spec.id == "ad-zombie":
+            travel = np.ptp(0.5 * (j[:, J["l_hip"], :2] + j[:, J["r_hip"], :2]), axis=0).max()
+            labels = np.asarray(seq.labels)
+            assert 6.5 < travel < 7.5 and 0.6 < np.mean(labels == "forward") < 0.9
+            assert "turn" in (seq.tags or ())
