@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pipeline.errors import InputError
-from pipeline.mocap.kinematics import F64
+from pipeline.mocap.kinematics import F64, axis_rotations
 from pipeline.skeleton import NUM_JOINTS, J
 
 SRC_TO_CAVE: F64 = np.array([[-1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 1.0, 0.0]])
@@ -63,25 +63,13 @@ FACE = {  # (forward, up, left) offsets from the head bone's midpoint, metres
 }
 
 
-def _rot(axis: str, deg: F64) -> F64:
-    """(T, 3, 3) rotations about one of x, y, z by ``deg`` (T,) degrees."""
-    a = np.radians(np.asarray(deg, dtype=np.float64))
-    c, s = np.cos(a), np.sin(a)
-    o, z = np.ones_like(a), np.zeros_like(a)
-    if axis == "x":
-        m = [[o, z, z], [z, c, -s], [z, s, c]]
-    elif axis == "y":
-        m = [[c, z, s], [z, o, z], [-s, z, c]]
-    else:
-        m = [[c, -s, z], [s, c, z], [z, z, o]]
-    return np.moveaxis(np.array(m), (0, 1), (-2, -1))
-
-
 def _euler(values: dict[str, F64], n: int) -> F64:
     """Rz Ry Rx of the given per-axis degrees (missing axes 0): (T, 3, 3)."""
     zero = np.zeros(n)
     return (
-        _rot("z", values.get("z", zero)) @ _rot("y", values.get("y", zero)) @ _rot("x", values.get("x", zero))
+        axis_rotations("z", values.get("z", zero))
+        @ axis_rotations("y", values.get("y", zero))
+        @ axis_rotations("x", values.get("x", zero))
     )
 
 
@@ -229,7 +217,7 @@ def _axis_matrix(angles: tuple[float, float, float], order: str) -> F64:
     vals = {ax: np.array([a]) for ax, a in zip("xyz", angles, strict=True)}
     m = np.eye(3)
     for ax in order:  # the ASF's axis order: rotations applied in that order (first = innermost)
-        m = _rot(ax, vals[ax])[0] @ m
+        m = axis_rotations(ax, vals[ax])[0] @ m
     return m
 
 

