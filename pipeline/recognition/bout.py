@@ -157,6 +157,13 @@ class GateConfig:
     # stance foot rolling over (on tiptoes both feet rise together)
     rise_wait_s: float = 0.2
     rise_lead_m: float = 0.03
+    # a foot swinging while the other is up too is a run's step only if the other lifted well before
+    # this one, and either at most run_swing_s ago or with the full-body network's p(still) at most
+    # run_still_prob: a runner's feet overlap in the air briefly, or the network sees the run (a
+    # landing the tracker missed); feet both off contact longer, the network unsure, slide or shuffle
+    # (dance footwork) and neither carries the body (run_still_prob 1: no limit)
+    run_swing_s: float = 0.6
+    run_still_prob: float = 0.05
     side_switch_steps: int = 2  # opening steps to the other side in a row that turn a side-step bout
     travel_steps: int = 2  # ... or one, after this many opening steps the same way in a row (travel)
     march_confirm_s: float = 0.2  # a side-step bout turns forward once a foot has risen this long without
@@ -258,6 +265,7 @@ class GateConfig:
             "late_still_prob",
             "march_sure_prob",
             "march_surest_prob",
+            "run_still_prob",
         ):
             v = getattr(self, name)
             if not 0 <= v <= 1:
@@ -292,7 +300,8 @@ class GateConfig:
                 f"min_allowance_s ({self.min_allowance_s}) must not exceed "
                 f"max_allowance_s ({self.max_allowance_s})"
             )
-        for name in ("slide_step_m", "way_back_m", "start_quiet_deg", "rise_wait_s", "jump_air_s"):
+        names = ("slide_step_m", "way_back_m", "start_quiet_deg", "rise_wait_s", "jump_air_s", "run_swing_s")
+        for name in names:
             if not getattr(self, name) >= 0:
                 raise ValueError(f"{name} must be >= 0 (inf: never), got {getattr(self, name)}")
         if not (self.start_turn_deg > 0 and self.start_travel_m >= 0):
@@ -425,11 +434,12 @@ class BoutGate:
         self._unsure_start = math.nan  # lift-off of a bout's first step, started sideways on the network's
         # word before the step showed which way it goes
 
-    def _stance_ok(self, frame: StepFrame, k: int) -> bool:
+    def _stance_ok(self, frame: StepFrame, k: int, p_still: float) -> bool:
         """The other foot carries the body (planted and not taking off too: no jump, though a foot
         still planted ``rise_wait_s`` after this one lifted and ``rise_lead_m`` below it is a stance
         foot rolling over, not a jump's), or it has been swinging since well before this one lifted
-        (running)."""
+        (running: for at most ``run_swing_s``, unless the full-body network's ``p_still`` is at most
+        ``run_still_prob``)."""
         c, other = self.config, frame.feet[1 - k]
         if not other.known:
             return False
@@ -439,7 +449,9 @@ class BoutGate:
             # still planted rise_wait_s after this foot lifted and well below it: rolling over
             lead = frame.feet[k].height_m - other.height_m  # NaN (unknown) compares False
             return frame.t - self._swing_lift[k] >= c.rise_wait_s and lead >= c.rise_lead_m
-        return self._swing_lift[1 - k] < self._swing_lift[k] - 0.1
+        other_lift = self._swing_lift[1 - k]  # NaN (no swing seen) compares False
+        run = frame.t - other_lift <= c.run_swing_s or p_still <= c.run_still_prob
+        return other_lift < self._swing_lift[k] - 0.1 and run
 
     def _jump(self, frame: StepFrame, k: int) -> bool:
         """Foot ``k``'s swing is part of a jump: the tracker says both feet took off together, and it
@@ -663,6 +675,7 @@ class BoutGate:
         (``start_probs``: the legs-only start head's, when the model has one)."""
         c = self.config
         p = np.asarray(probs, dtype=np.float64)
+        p_full_still = float(p[_STILL])  # the full-body network's, whichever judge speaks below
         if self._by_head and 1.0 - p[_STILL] >= c.start_prob:
             self._by_head = False  # the full-body network is sure of the bout now
         if frame.crouched:
@@ -732,7 +745,7 @@ class BoutGate:
         max_turn = c.max_turn_deg * (1.0 if in_place else 2.0)
         stepping = [
             k for k in swings
-            if t - self._swing_lift[k] >= c.confirm_s and self._stance_ok(frame, k)
+            if t - self._swing_lift[k] >= c.confirm_s and self._stance_ok(frame, k, p_full_still)
             and abs(turn[k]) <= max_turn
         ]  # fmt: skip
         pivot = any(abs(turn[k]) > max_turn for k in swings)

@@ -218,6 +218,11 @@ def test_choose_direction_and_config_checks() -> None:
         with pytest.raises(ValueError, match="way_back_m must be >= 0"):
             GateConfig(way_back_m=bad)
     assert GateConfig(way_back_m=float("inf")).way_back_m == float("inf")  # inf: the rule off
+    with pytest.raises(ValueError, match="run_swing_s"):
+        GateConfig(run_swing_s=-0.1)
+    with pytest.raises(ValueError, match="run_still_prob"):
+        GateConfig(run_still_prob=1.2)
+    assert GateConfig(run_swing_s=float("inf")).run_swing_s == float("inf")  # inf: no limit
 
 
 def test_a_foot_still_up_long_after_the_other_landed_is_a_step_not_a_jump() -> None:
