@@ -6,16 +6,18 @@ What a user expects (MODEL_CARD.md, "Behaviour"):
   (:mod:`pipeline.recognition.steps`): one foot lifting or sliding for ``confirm_s`` while the
   other carries the body (planted and not rising with it: not a jump, unless it is still down
   ``rise_wait_s`` after the lift and ``rise_lead_m`` lower: a walker's stance foot rolling over; or
-  swinging since well before: running), while the body is not crouched and not turning on the
-  spot (``start_turn_deg`` within ``turn_window_s`` while the foot has moved less than
-  ``start_travel_m`` forward or back), and the network agreeing that it is movement (its smoothed
-  probability of moving at least ``start_prob`` at some moment of that swing). Both feet planted,
-  whatever the knees, hips and upper body do, is ``still``. Stepping the network does not know:
-  ``rhythm_steps`` alternating steps in place in a row (none turning the body ``rhythm_turn_deg``,
-  lift-offs within ``rhythm_gap_s``) start a bout without the network (reason ``rhythm``); it
-  ignores the network's stops and ends when the next lift-off is later than the person's median
-  rhythm allows, until the network is sure of one of its steps; after a bout the network ended, the
-  rule waits for a new run of steps.
+  swinging since well before: running, if it lifted at most ``run_swing_s`` before or the
+  full-body network's p(still) is at most ``run_still_prob``; feet both off contact for longer while
+  the network is unsure slide or shuffle, as in dance footwork, and neither carries the body), while
+  the body is not crouched and not turning on the spot (``start_turn_deg`` within ``turn_window_s``
+  while the foot has moved less than ``start_travel_m`` forward or back), and the network agreeing
+  that it is movement (its smoothed probability of moving at least ``start_prob`` at some moment of
+  that swing). Both feet planted, whatever the knees, hips and upper body do, is ``still``. Stepping
+  the network does not know: ``rhythm_steps`` alternating steps in place in a row (none turning the
+  body ``rhythm_turn_deg``, lift-offs within ``rhythm_gap_s``) start a bout without the network
+  (reason ``rhythm``); it ignores the network's stops and ends when the next lift-off is later than
+  the person's median rhythm allows, until the network is sure of one of its steps; after a bout the
+  network ended, the rule waits for a new run of steps.
 - **One command per bout.** Once started, the bout holds through the pauses between its steps:
   after each touch-down the next lift-off is due when the person's own rhythm says (the newest
   lift-off + ``pause_gain`` x the longest, or with ``rhythm="median"`` the median, of their last
