@@ -19,6 +19,7 @@ from __future__ import annotations
 import ctypes
 import json
 import logging
+import math
 import threading
 import time
 from collections import deque
@@ -235,7 +236,9 @@ class VideoWriter:
                     image, t = self._frames.popleft()
                 if out is None:
                     out, stream = self._open(av, image)
-                pts = round(t * 1000)
+                pts = round(t * 1000)  # ms
+                if self.req.duration_s is not None:  # rounding must not carry a frame to the take's end
+                    pts = min(pts, math.ceil(self.req.duration_s * 1000) - 1)
                 if pts <= last_pts:
                     continue
                 last_pts = pts

@@ -87,6 +87,23 @@ def test_a_take_video_holds_the_frames_of_the_take_at_their_times(
     assert abs(light[0] - (16 + 8)) < 6 and abs(light[5] - (16 + 8 * 6)) < 6, "the first frame is the take's"
 
 
+def test_a_frame_just_before_the_takes_end_is_stamped_inside_it(
+    control: VideoControl, tmp_path: Path
+) -> None:
+    """A frame 0.4 ms before the end of a 3 s take is written at 2.999 s, not at 3.000 (rounded to
+    the millisecond it fell on the end, outside the take; a slow host's CI met it)."""
+    counts = [0, 0, 0]
+    req = VideoRequest(str(tmp_path / "cam.mp4"), t0_s=0.0, duration_s=3.0, fps=10.0)
+    writer = VideoWriter(req, "cam", control, counts)
+    for k, t in enumerate((0.0, 1.0, 2.9996, 3.0)):  # the last is after the take: skipped
+        writer.offer(i420(k), t, owned=True)
+    writer.close()
+    writer.thread.join(30)
+    pts, _, _ = read_back(tmp_path / "cam.mp4")
+    assert len(pts) == 3 and all(0 <= t < 3.0 for t in pts), pts
+    assert pts[-1] == pytest.approx(2.999, abs=1e-6)
+
+
 def test_frames_the_encoder_cannot_take_are_dropped_oldest_first_and_counted(
     control: VideoControl, tmp_path: Path
 ) -> None:
