@@ -126,6 +126,8 @@ def parse_bvh(text: str, name: str = "bvh") -> Bvh:
                 bad = [c for c in chans if c not in _CHANNELS]
                 if bad:
                     raise InputError(f"{name}: unknown channels {bad}")
+                if stack[-1] < 0:
+                    raise InputError(f"{name}: CHANNELS inside an End Site")
                 joints[stack[-1]] = _with(joints[stack[-1]], channels=chans)
                 i += 2 + n
             else:
@@ -147,7 +149,10 @@ def parse_bvh(text: str, name: str = "bvh") -> Bvh:
         raise InputError(f"{name}: non-numeric motion values ({exc})") from exc
     if n < 2 or values.size < n * width:
         raise InputError(f"{name}: {values.size} motion values for {n} frames of {width} channels")
-    dt = float(ftime.group(1))
+    try:
+        dt = float(ftime.group(1))
+    except ValueError as exc:
+        raise InputError(f"{name}: Frame Time is not a number ({exc})") from exc
     if not dt > 0:
         raise InputError(f"{name}: Frame Time must be positive, got {dt}")
     return Bvh(tuple(joints), dt, values[: n * width].reshape(n, width))

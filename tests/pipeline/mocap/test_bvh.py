@@ -140,6 +140,11 @@ def test_bad_bvh_input_is_one_clear_error() -> None:
         bvh.parse_bvh(good.replace("Zrotation Xrotation Yrotation", "Zrotation Xrotation Wrotation", 1))
     with pytest.raises(InputError, match="mirrored"):
         bvh.to_cave(bvh.parse_bvh(humanoid([rest(), rest()], mirror=True)), 1.70)
+    with pytest.raises(InputError, match="Frame Time is not a number"):
+        bvh.parse_bvh(good.replace("Frame Time: 0.0333333", "Frame Time: 0.03.3"))
+    site = "End Site\n{\nOFFSET 0 16 0\n"
+    with pytest.raises(InputError, match="CHANNELS inside an End Site"):
+        bvh.parse_bvh(good.replace(site, site + "CHANNELS 1 Xrotation\n"))
     no_head = bvh.parse_bvh(good.replace("JOINT Head", "JOINT Skull"))
     with pytest.raises(InputError, match="no joint named Head"):
         bvh.to_cave(no_head, 1.70)
