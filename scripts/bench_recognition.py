@@ -6,7 +6,10 @@ tracker.
     .venv/bin/python scripts/bench_recognition.py [--frames 3000] [--threads 1] [--no-gate] [--json out.json]
 
 Wall time (perf_counter) and this thread's CPU time (thread_time) are both reported: on a shared,
-loaded machine the wall time includes waiting for a core, the CPU time does not.
+loaded machine the wall time includes waiting for a core, the CPU time does not. ``update_without_model``
+is each ``update()`` less its own model call, timed inside it: on a shared machine the model call's
+time swings between runs (0.5 to 0.9 ms on one host) more than the rest of the work does, so compare
+code changes outside the model on it. The JSON names the CPU (model, family, AVX2 / AVX-512 / VNNI).
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ import platform
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -30,9 +34,45 @@ from pipeline.recognition.features import (  # noqa: E402
     model_input,
     window_features,
 )
-from pipeline.recognition.recognizer import ActionRecognizer, RecognizerConfig  # noqa: E402
+from pipeline.recognition.recognizer import ActionRecognizer, RecognizerConfig, open_session  # noqa: E402
 from pipeline.recognition.steps import StepTracker  # noqa: E402
 from pipeline.recognition.train import NoiseConfig, capture  # noqa: E402
+
+
+class _TimedSession:
+    """An onnxruntime session that keeps the time of its last ``run`` (the model's share of an
+    ``update()``, measured inside the same call: the model's time varies between runs on a shared
+    machine more than the rest of the work does)."""
+
+    def __init__(self, session: Any) -> None:
+        self._session = session
+        self.last_s = 0.0
+
+    def run(self, *args: Any, **kwargs: Any) -> Any:
+        t0 = time.perf_counter()
+        out = self._session.run(*args, **kwargs)
+        self.last_s = time.perf_counter() - t0
+        return out
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._session, name)
+
+
+def _cpu() -> str:
+    """The CPU's name, family / model and vector extensions (Linux), else what platform knows."""
+    try:
+        info = Path("/proc/cpuinfo").read_text().split("\n\n")[0]
+    except OSError:
+        return platform.processor() or platform.machine()
+    fields = dict(line.split(":", 1) for line in info.splitlines() if ":" in line)
+    get = {k.strip(): v.strip() for k, v in fields.items()}.get
+    flags = set((get("flags") or "").split())
+    ext = ", ".join(
+        f"{f} {'yes' if f in flags else 'no'}" for f in ("avx2", "avx512f", "avx512_vnni", "amx_tile")
+    )
+    return (
+        f"{get('model name')}, family {get('cpu family')} model {get('model')}, {ext}, {os.cpu_count()} cores"
+    )
 
 
 def main() -> int:
@@ -55,17 +95,21 @@ def main() -> int:
     joints = capture(motion.joints_m, rng, NoiseConfig(), fps)[: args.frames]
 
     config = RecognizerConfig(model_path=args.model, threads=args.threads, gate=not args.no_gate)
-    rec = ActionRecognizer.from_config(config)
+    timed = _TimedSession(open_session(config.model_path, config.threads))
+    rec = ActionRecognizer(timed, config)
     for i in range(100):  # warm-up
         rec.update(joints[i], i / fps)
     rec.reset()
     times = np.empty(len(joints))
     cpu = np.empty(len(joints))
+    rest = np.empty(len(joints))
     for i, frame in enumerate(joints):
+        timed.last_s = 0.0
         c0, t0 = time.thread_time(), time.perf_counter()
         rec.update(frame, i / fps)
         times[i] = time.perf_counter() - t0
         cpu[i] = time.thread_time() - c0
+        rest[i] = times[i] - timed.last_s
 
     window = joints[: rec.info.window]
     feats = window_features(window, fps)
@@ -98,6 +142,7 @@ def main() -> int:
     out = {
         "update_ms": stats(times),
         "update_cpu_ms": stats(cpu),
+        "update_without_model_ms": stats(rest),
         "model_ms": stats(model_t),
         "features_ms": stats(feat_t),
         "step_evidence_ms": stats(step_t),
@@ -106,13 +151,20 @@ def main() -> int:
         "load_avg": list(os.getloadavg()),
         "frames": len(joints),
         "threads": args.threads,
-        "cpu": platform.processor() or platform.machine(),
+        "cpu": _cpu(),
         "model_bytes": args.model.stat().st_size,
     }
-    for key in ("update_ms", "update_cpu_ms", "model_ms", "features_ms", "step_evidence_ms"):
+    for key in (
+        "update_ms",
+        "update_cpu_ms",
+        "update_without_model_ms",
+        "model_ms",
+        "features_ms",
+        "step_evidence_ms",
+    ):
         s = out[key]
         print(
-            f"{key[:-3]:>14}: median {s['median']:.3f} ms, p95 {s['p95']:.3f} ms, "  # type: ignore[index]
+            f"{key[:-3]:>20}: median {s['median']:.3f} ms, p95 {s['p95']:.3f} ms, "  # type: ignore[index]
             f"p99 {s['p99']:.3f} ms, mean {s['mean']:.3f} ms, max {s['max']:.3f} ms"
         )  # type: ignore[index]
     if args.json is not None:

@@ -22,6 +22,7 @@ Every function works on any number of leading batch dimensions, so training
 from __future__ import annotations
 
 import math
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -92,10 +93,18 @@ def yaw_from_vector(vec: NDArray[np.floating]) -> NDArray[np.float64]:
 
 def window_yaw_deg(joints: NDArray[np.floating]) -> NDArray[np.float64]:
     """Mean facing yaw over the time axis of a window (..., T, 17, 3) -> (...); 0 when unknown."""
-    vec = facing_vectors(joints)
+    return _mean_yaw_deg(_unit_facing(facing_vectors(joints)))
+
+
+def _unit_facing(vec: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Facing vectors (..., 2) as unit vectors; (0, 0) where unknown."""
     norm = np.linalg.norm(vec, axis=-1, keepdims=True)
     unit = np.where(np.isfinite(norm) & (norm > 1e-9), vec / np.where(norm > 1e-9, norm, 1.0), 0.0)
-    unit = np.nan_to_num(unit)
+    return np.nan_to_num(unit)
+
+
+def _mean_yaw_deg(unit: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Yaw of the mean of unit facing vectors (..., T, 2) over the time axis; 0 when unknown."""
     mean = unit.sum(axis=-2)
     unknown = np.linalg.norm(mean, axis=-1) < 1e-9
     mean[unknown] = (0.0, 1.0)
@@ -117,8 +126,16 @@ def torso_length(joints: NDArray[np.floating]) -> NDArray[np.float64]:
     The default (0.5 m) where it is never known or implausibly short.
     """
     arr = _check_joints(joints)
-    shoulders = _nan_mid(arr[..., _L_SH, :], arr[..., _R_SH, :])
-    d = np.linalg.norm(shoulders - pelvis(arr), axis=-1)
+    return _mean_torso(_torso_lengths(arr, pelvis(arr)))
+
+
+def _torso_lengths(arr: NDArray[np.float64], pel: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Mid-hip to mid-shoulder distances (...) of skeletons (..., 17, 3) whose pelvis is ``pel``."""
+    return np.linalg.norm(_nan_mid(arr[..., _L_SH, :], arr[..., _R_SH, :]) - pel, axis=-1)
+
+
+def _mean_torso(d: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Mean of torso lengths (..., T) over the time axis; the default where unknown or short."""
     ok = np.isfinite(d)
     count = ok.sum(axis=-1)
     mean = np.where(ok, d, 0.0).sum(axis=-1) / np.maximum(count, 1)
@@ -131,6 +148,17 @@ def normalize_window(joints: NDArray[np.floating]) -> NDArray[np.float64]:
     if arr.ndim < 3:
         raise ValueError(f"a window needs a time axis: (..., T, 17, 3), got {arr.shape}")
     pel = pelvis(arr)  # (..., T, 3)
+    return _normalize(arr, pel, _unit_facing(facing_vectors(arr)), _torso_lengths(arr, pel))
+
+
+def _normalize(
+    arr: NDArray[np.float64],
+    pel: NDArray[np.float64],
+    unit: NDArray[np.float64],
+    torso: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """:func:`normalize_window` of windows (..., T, 17, 3) whose frames' pelvis (..., T, 3), unit
+    facing vectors (..., T, 2) and torso lengths (..., T) are given."""
     ok = np.isfinite(pel).all(axis=-1, keepdims=True)
     n = ok.sum(axis=-2)
     centre = np.where(ok, pel, 0.0).sum(axis=-2) / np.maximum(n, 1)  # (..., 3)
@@ -139,8 +167,8 @@ def normalize_window(joints: NDArray[np.floating]) -> NDArray[np.float64]:
         known = np.isfinite(flat).all(axis=-1, keepdims=True)
         other = np.where(known, flat, 0.0).sum(axis=-2) / np.maximum(known.sum(axis=-2), 1)
         centre = np.where(n > 0, centre, other)
-    rot = rotation_z(-window_yaw_deg(arr))  # (..., 3, 3): facing -> +Y
-    scale = torso_length(arr)
+    rot = rotation_z(-_mean_yaw_deg(unit))  # (..., 3, 3): facing -> +Y
+    scale = _mean_torso(torso)
     centred = (arr - centre[..., None, None, :]).reshape(*arr.shape[:-3], -1, 3)
     rotated = (centred @ np.swapaxes(rot, -1, -2)).reshape(arr.shape)  # row vectors: x' = x R^T
     return rotated / scale[..., None, None, None]
@@ -171,15 +199,124 @@ def window_features(joints: NDArray[np.floating], fps: float) -> NDArray[np.floa
     Channels per joint: normalised x, y, z, their velocities (body units per second)
     and 1.0 where the joint was measured, 0.0 where it was filled in.
     """
+    _check_fps(fps)
+    return _features(normalize_window(joints), fps)
+
+
+def _check_fps(fps: float) -> None:
     if not np.isfinite(fps) or fps <= 0:
         raise ValueError(f"fps must be positive, got {fps}")
-    pos, known = fill_unknown(normalize_window(joints))
+
+
+def _features(normalized: NDArray[np.float64], fps: float) -> NDArray[np.float32]:
+    pos, known = fill_unknown(normalized)
     vel = np.zeros_like(pos)
     vel[..., 1:, :, :] = (pos[..., 1:, :, :] - pos[..., :-1, :, :]) * fps
     both = known.copy()
     both[..., 1:, :] &= known[..., :-1, :]
     vel *= both[..., None]
     return np.concatenate([pos, vel, known[..., None].astype(np.float64)], axis=-1).astype(np.float32)
+
+
+def _mid(a: float, b: float) -> float:
+    """:func:`_nan_mid` of two numbers."""
+    if math.isnan(a):
+        return b
+    if math.isnan(b):
+        return a
+    return 0.5 * (a + b)
+
+
+class FrameParts(NamedTuple):
+    """What a window's normalisation needs of one of its frames (metres, NaN = unknown)."""
+
+    pelvis: tuple[float, float, float]
+    facing: tuple[float, float]  # facing_vectors' row: unnormalised, NaN when unknown
+    unit: tuple[float, float]  # facing as a unit vector, (0, 0) when unknown
+    torso_m: float  # mid-hip to mid-shoulder
+
+
+def frame_parts(frame: NDArray[np.float64]) -> FrameParts:
+    """One skeleton's (17, 3) pelvis, facing and torso: the rows that :func:`pelvis`,
+    :func:`facing_vectors` and :func:`normalize_window` compute for it, with the same arithmetic
+    in plain floats (the same numbers; numpy's calls on one frame cost more than the arithmetic)."""
+    rows = frame.tolist()
+    lh, rh, ls, rs = rows[_L_HIP], rows[_R_HIP], rows[_L_SH], rows[_R_SH]
+    px, py, pz = _mid(lh[0], rh[0]), _mid(lh[1], rh[1]), _mid(lh[2], rh[2])
+    tx, ty, tz = _mid(ls[0], rs[0]) - px, _mid(ls[1], rs[1]) - py, _mid(ls[2], rs[2]) - pz
+    fx = fy = 0.0
+    count = 0
+    for left, right in ((lh, rh), (ls, rs)):
+        vx = left[0] - right[0]
+        vy = left[1] - right[1]
+        norm = math.sqrt(vx * vx + vy * vy)
+        if math.isfinite(norm) and norm > 1e-6:
+            fx += vy / norm
+            fy += -(vx / norm)
+            count += 1
+    unit = (0.0, 0.0)
+    if count:
+        norm = math.sqrt(fx * fx + fy * fy)
+        if math.isfinite(norm) and norm > 1e-9:
+            unit = (fx / norm, fy / norm)
+    facing = (fx, fy) if count else (math.nan, math.nan)
+    return FrameParts((px, py, pz), facing, unit, math.sqrt(tx * tx + ty * ty + tz * tz))
+
+
+class FeatureWindow:
+    """The features of a stream's newest ``window`` frames: :func:`window_features` of them (the
+    same numbers; before the window is full, the first frame repeated in front).
+
+    Each frame's pelvis, facing and torso are measured once, when it comes, not once per window it
+    is in, and the frames stay in ring buffers of twice the window, written at both halves, so the
+    newest window is always one contiguous slice (nothing is stacked per frame).
+    """
+
+    def __init__(self, window: int, fps: float) -> None:
+        if window < 2:
+            raise ValueError(f"window must be at least 2 frames, got {window}")
+        _check_fps(fps)
+        self.window, self.fps = window, fps
+        self._joints = np.empty((2 * window, NUM_JOINTS, 3))
+        self._pelvis = np.empty((2 * window, 3))
+        self._unit = np.empty((2 * window, 2))
+        self._torso = np.empty(2 * window)
+        self.clear()
+
+    def __len__(self) -> int:
+        """Frames pushed since the last clear (at most the window)."""
+        return min(self._count, self.window)
+
+    def clear(self) -> None:
+        self._count = 0
+        self._head = 0  # the slot of the oldest frame of the newest window
+
+    def push(self, frame: NDArray[np.float64]) -> None:
+        """Add one frame (17, 3) float64 metres, NaN = unknown."""
+        if frame.shape != (NUM_JOINTS, 3) or frame.dtype != np.float64:
+            raise ValueError(f"a frame must be float64 ({NUM_JOINTS}, 3), got {frame.dtype} {frame.shape}")
+        parts = frame_parts(frame)
+        rows = (self._joints, self._pelvis, self._unit, self._torso)
+        values: tuple[Any, ...] = (frame, parts.pelvis, parts.unit, parts.torso_m)
+        if self._count == 0:  # the first frame fills the window: it is repeated in front
+            for buf, value in zip(rows, values, strict=True):
+                buf[:] = value
+            self._head = 1 % self.window
+        else:
+            slot = self._head
+            for buf, value in zip(rows, values, strict=True):
+                buf[slot] = value
+                buf[slot + self.window] = value
+            self._head = (slot + 1) % self.window
+        self._count += 1
+
+    def features(self) -> NDArray[np.float32]:
+        """(window, 17, 7) features of the newest frames; ValueError before the first frame."""
+        if not self._count:
+            raise ValueError("no frame yet")
+        a, b = self._head, self._head + self.window
+        normalized = _normalize(self._joints[a:b], self._pelvis[a:b], self._unit[a:b], self._torso[a:b])
+        return _features(normalized, self.fps)
 
 
 def to_model_input(features: NDArray[np.float32]) -> NDArray[np.float32]:

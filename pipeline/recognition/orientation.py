@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.recognition.features import facing_vectors, yaw_from_vector
+from pipeline.recognition.features import frame_parts, yaw_from_vector
 from pipeline.skeleton import NUM_JOINTS, J
 
 _NOSE = J["nose"]
@@ -70,7 +70,7 @@ def raw_yaw_deg(joints: NDArray[np.floating]) -> float:
     arr = np.asarray(joints, dtype=np.float64)
     if arr.shape != (NUM_JOINTS, 3):
         raise ValueError(f"joints must have shape (17, 3), got {arr.shape}")
-    vec = facing_vectors(arr)
+    vec = np.array(frame_parts(arr).facing)  # facing_vectors(arr), in plain floats
     if not np.isfinite(vec).all():
         vec = head_facing_vector(arr)
     if not np.isfinite(vec).all() or np.linalg.norm(vec) < 1e-9:
@@ -102,6 +102,7 @@ class YawSmoother:
     rate_hz: float = 30.0
     _vec: NDArray[np.float64] | None = field(default=None, init=False)
     _t: float | None = field(default=None, init=False)
+    _yaw_deg: float = field(default=0.0, init=False)  # of _vec, kept: read more often than it changes
 
     def __post_init__(self) -> None:
         if not 0 < self.alpha <= 1:
@@ -112,13 +113,12 @@ class YawSmoother:
     def reset(self) -> None:
         self._vec = None
         self._t = None
+        self._yaw_deg = 0.0
 
     @property
     def yaw_deg(self) -> float:
         """The smoothed yaw (0 before any measurement)."""
-        if self._vec is None:
-            return 0.0
-        return float(yaw_from_vector(self._vec))
+        return self._yaw_deg
 
     def update(self, yaw_deg: float, timestamp_s: float) -> float:
         """Add one measurement (NaN = none this frame) and return the smoothed yaw."""
@@ -134,4 +134,5 @@ class YawSmoother:
                 norm = float(np.linalg.norm(vec))
                 self._vec = vec / norm if norm > 1e-9 else meas
             self._t = timestamp_s
+            self._yaw_deg = float(yaw_from_vector(self._vec))
         return self.yaw_deg

@@ -44,12 +44,13 @@ from pipeline.recognition.features import (
     FEATURE_CHANNELS,
     FEATURES_V1,
     WITH_EVIDENCE,
+    FeatureWindow,
     evidence_vector,
     model_input,
     window_features,
 )
 from pipeline.recognition.orientation import YawSmoother, raw_yaw_deg
-from pipeline.recognition.speed import SpeedConfig, speed_mps
+from pipeline.recognition.speed import SpeedConfig, gap_filled, leg_heights, speed_from_heights
 from pipeline.recognition.steps import StepConfig, StepFrame, StepTracker
 from pipeline.recognition.types import ActionEstimate
 from pipeline.skeleton import ACTIONS, NUM_JOINTS, J
@@ -317,8 +318,9 @@ class ActionRecognizer:
         self.info = model_info(session)
         self._dt = 1.0 / self.info.fps
         history = max(self.info.window, round(2.5 * self.info.fps))
-        self._frames: deque[NDArray[np.float64]] = deque(maxlen=history)
+        self._legs: deque[tuple[float, float]] = deque(maxlen=history)  # the model frames' leg heights
         self._evidence: deque[NDArray[np.float32]] = deque(maxlen=self.info.window)
+        self._feature_window = FeatureWindow(self.info.window, self.info.fps)
         self._yaw = YawSmoother(alpha=config.yaw_alpha, rate_hz=self.info.fps)
         self._filter = CommandFilter(
             config.ema_alpha, config.min_dwell_s, config.switch_prob, config.stop_dwell_s
@@ -360,7 +362,8 @@ class ActionRecognizer:
     def _forget(self) -> None:
         self._gap = False  # frames without data came since the newest frame with data ...
         self._recent: deque[NDArray[np.float64]] = deque(maxlen=3)  # ... and the last three with data
-        self._frames.clear()
+        self._legs.clear()
+        self._feature_window.clear()
         self._evidence.clear()
         self._yaw.reset()
         self._last_t: float | None = None
@@ -467,16 +470,11 @@ class ActionRecognizer:
     def _add_frame(self, frame: NDArray[np.float64], tick_t: float) -> None:
         """One model frame (``tick_t``: seconds since the stream's first frame): kept for the window,
         and through the step tracker."""
-        self._frames.append(frame)
+        self._legs.append(leg_heights(frame))
+        self._feature_window.push(frame)
         sf = self._tracker.update(frame, tick_t)
         self._pending.append(sf)
         self._evidence.append(evidence_vector(sf))
-
-    def _window(self) -> NDArray[np.float64]:
-        frames = list(self._frames)[-self.info.window :]
-        if len(frames) < self.info.window:
-            frames = [frames[0]] * (self.info.window - len(frames)) + frames
-        return np.stack(frames)
 
     def _evidence_window(self) -> NDArray[np.float32]:
         ev = list(self._evidence)
@@ -485,7 +483,7 @@ class ActionRecognizer:
         return np.stack(ev)
 
     def _model_input(self) -> NDArray[np.float32]:
-        feats = window_features(self._window(), self.info.fps)
+        feats = self._feature_window.features()
         evidence = self._evidence_window() if self.info.features in WITH_EVIDENCE else None
         return model_input(feats, evidence, self.info.features)[None]
 
@@ -510,9 +508,10 @@ class ActionRecognizer:
             self._speed, self._moving_frames = 0.0, 0
             return
         # cadence from the stepping since the user started moving, not the standing before
-        self._moving_frames = min(self._moving_frames + ticks, len(self._frames))
-        recent = list(self._frames)[-max(self._moving_frames, self.info.window) :]
-        raw = speed_mps(np.stack(recent), self.info.fps, ACTIONS[label], self.config.speed)
+        self._moving_frames = min(self._moving_frames + ticks, len(self._legs))
+        recent = list(self._legs)[-max(self._moving_frames, self.info.window) :]
+        left, right = (gap_filled(np.array([h[k] for h in recent])) for k in (0, 1))
+        raw = speed_from_heights(left, right, self.info.fps, ACTIONS[label], self.config.speed)
         w = 1.0 - (1.0 - self.config.speed_alpha) ** ticks
         self._speed = raw if self._speed == 0.0 else w * raw + (1.0 - w) * self._speed
 

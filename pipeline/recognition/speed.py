@@ -69,12 +69,23 @@ def leg_height(frames: NDArray[np.floating], side: str) -> NDArray[np.float64]:
         raise ValueError(f"frames must have shape (T, 17, 3), got {arr.shape}")
     if side not in _LEGS:
         raise ValueError(f"side must be 'l' or 'r', got {side!r}")
-    sig = arr[:, _LEGS[side], 2].sum(axis=1)
-    ok = np.isfinite(sig)
+    return gap_filled(arr[:, _LEGS[side], 2].sum(axis=1))
+
+
+def leg_heights(frame: NDArray[np.float64]) -> tuple[float, float]:
+    """One skeleton's (17, 3) left and right knee + ankle heights (NaN where unknown): the row
+    :func:`leg_height` sums for it, so a stream can keep its signals frame by frame."""
+    (lk, la), (rk, ra) = _LEGS["l"], _LEGS["r"]
+    return float(frame[lk, 2]) + float(frame[la, 2]), float(frame[rk, 2]) + float(frame[ra, 2])
+
+
+def gap_filled(signal: NDArray[np.float64]) -> NDArray[np.float64]:
+    """A signal (T,) with its unknown samples linearly filled (zeros when none is known)."""
+    ok = np.isfinite(signal)
     if not ok.any():
-        return np.zeros(len(sig))
-    idx = np.arange(len(sig))
-    return np.interp(idx, idx[ok], sig[ok])
+        return np.zeros(len(signal))
+    idx = np.arange(len(signal))
+    return np.interp(idx, idx[ok], signal[ok])
 
 
 def _robust_range(signal: NDArray[np.float64]) -> tuple[float, float]:
@@ -99,7 +110,7 @@ def rising_crossings(signal: NDArray[np.floating], fps: float, band: float = 0.2
         return np.zeros(0)
     times: list[float] = []
     armed = False
-    for i, v in enumerate(s):
+    for i, v in enumerate(s.tolist()):  # plain floats: a numpy scalar per sample costs more
         if v < mid - half:
             armed = True
         elif v > mid + half and armed:
@@ -132,9 +143,20 @@ def speed_mps(frames: NDArray[np.floating], fps: float, action: str, config: Spe
         raise ValueError(f"fps must be positive, got {fps}")
     if action == "still":
         return 0.0
+    return speed_from_heights(leg_height(frames, "l"), leg_height(frames, "r"), fps, action, config)
+
+
+def speed_from_heights(
+    left: NDArray[np.float64], right: NDArray[np.float64], fps: float, action: str, config: SpeedConfig
+) -> float:
+    """:func:`speed_mps` from the recent frames' :func:`leg_height` signals (T,) of both legs."""
+    if fps <= 0:
+        raise ValueError(f"fps must be positive, got {fps}")
+    if action == "still":
+        return 0.0
     kernel = np.ones(3) / 3.0  # a light moving average against triangulation noise
-    left = np.convolve(leg_height(frames, "l"), kernel, mode="same")
-    right = np.convolve(leg_height(frames, "r"), kernel, mode="same")
+    left = np.convolve(left, kernel, mode="same")
+    right = np.convolve(right, kernel, mode="same")
     if action == "forward":
         signal, step_m = left - right, config.forward_step_m
         # left lifts (rises of L - R) and right lifts (rises of R - L) alternate: one per step

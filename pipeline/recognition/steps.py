@@ -58,6 +58,7 @@ _ANKLE = (J["l_ankle"], J["r_ankle"])
 _KNEE = (J["l_knee"], J["r_knee"])
 _HIP = (J["l_hip"], J["r_hip"])
 _SHOULDER = (J["l_shoulder"], J["r_shoulder"])
+_Rows = Sequence[Sequence[float]]  # one skeleton's (17, 3) joints as plain floats
 DEFAULT_LEG_M = 0.85
 _MAD_SIGMA = 1.4826 / math.sqrt(6.0)  # sigma of white noise from the median |second difference|
 _JITTER_SAMPLES = 15  # raw second differences of a foot before its jitter (sigma) is measured
@@ -304,13 +305,14 @@ def step_kind(
     return "none"
 
 
-def raw_facing_yaw(joints: NDArray[np.float64]) -> float:
-    """Facing yaw (radians, 0 = +Y, CCW) of one skeleton from hips and shoulders; NaN if unknown."""
+def raw_facing_yaw(joints: NDArray[np.float64] | _Rows) -> float:
+    """Facing yaw (radians, 0 = +Y, CCW) of one skeleton (17, 3) from hips and shoulders; NaN if
+    unknown."""
     vx = vy = 0.0
     n = 0
     for li, ri in (_HIP, _SHOULDER):
-        dx = joints[li, 0] - joints[ri, 0]
-        dy = joints[li, 1] - joints[ri, 1]
+        dx = joints[li][0] - joints[ri][0]
+        dy = joints[li][1] - joints[ri][1]
         norm = math.hypot(dx, dy)
         if math.isfinite(norm) and norm > 1e-6:
             # left-minus-right turned clockwise by 90 degrees is the facing direction
@@ -397,7 +399,7 @@ class StepTracker:
     def _w(self, tau_s: float, dt: float) -> float:
         return 1.0 - math.exp(-dt / tau_s)
 
-    def _update_scale(self, j: NDArray[np.float64]) -> None:
+    def _update_scale(self, j: _Rows) -> None:
         vals, straight = [], []
         for s in (0, 1):
             a = math.dist(j[_HIP[s]], j[_KNEE[s]]) + math.dist(j[_KNEE[s]], j[_ANKLE[s]])
@@ -416,9 +418,9 @@ class StepTracker:
         if self._leg_n <= 30:  # the mean of the first second, then a slow follower clipped at 10 %
             self._leg += (v - self._leg) / self._leg_n if self._leg_n > 1 else v - self._leg
         else:
-            self._leg += 0.02 * float(np.clip(v - self._leg, -0.1 * self._leg, 0.1 * self._leg))
+            self._leg += 0.02 * min(max(v - self._leg, -0.1 * self._leg), 0.1 * self._leg)
 
-    def _update_yaw(self, j: NDArray[np.float64]) -> None:
+    def _update_yaw(self, j: _Rows) -> None:
         yaw = raw_facing_yaw(j)
         if not math.isfinite(yaw):
             return
@@ -431,14 +433,14 @@ class StepTracker:
     # -- per foot
 
     def _foot_point(
-        self, f: _Foot, ankle: NDArray[np.float64], knee: NDArray[np.float64], dt: float
+        self, f: _Foot, ankle: Sequence[float], knee: Sequence[float], dt: float
     ) -> tuple[float, float, float] | None:
         """The ankle, with the quick part of its height averaged with the knee's (a lift raises both
         alike, so the noise shrinks and the lift stays)."""
-        if not np.isfinite(ankle).all():
+        x, y, z = ankle
+        if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(z)):
             return None
-        x, y, z = float(ankle[0]), float(ankle[1]), float(ankle[2])
-        kz = float(knee[2])
+        kz = knee[2]
         if len(f.first_points) < 3:
             f.first_points.append((x, y, z, kz - z))
             shanks = [p[3] for p in f.first_points]
@@ -713,9 +715,9 @@ class StepTracker:
         f.anchor = list(f.far_pos)  # the next lift-off starts where it touched down
         return True
 
-    def _update_pelvis(self, j: NDArray[np.float64], dt: float) -> None:
+    def _update_pelvis(self, j: _Rows, dt: float) -> None:
         c = self.config
-        hips = [j[i, 2] for i in _HIP if math.isfinite(j[i, 2])]
+        hips = [j[i][2] for i in _HIP if math.isfinite(j[i][2])]
         floors = [f.floor for f in self._feet if f.floor is not None]
         if not hips or not floors:
             return
@@ -729,23 +731,23 @@ class StepTracker:
                 self._standing += self._w(c.standing_tau_s, dt) * (h - self._standing)
         self._pelvis_ratio = h / self._standing if self._standing > 0.2 * self._leg else 1.0
 
-    def _update_tilt(self, j: NDArray[np.float64]) -> None:
+    def _update_tilt(self, j: _Rows) -> None:
         """Trunk tilt from vertical (degrees), smoothed; held while hips or shoulders are unknown."""
-        hips = j[list(_HIP)]
-        shoulders = j[list(_SHOULDER)]
-        if not (np.isfinite(hips).all() and np.isfinite(shoulders).all()):
+        (lh, rh), (ls, rs) = (j[i] for i in _HIP), (j[i] for i in _SHOULDER)
+        if not all(math.isfinite(v) for row in (lh, rh, ls, rs) for v in row):
             return
-        d = shoulders.mean(axis=0) - hips.mean(axis=0)
-        norm = float(np.linalg.norm(d))
+        # the shoulders' mean minus the hips' (numpy's arithmetic, in plain floats)
+        dx, dy, dz = ((ls[i] + rs[i]) / 2.0 - (lh[i] + rh[i]) / 2.0 for i in range(3))
+        norm = math.sqrt(dx * dx + dy * dy + dz * dz)
         if norm < 1e-6:
             return
-        tilt = math.degrees(math.acos(max(-1.0, min(1.0, float(d[2]) / norm))))
+        tilt = math.degrees(math.acos(max(-1.0, min(1.0, dz / norm))))
         self._tilt += self.config.yaw_alpha * (tilt - self._tilt)
 
-    def _raise_deg(self, j: NDArray[np.float64], k: int) -> float:
+    def _raise_deg(self, j: _Rows, k: int) -> float:
         """How far leg ``k`` is raised from straight down, forward or sideways (degrees; NaN unknown)."""
-        ax, ay, az = j[_ANKLE[k]].tolist()
-        hx, hy, hz = j[_HIP[k]].tolist()
+        ax, ay, az = j[_ANKLE[k]]
+        hx, hy, hz = j[_HIP[k]]
         dx, dy, dz = ax - hx, ay - hy, az - hz
         if self._yaw is None or not (math.isfinite(dx) and math.isfinite(dy) and math.isfinite(dz)):
             return math.nan
@@ -766,20 +768,21 @@ class StepTracker:
             raise ValueError(f"timestamps must increase: got {t} after {self._t}")
         dt = 1.0 / c.rate_hz if self._t is None else t - self._t
         self._t = t
-        self._update_scale(j)
-        self._update_yaw(j)
+        rows: _Rows = j.tolist()  # plain floats: reading a numpy element costs more than its arithmetic
+        self._update_scale(rows)
+        self._update_yaw(rows)
         events: list[tuple[bool, bool, float]] = []
         for k in (0, 1):
             f = self._feet[k]
             was_planted = f.planted
-            if self._smooth(f, self._foot_point(f, j[_ANKLE[k]], j[_KNEE[k]], dt), t, dt):
+            if self._smooth(f, self._foot_point(f, rows[_ANKLE[k]], rows[_KNEE[k]], dt), t, dt):
                 self._update_foot(k, t, dt)
             lifted = was_planted and not f.planted
             landed = (not was_planted) and f.planted
             events.append((lifted, landed, f.lift_t if lifted else (f.land_t if landed else math.nan)))
-        self._update_pelvis(j, dt)
-        self._update_tilt(j)
-        raised = [self._raise_deg(j, k) for k in (0, 1)]
+        self._update_pelvis(rows, dt)
+        self._update_tilt(rows)
+        raised = [self._raise_deg(rows, k) for k in (0, 1)]
         feet = []
         for k in (0, 1):
             f = self._feet[k]

@@ -10,8 +10,12 @@ from hypothesis import strategies as st
 from pipeline.recognition.features import (
     CHANNELS_PER_JOINT,
     NUM_CHANNELS,
+    FeatureWindow,
+    facing_vectors,
     fill_unknown,
+    frame_parts,
     normalize_window,
+    pelvis,
     to_model_input,
     torso_length,
     window_features,
@@ -132,3 +136,59 @@ def test_bad_shapes_are_rejected(shape: tuple[int, ...], match: str) -> None:
 def test_bad_fps_is_rejected() -> None:
     with pytest.raises(ValueError, match="fps"):
         window_features(_marching(), 0.0)
+
+
+def _awkward_stream(frames: int = 80, seed: int = 3) -> np.ndarray:
+    """A marching stream with what the live input holds: turning, a lost hip, no shoulders for a
+    while, whole frames without data, a hip pair drawn on one spot, an infinite coordinate."""
+    seq = np.concatenate([_marching(32, seed), _marching(32, seed + 1), _marching(frames - 64, seed + 2)])
+    seq = np.stack([f @ rot_z(3.0 * i).T for i, f in enumerate(seq)])
+    seq[12:20, J["l_hip"]] = np.nan
+    seq[25:40, [J["l_shoulder"], J["r_shoulder"]]] = np.nan
+    seq[44:47] = np.nan
+    seq[50, J["r_hip"]] = seq[50, J["l_hip"]]
+    seq[52, J["l_shoulder"], 0] = np.inf
+    return seq
+
+
+@pytest.mark.filterwarnings("ignore:invalid value encountered in matmul:RuntimeWarning")  # the infinite one
+def test_the_streaming_window_gives_exactly_the_features_of_the_window() -> None:
+    seq = _awkward_stream()
+    win = FeatureWindow(32, 30.0)
+    for i, frame in enumerate(seq):
+        win.push(frame)
+        window = seq[max(0, i - 31) : i + 1]
+        if len(window) < 32:  # before the window is full: the first frame repeated in front
+            window = np.concatenate([np.repeat(window[:1], 32 - len(window), axis=0), window])
+        got = win.features()
+        assert got.shape == (32, 17, CHANNELS_PER_JOINT)
+        np.testing.assert_array_equal(got, window_features(window, 30.0), err_msg=f"frame {i}")
+    win.clear()
+    assert len(win) == 0
+    with pytest.raises(ValueError, match="no frame"):
+        win.features()
+
+
+def test_one_frames_parts_are_the_windows_rows() -> None:
+    seq = _awkward_stream()
+    pel, facing = pelvis(seq), facing_vectors(seq)
+    for i, frame in enumerate(seq):
+        p, f, _, _ = frame_parts(frame)
+        np.testing.assert_array_equal(np.array(p), pel[i], err_msg=f"pelvis, frame {i}")
+        np.testing.assert_array_equal(np.array(f), facing[i], err_msg=f"facing, frame {i}")
+
+
+@pytest.mark.parametrize(
+    ("window", "fps", "frame", "match"),
+    [
+        (1, 30.0, np.zeros((17, 3)), "window"),
+        (32, 0.0, np.zeros((17, 3)), "fps"),
+        (32, 30.0, np.zeros((16, 3)), r"\(17, 3\)"),
+        (32, 30.0, np.zeros((17, 3), np.float32), "float64"),
+    ],
+)
+def test_the_streaming_window_rejects_bad_input(
+    window: int, fps: float, frame: np.ndarray, match: str
+) -> None:
+    with pytest.raises(ValueError, match=match):
+        FeatureWindow(window, fps).push(frame)

@@ -5,7 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pipeline.recognition.speed import SpeedConfig, rising_crossings, speed_mps
+from pipeline.recognition.speed import (
+    SpeedConfig,
+    gap_filled,
+    leg_heights,
+    rising_crossings,
+    speed_from_heights,
+    speed_mps,
+)
 from pipeline.sim.body import body_from_height
 from pipeline.sim.motion import simulate_user
 from pipeline.sim.script import MotionScript, Segment
@@ -44,6 +51,22 @@ def test_still_is_zero_and_few_steps_give_the_default_cadence() -> None:
     assert speed_mps(m.joints_m, 30.0, "forward", cfg) == pytest.approx(
         cfg.default_cadence_sps * cfg.forward_step_m
     )
+
+
+@pytest.mark.parametrize("action", ["forward", "left", "right"])
+def test_the_streams_leg_heights_give_exactly_the_speed_of_the_frames(action: str) -> None:
+    motion = simulate_user(
+        MotionScript((Segment(action, 4.0, cadence_steps_per_s=1.7),)), body_from_height(1.7), 30.0, seed=5
+    )
+    frames = motion.joints_m[30:105].copy()
+    frames[20:24, 13:17] = np.nan  # knees and ankles lost for four frames
+    frames[40, 15, 2] = np.nan
+    heights = np.array([leg_heights(f) for f in frames])
+    left, right = gap_filled(heights[:, 0]), gap_filled(heights[:, 1])
+    want = speed_mps(frames, 30.0, action, SpeedConfig())
+    assert want > 0
+    assert speed_from_heights(left, right, 30.0, action, SpeedConfig()) == want
+    assert not np.isfinite(heights[20:24]).any() and np.isfinite(left).all()
 
 
 def test_rising_crossings_ignore_noise_inside_the_dead_band() -> None:
