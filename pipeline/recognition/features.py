@@ -210,12 +210,14 @@ def _check_fps(fps: float) -> None:
 
 def _features(normalized: NDArray[np.float64], fps: float) -> NDArray[np.float32]:
     pos, known = fill_unknown(normalized)
-    vel = np.zeros_like(pos)
-    vel[..., 1:, :, :] = (pos[..., 1:, :, :] - pos[..., :-1, :, :]) * fps
-    both = known.copy()
-    both[..., 1:, :] &= known[..., :-1, :]
-    vel *= both[..., None]
-    return np.concatenate([pos, vel, known[..., None].astype(np.float64)], axis=-1).astype(np.float32)
+    out = np.empty((*pos.shape[:-1], CHANNELS_PER_JOINT), np.float32)
+    out[..., 0:3] = pos
+    vel = (pos[..., 1:, :, :] - pos[..., :-1, :, :]) * fps
+    vel *= (known[..., 1:, :] & known[..., :-1, :])[..., None]  # no velocity into or out of a gap
+    out[..., 0, :, 3:6] = 0.0
+    out[..., 1:, :, 3:6] = vel
+    out[..., 6] = known
+    return out
 
 
 def _mid(a: float, b: float) -> float:
@@ -263,13 +265,54 @@ def frame_parts(frame: NDArray[np.float64]) -> FrameParts:
     return FrameParts((px, py, pz), facing, unit, math.sqrt(tx * tx + ty * ty + tz * tz))
 
 
+class RingWindow:
+    """The newest ``size`` rows pushed to a stream, always one contiguous ``(size, *shape)`` array:
+    a buffer of twice the size, each row written at both halves. Before ``size`` rows have come, the
+    first is repeated in front (a window padded with its first frame)."""
+
+    def __init__(self, size: int, shape: tuple[int, ...] = (), dtype: type[np.generic] = np.float64) -> None:
+        if size < 1:
+            raise ValueError(f"size must be at least 1, got {size}")
+        self.size = size
+        self._buf = np.empty((2 * size, *shape), dtype)
+        self.clear()
+
+    def __len__(self) -> int:
+        """Rows pushed since the last clear (at most the size)."""
+        return min(self._count, self.size)
+
+    def clear(self) -> None:
+        self._count = 0
+        self._head = 0  # the slot of the oldest row of the newest window
+
+    def push(self, row: Any) -> None:
+        if self._count == 0:  # the first row fills the window: it is repeated in front
+            self._buf[:] = row
+            self._head = 1 % self.size
+        else:
+            slot = self._head
+            self._buf[slot] = row
+            self._buf[slot + self.size] = row
+            self._head = (slot + 1) % self.size
+        self._count += 1
+
+    def view(self) -> NDArray[Any]:
+        """The newest ``size`` rows, oldest first: a read-only view, valid until the next push;
+        ValueError before the first row."""
+        if not self._count:
+            raise ValueError("no row yet")
+        out = self._buf[self._head : self._head + self.size]
+        out.flags.writeable = False
+        return out
+
+
 class FeatureWindow:
     """The features of a stream's newest ``window`` frames: :func:`window_features` of them (the
     same numbers; before the window is full, the first frame repeated in front).
 
     Each frame's pelvis, facing and torso are measured once, when it comes, not once per window it
-    is in, and the frames stay in ring buffers of twice the window, written at both halves, so the
-    newest window is always one contiguous slice (nothing is stacked per frame).
+    is in, and kept with the frame in :class:`RingWindow` buffers, so the newest window is one
+    contiguous slice (nothing is stacked per frame).
     """
 
     def __init__(self, window: int, fps: float) -> None:
@@ -277,56 +320,50 @@ class FeatureWindow:
             raise ValueError(f"window must be at least 2 frames, got {window}")
         _check_fps(fps)
         self.window, self.fps = window, fps
-        self._joints = np.empty((2 * window, NUM_JOINTS, 3))
-        self._pelvis = np.empty((2 * window, 3))
-        self._unit = np.empty((2 * window, 2))
-        self._torso = np.empty(2 * window)
-        self.clear()
+        self._joints = RingWindow(window, (NUM_JOINTS, 3))
+        self._pelvis = RingWindow(window, (3,))
+        self._unit = RingWindow(window, (2,))
+        self._torso = RingWindow(window)
 
     def __len__(self) -> int:
         """Frames pushed since the last clear (at most the window)."""
-        return min(self._count, self.window)
+        return len(self._joints)
 
     def clear(self) -> None:
-        self._count = 0
-        self._head = 0  # the slot of the oldest frame of the newest window
+        for ring in (self._joints, self._pelvis, self._unit, self._torso):
+            ring.clear()
 
     def push(self, frame: NDArray[np.float64]) -> None:
         """Add one frame (17, 3) float64 metres, NaN = unknown."""
         if frame.shape != (NUM_JOINTS, 3) or frame.dtype != np.float64:
             raise ValueError(f"a frame must be float64 ({NUM_JOINTS}, 3), got {frame.dtype} {frame.shape}")
         parts = frame_parts(frame)
-        rows = (self._joints, self._pelvis, self._unit, self._torso)
-        values: tuple[Any, ...] = (frame, parts.pelvis, parts.unit, parts.torso_m)
-        if self._count == 0:  # the first frame fills the window: it is repeated in front
-            for buf, value in zip(rows, values, strict=True):
-                buf[:] = value
-            self._head = 1 % self.window
-        else:
-            slot = self._head
-            for buf, value in zip(rows, values, strict=True):
-                buf[slot] = value
-                buf[slot + self.window] = value
-            self._head = (slot + 1) % self.window
-        self._count += 1
+        self._joints.push(frame)
+        self._pelvis.push(parts.pelvis)
+        self._unit.push(parts.unit)
+        self._torso.push(parts.torso_m)
 
     def features(self) -> NDArray[np.float32]:
         """(window, 17, 7) features of the newest frames; ValueError before the first frame."""
-        if not self._count:
+        if not len(self):
             raise ValueError("no frame yet")
-        a, b = self._head, self._head + self.window
-        normalized = _normalize(self._joints[a:b], self._pelvis[a:b], self._unit[a:b], self._torso[a:b])
-        return _features(normalized, self.fps)
+        views = (self._joints.view(), self._pelvis.view(), self._unit.view(), self._torso.view())
+        return _features(_normalize(*views), self.fps)
 
 
 def to_model_input(features: NDArray[np.float32]) -> NDArray[np.float32]:
     """(..., T, 17, 7) features -> (..., 17*7, T), the joint-channel layout of the network."""
-    f = np.asarray(features, dtype=np.float32)
-    if f.ndim < 3 or f.shape[-2:] != (NUM_JOINTS, CHANNELS_PER_JOINT):
-        raise ValueError(f"features must have shape (..., T, 17, 7), got {f.shape}")
+    f = _check_features(features)
     lead, t = f.shape[:-3], f.shape[-3]
     moved = np.moveaxis(f.reshape(*lead, t, NUM_CHANNELS), -1, -2)
     return np.ascontiguousarray(moved)
+
+
+def _check_features(features: NDArray[np.float32]) -> NDArray[np.float32]:
+    f = np.asarray(features, dtype=np.float32)
+    if f.ndim < 3 or f.shape[-2:] != (NUM_JOINTS, CHANNELS_PER_JOINT):
+        raise ValueError(f"features must have shape (..., T, 17, 7), got {f.shape}")
+    return f
 
 
 # ---------------------------------------------------------------- step evidence channels (features v2)
@@ -378,13 +415,17 @@ def evidence_vector(frame: StepFrame) -> NDArray[np.float32]:
 
 def to_model_input_v2(features: NDArray[np.float32], evidence: NDArray[np.float32]) -> NDArray[np.float32]:
     """Joint features (..., T, 17, 7) and evidence (..., T, 16) -> (..., 17 * 7 + 16, T)."""
-    x = to_model_input(features)
+    f = _check_features(features)
     e = np.asarray(evidence, dtype=np.float32)
-    if e.shape[-1] != EVIDENCE_CHANNELS or e.shape[:-1] != (*x.shape[:-2], x.shape[-1]):
+    lead, t = f.shape[:-3], f.shape[-3]
+    if e.shape != (*lead, t, EVIDENCE_CHANNELS):
         raise ValueError(
             f"evidence must have shape (..., T, {EVIDENCE_CHANNELS}) like the features, got {e.shape}"
         )
-    return np.ascontiguousarray(np.concatenate([x, np.moveaxis(e, -1, -2)], axis=-2))
+    out = np.empty((*lead, NUM_CHANNELS + EVIDENCE_CHANNELS, t), np.float32)
+    out[..., :NUM_CHANNELS, :] = np.swapaxes(f.reshape(*lead, t, NUM_CHANNELS), -1, -2)
+    out[..., NUM_CHANNELS:, :] = np.swapaxes(e, -1, -2)
+    return out
 
 
 def mask_joints(features: NDArray[np.float32], keep: tuple[int, ...]) -> NDArray[np.float32]:

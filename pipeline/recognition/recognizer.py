@@ -41,10 +41,12 @@ from numpy.typing import NDArray
 from pipeline.errors import InputError, ModelError
 from pipeline.recognition.bout import BoutGate, GateConfig, GateVerdict
 from pipeline.recognition.features import (
+    EVIDENCE_CHANNELS,
     FEATURE_CHANNELS,
     FEATURES_V1,
     WITH_EVIDENCE,
     FeatureWindow,
+    RingWindow,
     evidence_vector,
     model_input,
     window_features,
@@ -319,7 +321,7 @@ class ActionRecognizer:
         self._dt = 1.0 / self.info.fps
         history = max(self.info.window, round(2.5 * self.info.fps))
         self._legs: deque[tuple[float, float]] = deque(maxlen=history)  # the model frames' leg heights
-        self._evidence: deque[NDArray[np.float32]] = deque(maxlen=self.info.window)
+        self._evidence = RingWindow(self.info.window, (EVIDENCE_CHANNELS,), np.float32)
         self._feature_window = FeatureWindow(self.info.window, self.info.fps)
         self._yaw = YawSmoother(alpha=config.yaw_alpha, rate_hz=self.info.fps)
         self._filter = CommandFilter(
@@ -474,17 +476,11 @@ class ActionRecognizer:
         self._feature_window.push(frame)
         sf = self._tracker.update(frame, tick_t)
         self._pending.append(sf)
-        self._evidence.append(evidence_vector(sf))
-
-    def _evidence_window(self) -> NDArray[np.float32]:
-        ev = list(self._evidence)
-        if len(ev) < self.info.window:
-            ev = [ev[0]] * (self.info.window - len(ev)) + ev
-        return np.stack(ev)
+        self._evidence.push(evidence_vector(sf))
 
     def _model_input(self) -> NDArray[np.float32]:
         feats = self._feature_window.features()
-        evidence = self._evidence_window() if self.info.features in WITH_EVIDENCE else None
+        evidence = self._evidence.view() if self.info.features in WITH_EVIDENCE else None
         return model_input(feats, evidence, self.info.features)[None]
 
     def _step(self, ticks: int) -> None:

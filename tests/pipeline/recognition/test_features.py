@@ -9,14 +9,17 @@ from hypothesis import strategies as st
 
 from pipeline.recognition.features import (
     CHANNELS_PER_JOINT,
+    EVIDENCE_CHANNELS,
     NUM_CHANNELS,
     FeatureWindow,
+    RingWindow,
     facing_vectors,
     fill_unknown,
     frame_parts,
     normalize_window,
     pelvis,
     to_model_input,
+    to_model_input_v2,
     torso_length,
     window_features,
 )
@@ -192,3 +195,40 @@ def test_the_streaming_window_rejects_bad_input(
 ) -> None:
     with pytest.raises(ValueError, match=match):
         FeatureWindow(window, fps).push(frame)
+
+
+def test_a_ring_window_holds_the_newest_rows_oldest_first_padded_with_the_first() -> None:
+    ring = RingWindow(4, (2,), np.float32)
+    with pytest.raises(ValueError, match="no row"):
+        ring.view()
+    ring.push((1.0, 1.5))
+    np.testing.assert_array_equal(ring.view()[:, 0], [1, 1, 1, 1])
+    for k in range(2, 8):
+        ring.push((k, k + 0.5))
+        want = [max(1, i) for i in range(k - 3, k + 1)]
+        np.testing.assert_array_equal(ring.view()[:, 0], want, err_msg=f"after {k} rows")
+        np.testing.assert_array_equal(ring.view()[:, 1], np.array(want) + 0.5)
+    view = ring.view()
+    assert view.dtype == np.float32 and view.flags.c_contiguous and len(ring) == 4
+    with pytest.raises(ValueError, match="read-only"):
+        view[0, 0] = 9.0
+    ring.clear()
+    assert len(ring) == 0
+    ring.push((5.0, 6.0))
+    np.testing.assert_array_equal(ring.view(), [[5, 6]] * 4)
+    with pytest.raises(ValueError, match="size"):
+        RingWindow(0)
+
+
+def test_the_network_input_with_evidence_is_joint_channels_then_evidence_channels() -> None:
+    rng = np.random.default_rng(4)
+    feats = window_features(np.stack([_marching(seed=1), _marching(seed=2)]), 30.0)
+    ev = rng.normal(size=(2, 32, EVIDENCE_CHANNELS)).astype(np.float32)
+    x = to_model_input_v2(feats, ev)
+    assert x.shape == (2, NUM_CHANNELS + EVIDENCE_CHANNELS, 32) and x.dtype == np.float32
+    assert x.flags.c_contiguous
+    np.testing.assert_array_equal(x[:, :NUM_CHANNELS], to_model_input(feats))
+    np.testing.assert_array_equal(x[1, NUM_CHANNELS + 3], ev[1, :, 3])
+    np.testing.assert_array_equal(to_model_input_v2(feats[0], ev[0]), x[0])
+    with pytest.raises(ValueError, match="evidence"):
+        to_model_input_v2(feats, ev[:, :31])
