@@ -9,7 +9,8 @@ Wall time (perf_counter) and this thread's CPU time (thread_time) are both repor
 loaded machine the wall time includes waiting for a core, the CPU time does not. ``update_without_model``
 is each ``update()`` less its own model call, timed inside it: on a shared machine the model call's
 time swings between runs (0.5 to 0.9 ms on one host) more than the rest of the work does, so compare
-code changes outside the model on it. The JSON names the CPU (model, family, AVX2 / AVX-512 / VNNI).
+code changes outside the model on it. The JSON names the machine (:func:`pipeline.machine.machine_facts`:
+the CPU, its AVX2 / AVX-512 / VNNI / AMX, cores, onnxruntime) and prints it.
 """
 
 from __future__ import annotations
@@ -17,7 +18,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import platform
 import sys
 import time
 from pathlib import Path
@@ -28,6 +28,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
+from pipeline.machine import machine_facts  # noqa: E402
 from pipeline.recognition.features import (  # noqa: E402
     EVIDENCE_CHANNELS,
     WITH_EVIDENCE,
@@ -58,23 +59,6 @@ class _TimedSession:
         return getattr(self._session, name)
 
 
-def _cpu() -> str:
-    """The CPU's name, family / model and vector extensions (Linux), else what platform knows."""
-    try:
-        info = Path("/proc/cpuinfo").read_text().split("\n\n")[0]
-    except OSError:
-        return platform.processor() or platform.machine()
-    fields = dict(line.split(":", 1) for line in info.splitlines() if ":" in line)
-    get = {k.strip(): v.strip() for k, v in fields.items()}.get
-    flags = set((get("flags") or "").split())
-    ext = ", ".join(
-        f"{f} {'yes' if f in flags else 'no'}" for f in ("avx2", "avx512f", "avx512_vnni", "amx_tile")
-    )
-    return (
-        f"{get('model name')}, family {get('cpu family')} model {get('model')}, {ext}, {os.cpu_count()} cores"
-    )
-
-
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--model", type=Path, default=ROOT / "pipeline" / "recognition" / "action.onnx")
@@ -83,6 +67,10 @@ def main() -> int:
     ap.add_argument("--json", type=Path, default=None)
     ap.add_argument("--no-gate", action="store_true", help="the network's EMA + hysteresis alone")
     args = ap.parse_args()
+    if args.frames < 1 or args.threads < 1:
+        ap.error(f"--frames and --threads must be at least 1, got {args.frames} and {args.threads}")
+    if not args.model.is_file():
+        ap.error(f"no model file {args.model}")
 
     from pipeline.sim.body import sample_body
     from pipeline.sim.motion import simulate_user
@@ -90,15 +78,17 @@ def main() -> int:
 
     rng = np.random.default_rng(1)
     fps = 30.0
-    script = random_script(rng, args.frames / fps + 1.0)
+    # the frames, and at least the warm-up's 100 and a window (the same routine as before for >= 100)
+    script = random_script(rng, max(args.frames / fps + 1.0, 100 / fps + 2.0))
     motion = simulate_user(script, sample_body(rng), fps, seed=1)
-    joints = capture(motion.joints_m, rng, NoiseConfig(), fps)[: args.frames]
+    captured = capture(motion.joints_m, rng, NoiseConfig(), fps)
+    joints = captured[: args.frames]
 
     config = RecognizerConfig(model_path=args.model, threads=args.threads, gate=not args.no_gate)
     timed = _TimedSession(open_session(config.model_path, config.threads))
     rec = ActionRecognizer(timed, config)
     for i in range(100):  # warm-up
-        rec.update(joints[i], i / fps)
+        rec.update(captured[i], i / fps)
     rec.reset()
     times = np.empty(len(joints))
     cpu = np.empty(len(joints))
@@ -111,7 +101,7 @@ def main() -> int:
         cpu[i] = time.thread_time() - c0
         rest[i] = times[i] - timed.last_s
 
-    window = joints[: rec.info.window]
+    window = captured[: rec.info.window]
     feats = window_features(window, fps)
     ev = np.zeros((rec.info.window, EVIDENCE_CHANNELS), np.float32)
     x = model_input(feats, ev if rec.info.features in WITH_EVIDENCE else None, rec.info.features)[None]
@@ -139,6 +129,7 @@ def main() -> int:
             "max": float(ms.max()),
         }
 
+    machine = machine_facts()
     out = {
         "update_ms": stats(times),
         "update_cpu_ms": stats(cpu),
@@ -151,7 +142,8 @@ def main() -> int:
         "load_avg": list(os.getloadavg()),
         "frames": len(joints),
         "threads": args.threads,
-        "cpu": _cpu(),
+        "cpu": machine.summary(),
+        "machine": machine.as_dict(),
         "model_bytes": args.model.stat().st_size,
     }
     for key in (
@@ -167,6 +159,7 @@ def main() -> int:
             f"{key[:-3]:>20}: median {s['median']:.3f} ms, p95 {s['p95']:.3f} ms, "  # type: ignore[index]
             f"p99 {s['p99']:.3f} ms, mean {s['mean']:.3f} ms, max {s['max']:.3f} ms"
         )  # type: ignore[index]
+    print(f"{'machine':>20}: {out['cpu']}")
     if args.json is not None:
         args.json.write_text(json.dumps(out, indent=2) + "\n")
     return 0

@@ -1,0 +1,58 @@
+"""scripts/bench_recognition.py: what it reports (the layout and the machine, not how fast it is)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+SCRIPT = Path(__file__).resolve().parents[3] / "scripts" / "bench_recognition.py"
+
+
+def _bench(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, str(SCRIPT), *args], capture_output=True, text=True, check=False)
+
+
+@pytest.mark.slow
+def test_the_bench_reports_update_with_and_without_the_model_and_names_the_machine(tmp_path: Path) -> None:
+    out = tmp_path / "bench.json"
+    done = _bench("--frames", "90", "--json", str(out))
+    assert done.returncode == 0, done.stderr
+    got = json.loads(out.read_text())
+    assert got["frames"] == 90 and got["gate"] is True and got["features"] in ("v1", "v2", "v3")
+    keys = (
+        "update_ms",
+        "update_cpu_ms",
+        "update_without_model_ms",
+        "model_ms",
+        "features_ms",
+        "step_evidence_ms",
+    )
+    for key in keys:
+        s = got[key]
+        assert 0 < s["median"] <= s["p95"] <= s["p99"] <= s["max"], (key, s)
+    # each frame's time without its model call is at most the frame's time: so is every quantile
+    for q in ("median", "p95", "p99", "max"):
+        assert got["update_without_model_ms"][q] <= got["update_ms"][q]
+    machine = got["machine"]
+    assert machine["cpu_model"] and isinstance(machine["extensions"], list) and machine["logical_cores"] >= 1
+    assert got["cpu"].startswith(machine["cpu_model"]) and "onnxruntime" in got["cpu"]
+    assert got["cpu"] in done.stdout, "the machine is printed with the figures"
+
+
+@pytest.mark.parametrize(
+    ("args", "words"),
+    [(["--frames", "0"], "--frames and --threads"), (["--threads", "0"], "--frames and --threads"),
+     (["--model", "/nonexistent.onnx"], "no model file")],
+)  # fmt: skip
+def test_bad_arguments_are_one_error_line_and_write_nothing(
+    tmp_path: Path, args: list[str], words: str
+) -> None:
+    out = tmp_path / "bench.json"
+    done = _bench(*args, "--json", str(out))
+    last = done.stderr.strip().splitlines()[-1]
+    assert done.returncode == 2 and "error: " in last and words in last, done.stderr
+    assert not out.exists()
