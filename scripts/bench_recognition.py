@@ -3,7 +3,8 @@
 model + EMA + gate + yaw + speed) on a simulated routine, and of the bare model call and the step
 tracker.
 
-    .venv/bin/python scripts/bench_recognition.py [--frames 3000] [--threads 1] [--no-gate] [--json out.json]
+    .venv/bin/python scripts/bench_recognition.py [--frames 3000] [--threads 1] [--calls 1000] [--no-gate]
+        [--json out.json]
 
 Wall time (perf_counter) and this thread's CPU time (thread_time) are both reported: on a shared,
 loaded machine the wall time includes waiting for a core, the CPU time does not. ``update_without_model``
@@ -64,11 +65,13 @@ def main() -> int:
     ap.add_argument("--model", type=Path, default=ROOT / "pipeline" / "recognition" / "action.onnx")
     ap.add_argument("--frames", type=int, default=3000)
     ap.add_argument("--threads", type=int, default=1)
+    ap.add_argument("--calls", type=int, default=1000, help="bare model and feature calls timed")
     ap.add_argument("--json", type=Path, default=None)
     ap.add_argument("--no-gate", action="store_true", help="the network's EMA + hysteresis alone")
     args = ap.parse_args()
-    if args.frames < 1 or args.threads < 1:
-        ap.error(f"--frames and --threads must be at least 1, got {args.frames} and {args.threads}")
+    if min(args.frames, args.threads, args.calls) < 1:
+        got = f"{args.frames}, {args.threads}, {args.calls}"
+        ap.error(f"--frames, --threads and --calls must be at least 1, got {got}")
     if not args.model.is_file():
         ap.error(f"no model file {args.model}")
 
@@ -106,9 +109,9 @@ def main() -> int:
     ev = np.zeros((rec.info.window, EVIDENCE_CHANNELS), np.float32)
     x = model_input(feats, ev if rec.info.features in WITH_EVIDENCE else None, rec.info.features)[None]
     session, name = rec.session, rec.info.input_name
-    model_t = np.empty(1000)
-    feat_t = np.empty(1000)
-    for i in range(1000):
+    model_t = np.empty(args.calls)
+    feat_t = np.empty(args.calls)
+    for i in range(args.calls):
         t0 = time.perf_counter()
         session.run(None, {name: x})
         model_t[i] = time.perf_counter() - t0

@@ -10,16 +10,19 @@ from pathlib import Path
 import pytest
 
 SCRIPT = Path(__file__).resolve().parents[3] / "scripts" / "bench_recognition.py"
-
-
-def _bench(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, str(SCRIPT), *args], capture_output=True, text=True, check=False)
+sys.path.insert(0, str(SCRIPT.parent))
+import bench_recognition  # noqa: E402
 
 
 @pytest.mark.slow
 def test_the_bench_reports_update_with_and_without_the_model_and_names_the_machine(tmp_path: Path) -> None:
     out = tmp_path / "bench.json"
-    done = _bench("--frames", "90", "--json", str(out))
+    done = subprocess.run(
+        [sys.executable, str(SCRIPT), "--frames", "90", "--calls", "20", "--json", str(out)],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
     assert done.returncode == 0, done.stderr
     got = json.loads(out.read_text())
     assert got["frames"] == 90 and got["gate"] is True and got["features"] in ("v1", "v2", "v3")
@@ -39,14 +42,24 @@ def test_the_bench_reports_update_with_and_without_the_model_and_names_the_machi
 
 @pytest.mark.parametrize(
     ("args", "words"),
-    [(["--frames", "0"], "--frames and --threads"), (["--threads", "0"], "--frames and --threads"),
-     (["--model", "/nonexistent.onnx"], "no model file")],
-)  # fmt: skip
+    [
+        (["--frames", "0"], "--frames, --threads and --calls must be at least 1, got 0, 1, 1000"),
+        (["--threads", "0"], "must be at least 1, got 3000, 0, 1000"),
+        (["--calls", "-5"], "must be at least 1, got 3000, 1, -5"),
+        (["--model", "/nonexistent.onnx"], "no model file /nonexistent.onnx"),
+    ],
+)
 def test_bad_arguments_are_one_error_line_and_write_nothing(
-    tmp_path: Path, args: list[str], words: str
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+    args: list[str],
+    words: str,
 ) -> None:
     out = tmp_path / "bench.json"
-    done = _bench(*args, "--json", str(out))
-    last = done.stderr.strip().splitlines()[-1]
-    assert done.returncode == 2 and "error: " in last and words in last, done.stderr
+    monkeypatch.setattr(sys, "argv", ["bench_recognition.py", *args, "--json", str(out)])
+    with pytest.raises(SystemExit) as done:
+        bench_recognition.main()
+    last = capsys.readouterr().err.strip().splitlines()[-1]
+    assert done.value.code == 2 and "error: " in last and last.endswith(words), last
     assert not out.exists()
