@@ -126,6 +126,10 @@ def main() -> int:
         help="train only these feature versions per fold (default both: the four-way ablation)",
     )
     args = ap.parse_args()
+    try:  # before any data is prepared: a bad setting is one error line, at once
+        train_config(args, FEATURES_V2)
+    except ValueError as exc:
+        ap.error(str(exc))
     logging.basicConfig(level=logging.INFO, format="%(message)s")
 
     def say(msg: str) -> None:

@@ -156,6 +156,10 @@ def main() -> int:
     )
     add_arguments(ap)
     args = ap.parse_args()
+    try:  # before any data is prepared: a bad setting is one error line, at once
+        train_config(args, args.features)
+    except ValueError as exc:
+        ap.error(str(exc))
     logging.basicConfig(level=logging.INFO, format="%(message)s")
 
     def say(msg: str) -> None:

@@ -45,7 +45,6 @@ from pipeline.recognition.features import (
     model_input,
     window_features,
 )
-from pipeline.recognition.model import SkeletonSlowFast, SlowFastConfig
 from pipeline.recognition.steps import StepConfig, StepTracker
 from pipeline.sim.body import sample_body
 from pipeline.sim.motion import simulate_user
@@ -119,6 +118,11 @@ class TrainConfig:
     arms_still: float = 0.0  # share of the stepping windows whose arms hang still (:func:`still_arms`)
 
     def __post_init__(self) -> None:
+        if self.epochs < 1 or self.batch_size < 1 or self.windows_per_epoch < self.batch_size:
+            raise ValueError(
+                "epochs and batch_size must be at least 1 and windows_per_epoch at least one batch "
+                f"({self.batch_size}); got {self.epochs}, {self.batch_size}, {self.windows_per_epoch}"
+            )
         if not 0.0 <= self.arms_still <= 1.0:
             raise ValueError(f"arms_still is a share of the stepping windows, 0 to 1; got {self.arms_still}")
         if not 0.0 <= self.augment_share <= 1.0:
@@ -515,6 +519,8 @@ def train_model(
     """Train the SlowFast network; returns (model in eval mode, metrics)."""
     import torch
     from torch import nn
+
+    from pipeline.recognition.model import SkeletonSlowFast, SlowFastConfig  # torch: the train extra
 
     torch.manual_seed(config.seed)
     torch.set_num_threads(config.threads)

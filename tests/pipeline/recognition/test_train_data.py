@@ -228,6 +228,16 @@ def test_the_training_script_refuses_a_share_outside_0_to_1(tmp_path: Path) -> N
         assert not out.exists() and list(tmp_path.iterdir()) == [], "nothing written"
 
 
+@pytest.mark.parametrize(("flag", "value"), [("--windows-per-epoch", "64"), ("--epochs", "0")])
+def test_training_settings_that_make_no_step_are_one_error_before_any_data(
+    tmp_path: Path, flag: str, value: str
+) -> None:
+    done = _train_script(tmp_path, flag, value)
+    last = done.stderr.strip().splitlines()[-1]
+    assert done.returncode == 2 and "error: epochs and batch_size must be at least 1" in last, done.stderr
+    assert "Traceback" not in done.stderr and list(tmp_path.iterdir()) == [], "nothing prepared or written"
+
+
 def test_the_third_to_fifth_motion_models_train_from_other_seeds_than_their_held_out_sets(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
@@ -319,3 +329,16 @@ def test_a_prepared_simulator_source_is_made_again_when_the_simulator_changes(
     prepare_source(spec, tmp_path, sim_duration_s=4.0, seed=0)
     assert len(list(tmp_path.glob("action-source-s-*.pkl"))) == 2, "a new simulator prepares again"
     assert SourceSpec.parse("gait@1").fingerprint() == gait, "other motion models keep their cache"
+
+
+def test_preparing_data_and_the_training_scripts_arguments_need_no_torch() -> None:
+    """torch (the train extra) is imported by training itself, not by preparing or evaluating data:
+    a bad argument to the training script is answered at once, and evaluation runs without torch."""
+    code = (
+        "import sys\n"
+        "import pipeline.recognition.prepare, pipeline.recognition.train, pipeline.recognition.evaluation\n"
+        "print(sorted(m for m in sys.modules if m == 'torch' or m.startswith('torch.')))\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=False)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "[]", f"torch imported: {done.stdout[:200]}"
