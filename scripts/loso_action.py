@@ -27,7 +27,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "scripts"))
 
-from train_action import add_arguments, any_source_spec, train_config  # noqa: E402
+from train_action import add_arguments, any_source_spec, check_train_config, train_config  # noqa: E402
 
 from pipeline.recognition.evaluation import network_trace, replay, step_frames, tune_gate  # noqa: E402
 from pipeline.recognition.features import FEATURE_CHANNELS, FEATURES_V1, FEATURES_V2, FEATURES_V3  # noqa: E402
@@ -126,10 +126,7 @@ def main() -> int:
         help="train only these feature versions per fold (default both: the four-way ablation)",
     )
     args = ap.parse_args()
-    try:  # before any data is prepared: a bad setting is one error line, at once
-        train_config(args, FEATURES_V2)
-    except ValueError as exc:
-        ap.error(str(exc))
+    check_train_config(ap, args, FEATURES_V2)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
 
     def say(msg: str) -> None:

@@ -136,6 +136,14 @@ def train_config(args: argparse.Namespace, features: str) -> TrainConfig:
     )
 
 
+def check_train_config(ap: argparse.ArgumentParser, args: argparse.Namespace, features: str) -> None:
+    """Before any data is prepared: a bad training setting is one error line (exit 2), at once."""
+    try:
+        train_config(args, features)
+    except ValueError as exc:
+        ap.error(str(exc))
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--out", type=Path, default=ROOT / "pipeline" / "recognition" / "action.onnx")
@@ -156,10 +164,7 @@ def main() -> int:
     )
     add_arguments(ap)
     args = ap.parse_args()
-    try:  # before any data is prepared: a bad setting is one error line, at once
-        train_config(args, args.features)
-    except ValueError as exc:
-        ap.error(str(exc))
+    check_train_config(ap, args, args.features)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
 
     def say(msg: str) -> None:
