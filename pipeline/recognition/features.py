@@ -238,14 +238,14 @@ class FrameParts(NamedTuple):
     torso_m: float  # mid-hip to mid-shoulder
 
 
-def frame_parts(frame: NDArray[np.float64]) -> FrameParts:
-    """One skeleton's (17, 3) pelvis, facing and torso: the rows that :func:`pelvis`,
-    :func:`facing_vectors` and :func:`normalize_window` compute for it, with the same arithmetic
-    in plain floats (the same numbers; numpy's calls on one frame cost more than the arithmetic)."""
+def facing_vector(frame: NDArray[np.float64]) -> tuple[float, float]:
+    """One skeleton's (17, 3) row of :func:`facing_vectors`, with the same arithmetic in plain
+    floats; NaN when neither hips nor shoulders are complete."""
     rows = frame.tolist()
-    lh, rh, ls, rs = rows[_L_HIP], rows[_R_HIP], rows[_L_SH], rows[_R_SH]
-    px, py, pz = _mid(lh[0], rh[0]), _mid(lh[1], rh[1]), _mid(lh[2], rh[2])
-    tx, ty, tz = _mid(ls[0], rs[0]) - px, _mid(ls[1], rs[1]) - py, _mid(ls[2], rs[2]) - pz
+    return _facing(rows[_L_HIP], rows[_R_HIP], rows[_L_SH], rows[_R_SH])
+
+
+def _facing(lh: list[float], rh: list[float], ls: list[float], rs: list[float]) -> tuple[float, float]:
     fx = fy = 0.0
     count = 0
     for left, right in ((lh, rh), (ls, rs)):
@@ -256,12 +256,22 @@ def frame_parts(frame: NDArray[np.float64]) -> FrameParts:
             fx += vy / norm
             fy += -(vx / norm)
             count += 1
+    return (fx, fy) if count else (math.nan, math.nan)
+
+
+def frame_parts(frame: NDArray[np.float64]) -> FrameParts:
+    """One skeleton's (17, 3) pelvis, facing and torso: the rows that :func:`pelvis`,
+    :func:`facing_vectors` and :func:`normalize_window` compute for it, with the same arithmetic
+    in plain floats (the same numbers; numpy's calls on one frame cost more than the arithmetic)."""
+    rows = frame.tolist()
+    lh, rh, ls, rs = rows[_L_HIP], rows[_R_HIP], rows[_L_SH], rows[_R_SH]
+    px, py, pz = _mid(lh[0], rh[0]), _mid(lh[1], rh[1]), _mid(lh[2], rh[2])
+    tx, ty, tz = _mid(ls[0], rs[0]) - px, _mid(ls[1], rs[1]) - py, _mid(ls[2], rs[2]) - pz
+    fx, fy = facing = _facing(lh, rh, ls, rs)
     unit = (0.0, 0.0)
-    if count:
-        norm = math.sqrt(fx * fx + fy * fy)
-        if math.isfinite(norm) and norm > 1e-9:
-            unit = (fx / norm, fy / norm)
-    facing = (fx, fy) if count else (math.nan, math.nan)
+    norm = math.sqrt(fx * fx + fy * fy)  # NaN when the facing is unknown
+    if math.isfinite(norm) and norm > 1e-9:
+        unit = (fx / norm, fy / norm)
     return FrameParts((px, py, pz), facing, unit, math.sqrt(tx * tx + ty * ty + tz * tz))
 
 

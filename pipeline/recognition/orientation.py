@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.recognition.features import frame_parts, yaw_from_vector
+from pipeline.recognition.features import facing_vector, yaw_from_vector
 from pipeline.skeleton import NUM_JOINTS, J
 
 _NOSE = J["nose"]
@@ -70,7 +70,7 @@ def raw_yaw_deg(joints: NDArray[np.floating]) -> float:
     arr = np.asarray(joints, dtype=np.float64)
     if arr.shape != (NUM_JOINTS, 3):
         raise ValueError(f"joints must have shape (17, 3), got {arr.shape}")
-    vec = np.array(frame_parts(arr).facing)  # facing_vectors(arr), in plain floats
+    vec = np.array(facing_vector(arr))
     if not np.isfinite(vec).all():
         vec = head_facing_vector(arr)
     if not np.isfinite(vec).all() or np.linalg.norm(vec) < 1e-9:

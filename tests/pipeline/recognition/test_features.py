@@ -13,6 +13,7 @@ from pipeline.recognition.features import (
     NUM_CHANNELS,
     FeatureWindow,
     RingWindow,
+    facing_vector,
     facing_vectors,
     fill_unknown,
     frame_parts,
@@ -179,6 +180,7 @@ def test_one_frames_parts_are_the_windows_rows() -> None:
         p, f, _, _ = frame_parts(frame)
         np.testing.assert_array_equal(np.array(p), pel[i], err_msg=f"pelvis, frame {i}")
         np.testing.assert_array_equal(np.array(f), facing[i], err_msg=f"facing, frame {i}")
+        np.testing.assert_array_equal(np.array(facing_vector(frame)), facing[i], err_msg=f"facing alone, {i}")
 
 
 @pytest.mark.parametrize(
