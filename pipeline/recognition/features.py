@@ -238,10 +238,17 @@ class FrameParts(NamedTuple):
     torso_m: float  # mid-hip to mid-shoulder
 
 
+def _frame_rows(frame: NDArray[np.float64]) -> list[list[float]]:
+    if frame.shape != (NUM_JOINTS, 3):
+        raise ValueError(f"a frame must have shape ({NUM_JOINTS}, 3), got {frame.shape}")
+    rows: list[list[float]] = frame.tolist()
+    return rows
+
+
 def facing_vector(frame: NDArray[np.float64]) -> tuple[float, float]:
     """One skeleton's (17, 3) row of :func:`facing_vectors`, with the same arithmetic in plain
     floats; NaN when neither hips nor shoulders are complete."""
-    rows = frame.tolist()
+    rows = _frame_rows(frame)
     return _facing(rows[_L_HIP], rows[_R_HIP], rows[_L_SH], rows[_R_SH])
 
 
@@ -263,7 +270,7 @@ def frame_parts(frame: NDArray[np.float64]) -> FrameParts:
     """One skeleton's (17, 3) pelvis, facing and torso: the rows that :func:`pelvis`,
     :func:`facing_vectors` and :func:`normalize_window` compute for it, with the same arithmetic
     in plain floats (the same numbers; numpy's calls on one frame cost more than the arithmetic)."""
-    rows = frame.tolist()
+    rows = _frame_rows(frame)
     lh, rh, ls, rs = rows[_L_HIP], rows[_R_HIP], rows[_L_SH], rows[_R_SH]
     px, py, pz = _mid(lh[0], rh[0]), _mid(lh[1], rh[1]), _mid(lh[2], rh[2])
     tx, ty, tz = _mid(ls[0], rs[0]) - px, _mid(ls[1], rs[1]) - py, _mid(ls[2], rs[2]) - pz
@@ -345,9 +352,9 @@ class FeatureWindow:
 
     def push(self, frame: NDArray[np.float64]) -> None:
         """Add one frame (17, 3) float64 metres, NaN = unknown."""
-        if frame.shape != (NUM_JOINTS, 3) or frame.dtype != np.float64:
-            raise ValueError(f"a frame must be float64 ({NUM_JOINTS}, 3), got {frame.dtype} {frame.shape}")
-        parts = frame_parts(frame)
+        if frame.dtype != np.float64:  # the window keeps float64 (the batch path's numbers)
+            raise ValueError(f"a frame must be float64, got {frame.dtype}")
+        parts = frame_parts(frame)  # checks the shape
         self._joints.push(frame)
         self._pelvis.push(parts.pelvis)
         self._unit.push(parts.unit)

@@ -183,6 +183,13 @@ def test_one_frames_parts_are_the_windows_rows() -> None:
         np.testing.assert_array_equal(np.array(facing_vector(frame)), facing[i], err_msg=f"facing alone, {i}")
 
 
+@pytest.mark.parametrize("shape", [(16, 3), (17, 2), (2, 17, 3)])
+def test_one_frames_parts_need_one_skeleton(shape: tuple[int, ...]) -> None:
+    for parts_of in (frame_parts, facing_vector):
+        with pytest.raises(ValueError, match=r"shape \(17, 3\)"):
+            parts_of(np.zeros(shape))
+
+
 @pytest.mark.parametrize(
     ("window", "fps", "frame", "match"),
     [
