@@ -40,7 +40,14 @@ from pipeline.recognition.features import (  # noqa: E402
     NUM_CHANNELS,
     V3_JOINTS,
 )
-from pipeline.recognition.networks import LAYOUT_KEY, Network, fused_model, metadata, read_networks  # noqa: E402
+from pipeline.recognition.networks import (  # noqa: E402
+    LAYOUT_KEY,
+    TOWERS_KEY,
+    Network,
+    fused_model,
+    metadata,
+    read_networks,
+)
 from pipeline.skeleton import ACTIONS  # noqa: E402
 
 _SHARED = ("window", "fps", "classes")
@@ -91,7 +98,8 @@ def _part(path: Path, as_start: bool) -> Part:
         output = outputs[0]
     else:
         raise ValueError(f"{path.name} has {len(outputs)} outputs; an action model has one or two")
-    meta.pop(LAYOUT_KEY, None)  # written again for the joined file
+    for key in (LAYOUT_KEY, TOWERS_KEY):  # written again for the joined file
+        meta.pop(key, None)
     try:
         networks = read_networks(proto, output)
     except ValueError as exc:

@@ -4,11 +4,13 @@ A trained file (``scripts/train_action.py``) is the export of a
 :class:`pipeline.recognition.model.SlowFastEnsemble`: each network's eight convolutions (batch norm
 folded in) and its head, one network after another, about 40 graph nodes each. onnxruntime then
 runs several hundred small nodes per frame, and their overhead is much of the model call.
-:func:`fused_model` writes the same networks as **one stack per output whose every layer holds all
-networks**: the first layers as one convolution with the networks' filters side by side, the later
-ones as grouped convolutions (one group per network), the heads as one block-diagonal matrix
-followed by the mean of the logits. Same arithmetic, about 30 nodes per output; its outputs equal
-the separate networks' to float rounding (``scripts/combine_action.py`` checks them before it writes).
+:func:`fused_model` writes the same networks as **one stack whose every layer holds all networks**
+of every output (the full-body judge's and the start head's): the first layers as one convolution
+with the networks' filters side by side, the later ones as grouped convolutions (one group per
+network), then split per output, each output's heads one block-diagonal matrix followed by the mean
+of the logits. Same arithmetic, 47 nodes for two outputs of eight networks each (62 with a stack per
+output, as files written before 2026-12-07 are); its outputs equal the separate networks' to float
+rounding (``scripts/combine_action.py`` checks them before it writes).
 
 :func:`read_networks` reads either form back (fine-tuning and ``scripts/combine_action.py`` use it).
 Needs ``onnx`` (the ``train`` extra); the runtime only runs the files.
@@ -26,6 +28,8 @@ LAYERS = ("slow1", "fast1", "lat1", "slow2", "fast2", "lat2", "slow3", "fast3") 
 SLOW_LAYERS = ("slow1", "slow2", "slow3")  # a network without its fast pathway (the ablation)
 LAYOUT_KEY = "layout"  # metadata: "grouped" for a fused file
 GROUPED = "grouped"
+# metadata of a file whose outputs share one stack: "output:first:count,..." (networks in the stack)
+TOWERS_KEY = "towers"
 
 
 @dataclass(frozen=True, slots=True)
@@ -104,8 +108,9 @@ def read_networks(proto: Any, output: str | None = None) -> list[Network]:
                 raise ValueError("the classifier head's weights are not constants")
             trans_b = next((helper.get_attribute_value(a) for a in node.attribute if a.name == "transB"), 0)
             heads.append(((w if trans_b else w.T).astype(np.float32), b.astype(np.float32)))
-    if metadata(proto).get(LAYOUT_KEY) == GROUPED:
-        return _unfuse(convs, heads)
+    meta = metadata(proto)
+    if meta.get(LAYOUT_KEY) == GROUPED:
+        return _unfuse(convs, heads, *_tower(meta.get(TOWERS_KEY), out))
     per = len(convs) // max(len(heads), 1)
     if not heads or per not in (len(LAYERS), len(SLOW_LAYERS)) or per * len(heads) != len(convs):
         raise ValueError(
@@ -118,16 +123,38 @@ def read_networks(proto: Any, output: str | None = None) -> list[Network]:
     ]
 
 
+def _tower(towers: str | None, output: str) -> tuple[int, int | None]:
+    """(first network, count) of ``output`` in a shared stack's ``towers`` metadata; (0, None), the
+    whole stack, for a stack of its own."""
+    if towers is None:
+        return 0, None
+    for entry in towers.split(","):
+        name, _, span = entry.partition(":")
+        if name == output:
+            try:
+                first, count = (int(v) for v in span.split(":"))
+            except ValueError:
+                break
+            return first, count
+    raise ValueError(f"the model's towers metadata {towers!r} does not name output {output!r}")
+
+
 def _unfuse(
     convs: list[tuple[NDArray[np.float32], NDArray[np.float32], int]],
     heads: list[tuple[NDArray[np.float32], NDArray[np.float32]]],
+    first: int = 0,
+    count: int | None = None,
 ) -> list[Network]:
-    """The networks of one grouped stack (the layout :func:`_stack` writes)."""
+    """The networks of one output of a grouped stack (the layout :func:`_towers` writes): ``count``
+    networks (all but ``first`` by default) from the stack's network ``first`` on."""
     if len(convs) != len(LAYERS) or len(heads) != 1:
         raise ValueError(f"a grouped model has {len(LAYERS)} convolutions and one head per output")
-    g = convs[LAYERS.index("lat1")][2]
+    total = convs[LAYERS.index("lat1")][2]
+    g = total - first if count is None else count
+    if first < 0 or g < 1 or first + g > total:
+        raise ValueError(f"networks {first} to {first + g - 1} are not in a stack of {total}")
     layers = dict(zip(LAYERS, convs, strict=True))
-    cs, cf = layers["slow1"][0].shape[0] // g, layers["fast1"][0].shape[0] // g
+    cs, cf = layers["slow1"][0].shape[0] // total, layers["fast1"][0].shape[0] // total
     hw, hb = heads[0]  # (g * classes, 2 g cs + 2 g cf), block-diagonal
     k = hb.shape[0] // g
     nets = []
@@ -135,8 +162,8 @@ def _unfuse(
         parts = []
         for name in LAYERS:
             w, b, _ = layers[name]
-            n = w.shape[0] // g
-            parts.append((w[m * n : (m + 1) * n], b[m * n : (m + 1) * n]))
+            n = w.shape[0] // total
+            parts.append((w[(first + m) * n : (first + m + 1) * n], b[(first + m) * n : (first + m + 1) * n]))
         rows = hw[m * k : (m + 1) * k]
         cols = np.r_[
             m * cs : (m + 1) * cs,
@@ -148,13 +175,16 @@ def _unfuse(
     return nets
 
 
-def _stack(
-    nets: list[Network], x: str, prefix: str, scale: NDArray[np.float32] | None
-) -> tuple[list[Any], list[Any], str]:
-    """(nodes, initializers, logits name) of one output's networks as one grouped stack."""
+def _towers(
+    heads: list[tuple[list[Network], NDArray[np.float32] | None]], x: str, prefix: str
+) -> tuple[list[Any], list[Any], list[tuple[str, str]]]:
+    """(nodes, initializers, each output's (slow, fast) last layer) of the networks of every output
+    as one stack: each layer one convolution whose groups are the networks, every output's in turn,
+    split per output at the end. ``heads`` = [(networks, input scale or None)]."""
     from onnx import helper, numpy_helper
 
-    if not all(n.fast for n in nets):
+    nets = [n for group, _ in heads for n in group]
+    if not nets or not all(n.fast for n in nets):
         raise ValueError("only networks with both pathways can be fused")
     first = nets[0]
     shape = [tuple(w.shape) for w, _ in first.convs]
@@ -164,6 +194,7 @@ def _stack(
         raise ValueError("the networks differ in shape; only networks of one architecture can be fused")
     g, a = len(nets), first.alpha
     cs, cf = first.conv("slow1")[0].shape[0], first.conv("fast1")[0].shape[0]
+    scales = [scale for group, scale in heads for _ in group]
     nodes: list[Any] = []
     inits: list[Any] = []
 
@@ -173,8 +204,8 @@ def _stack(
 
     def conv(name: str, src: str, stride: int = 1, causal: bool = True, group: int = 1) -> str:
         ws = [n.conv(name)[0] for n in nets]
-        if scale is not None and name in ("slow1", "fast1"):  # the masked joints: zero filters
-            ws = [w * scale[None, :, None] for w in ws]
+        if name in ("slow1", "fast1"):  # the masked joints: zero filters
+            ws = [w if s is None else w * s[None, :, None] for w, s in zip(ws, scales, strict=True)]
         w = np.concatenate(ws).astype(np.float32)
         b = np.concatenate([n.conv(name)[1] for n in nets]).astype(np.float32)
         k = int(w.shape[2])
@@ -194,20 +225,20 @@ def _stack(
         return f"{prefix}/{name}/out"
 
     def interleave(name: str, slow: str, lat: str) -> str:
-        """[slow of every network, lateral of every network] -> each network's [slow, lateral]."""
-        order = np.concatenate(
-            [np.r_[m * cs : (m + 1) * cs, g * cs + m * 2 * cf : g * cs + (m + 1) * 2 * cf] for m in range(g)]
-        )
-        nodes.append(helper.make_node("Concat", [slow, lat], [f"{prefix}/{name}/cat"], axis=1))
+        """[slow of every network, lateral of every network] -> each network's [slow, lateral]: two
+        reshapes and one concatenation (no copy by index)."""
+        p = f"{prefix}/{name}"
         nodes.append(
-            helper.make_node(
-                "Gather",
-                [f"{prefix}/{name}/cat", const(f"{name}/order", order.astype(np.int64))],
-                [f"{prefix}/{name}"],
-                axis=1,
-            )
+            helper.make_node("Reshape", [slow, const(f"{name}/slow_shape", [0, g, cs, -1])], [f"{p}/s"])
         )
-        return f"{prefix}/{name}"
+        nodes.append(
+            helper.make_node("Reshape", [lat, const(f"{name}/lat_shape", [0, g, 2 * cf, -1])], [f"{p}/l"])
+        )
+        nodes.append(helper.make_node("Concat", [f"{p}/s", f"{p}/l"], [f"{p}/cat"], axis=2))
+        nodes.append(
+            helper.make_node("Reshape", [f"{p}/cat", const(f"{name}/shape", [0, g * (cs + 2 * cf), -1])], [p])
+        )
+        return p
 
     big = np.array([np.iinfo(np.int64).max], np.int64)
     nodes.append(
@@ -229,8 +260,34 @@ def _stack(
     fast = conv("fast2", fast, group=g)
     slow = conv("slow3", interleave("in3", slow, conv("lat2", fast, a, False, g)), group=g)
     fast = conv("fast3", fast, group=g)
+    if len(heads) == 1:
+        return nodes, inits, [(slow, fast)]
+    sizes = [len(group) for group, _ in heads]
+    outs = []
+    for path, src, width in (("slow", slow, cs), ("fast", fast, cf)):
+        names = [f"{prefix}/{path}{i}" for i in range(len(heads))]
+        split = const(f"{path}_split", np.array([n * width for n in sizes], np.int64))
+        nodes.append(helper.make_node("Split", [src, split], names, axis=1))
+        outs.append(names)
+    return nodes, inits, list(zip(outs[0], outs[1], strict=True))
+
+
+def _pooled_head(nets: list[Network], slow: str, fast: str, prefix: str) -> tuple[list[Any], list[Any], str]:
+    """(nodes, initializers, logits name) of one output: its networks' pooling and heads, on their
+    stack's last slow and fast layers."""
+    from onnx import helper, numpy_helper
+
+    g, a = len(nets), nets[0].alpha
+    cs, cf = nets[0].conv("slow1")[0].shape[0], nets[0].conv("fast1")[0].shape[0]
+    inits: list[Any] = []
+
+    def const(name: str, value: Any) -> str:
+        inits.append(numpy_helper.from_array(np.asarray(value), f"{prefix}/{name}"))
+        return f"{prefix}/{name}"
+
+    big = np.array([np.iinfo(np.int64).max], np.int64)
     p = prefix
-    nodes += [
+    nodes = [
         helper.make_node("ReduceMean", [slow], [f"{p}/slow_mean"], axes=[2], keepdims=0),
         helper.make_node("Gather", [slow, const("last", np.array(-1, np.int64))], [f"{p}/slow_last"], axis=2),
         helper.make_node("ReduceMean", [fast], [f"{p}/fast_mean"], axes=[2], keepdims=0),
@@ -247,7 +304,7 @@ def _stack(
             axis=1,
         ),
     ]
-    k = first.head[0].shape[0]
+    k = nets[0].head[0].shape[0]
     # block-diagonal: network m's logits from its own pooled features ([slow mean, slow last, fast
     # mean, fast tail] of every network in turn, the columns of its head in that order)
     hw = np.zeros((2 * g * (cs + cf), g * k), np.float32)
@@ -276,14 +333,31 @@ def _stack(
     return nodes, inits, f"{p}/logits"
 
 
+def _one_architecture(nets: list[Network]) -> bool:
+    first = nets[0]
+    shape = [tuple(w.shape) for w, _ in first.convs]
+    return all(
+        n.fast == first.fast
+        and [tuple(w.shape) for w, _ in n.convs] == shape
+        and n.head[0].shape == first.head[0].shape
+        for n in nets
+    )
+
+
 def fused_model(
     template: Any,
     heads: list[tuple[str, list[Network], NDArray[np.float32] | None]],
     metadata: dict[str, str],
+    share: bool = True,
 ) -> Any:
     """A model whose outputs are ``heads`` = [(output name, its networks, input scale or None)], each
     the softmax of its networks' mean logits, written as grouped stacks; input and opset as in
-    ``template`` (an exported action model). Metadata ``metadata`` plus ``layout=grouped``."""
+    ``template`` (an exported action model). Metadata ``metadata`` plus ``layout=grouped``.
+
+    With ``share`` and networks of one architecture in every output, all of them share one stack
+    (each layer one convolution for every output's networks; the metadata's ``towers`` names each
+    output's networks in it): the same arithmetic as a stack per output, with half the nodes
+    onnxruntime runs per call for two outputs."""
     import onnx
     from onnx import helper
 
@@ -291,17 +365,29 @@ def fused_model(
     nodes: list[Any] = []
     inits: list[Any] = []
     outputs = []
-    for name, nets, scale in heads:
-        n, i, logits = _stack(nets, x.name, name, scale)
-        nodes += [*n, helper.make_node("Softmax", [logits], [name], axis=1)]
+    shared = share and len(heads) > 1 and _one_architecture([n for _, nets, _ in heads for n in nets])
+    stacks = [heads] if shared else [[h] for h in heads]
+    towers: list[str] = []
+    for stack in stacks:
+        prefix = "towers" if shared else stack[0][0]
+        n, i, last = _towers([(nets, scale) for _, nets, scale in stack], x.name, prefix)
+        nodes += n
         inits += i
-        out = onnx.ValueInfoProto()
-        out.CopyFrom(template.graph.output[0])
-        out.name = name
-        outputs.append(out)
+        first = 0
+        for (name, nets, _), (slow, fast) in zip(stack, last, strict=True):
+            n, i, logits = _pooled_head(nets, slow, fast, name)
+            nodes += [*n, helper.make_node("Softmax", [logits], [name], axis=1)]
+            inits += i
+            towers.append(f"{name}:{first}:{len(nets)}")
+            first += len(nets)
+            out = onnx.ValueInfoProto()
+            out.CopyFrom(template.graph.output[0])
+            out.name = name
+            outputs.append(out)
     graph = helper.make_graph(nodes, "action_grouped", [x], outputs, inits)
     model = helper.make_model(graph, opset_imports=template.opset_import, ir_version=template.ir_version)
-    for key, value in {**metadata, LAYOUT_KEY: GROUPED}.items():
+    extra = {LAYOUT_KEY: GROUPED} | ({TOWERS_KEY: ",".join(towers)} if shared else {})
+    for key, value in {**metadata, **extra}.items():
         entry = model.metadata_props.add()
         entry.key, entry.value = key, value
     onnx.checker.check_model(model)

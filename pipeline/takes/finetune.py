@@ -37,7 +37,7 @@ from pipeline.recognition.dataset import LabelledSequence
 from pipeline.recognition.evaluation import network_trace, replay, scored
 from pipeline.recognition.features import WITH_EVIDENCE
 from pipeline.recognition.metrics import Evaluation, evaluate
-from pipeline.recognition.networks import LAYOUT_KEY
+from pipeline.recognition.networks import LAYOUT_KEY, TOWERS_KEY
 from pipeline.recognition.recognizer import DEFAULT_MODEL_PATH, RecognizerConfig, model_info, open_session
 from pipeline.skeleton import ACTIONS
 from pipeline.takes.dataset import TakeData
@@ -306,7 +306,8 @@ def export(model: Any, out: Path, facts: dict[str, Any], extra: dict[str, str]) 
     meta = {
         k: v
         for k, v in facts["metadata"].items()
-        if k not in ("window", "fps", "classes", "features", LAYOUT_KEY) and not k.startswith("start_")
+        if k not in ("window", "fps", "classes", "features", LAYOUT_KEY, TOWERS_KEY)
+        and not k.startswith("start_")
     }  # the base's start head is not carried over, nor its grouped layout (an export is not grouped)
     export_onnx(
         model,

@@ -11,10 +11,11 @@ from pathlib import Path
 import numpy as np
 import onnx
 import onnx.utils
+import onnxruntime as ort
 import pytest
 
 from pipeline.recognition.evaluation import network_trace, replay
-from pipeline.recognition.features import FEATURES_V3, evidence_vector
+from pipeline.recognition.features import FEATURES_V3, evidence_vector, model_input, window_features
 from pipeline.recognition.recognizer import (
     DEFAULT_MODEL_PATH,
     ActionRecognizer,
@@ -158,7 +159,7 @@ def test_several_files_per_output_are_one_grouped_ensemble(tmp_path: Path) -> No
     """Files of 2 and 1 networks as the full-body output, 1 and 2 as the start head: each output is the
     softmax of the mean logits of all its networks (computed here in torch from the networks
     themselves), the start head's with the joints a v3 network does not see zeroed, and the file is
-    written as one grouped stack per output, which reads back into the same networks."""
+    written as one grouped stack shared by both outputs, which reads back into the same networks."""
     torch = pytest.importorskip("torch")
     from pipeline.recognition.features import CHANNELS_PER_JOINT, FEATURE_CHANNELS, V3_JOINTS
     from pipeline.recognition.model import SlowFastEnsemble
@@ -210,6 +211,14 @@ def test_several_files_per_output_are_one_grouped_ensemble(tmp_path: Path) -> No
     np.testing.assert_allclose(w, sd["slow2.1.weight"].numpy() * scale[:, None, None], atol=1e-5)
     np.testing.assert_allclose(back[2].head[0], sd["head.weight"].numpy(), atol=1e-6)
     np.testing.assert_allclose(back[2].head[1], sd["head.bias"].numpy(), atol=1e-6)
+    assert meta["towers"] == "probs:0:3,start_probs:3:3"
+    start_back = read_networks(proto, "start_probs")  # the stack's networks 3 to 5
+    assert len(start_back) == 3
+    sd = nets[4].state_dict()
+    scale = (sd["slow3.2.weight"] / torch.sqrt(sd["slow3.2.running_var"] + 1e-5)).numpy()
+    w, _ = start_back[1].conv("slow3")
+    np.testing.assert_allclose(w, sd["slow3.1.weight"].numpy() * scale[:, None, None], atol=1e-5)
+    np.testing.assert_allclose(start_back[1].head[0], sd["head.weight"].numpy(), atol=1e-6)
     again = tmp_path / "again.onnx"
     done = _combine("--full", out, "--start", out, "--out", again)
     assert done.returncode == 0, done.stderr
@@ -228,3 +237,68 @@ def test_the_committed_file_is_grouped_and_reads_back_into_its_networks() -> Non
     full, start = read_networks(proto, "probs"), read_networks(proto, "start_probs")
     assert len(full) == int(meta["members"]) == len(meta["seed"].split(","))
     assert len(start) == int(meta["start_members"]) == len(meta["start_seed"].split(","))
+
+
+def _in_memory(proto: onnx.ModelProto) -> ort.InferenceSession:
+    """A one-thread onnxruntime session of a model not written to a file (as the recogniser opens
+    one)."""
+    opts = ort.SessionOptions()
+    opts.intra_op_num_threads = 1
+    opts.log_severity_level = 3
+    return ort.InferenceSession(proto.SerializeToString(), opts, providers=["CPUExecutionProvider"])
+
+
+def test_both_outputs_of_the_committed_file_share_one_stack_and_give_what_two_stacks_give() -> None:
+    """The full-body judge and the start head are one stack of sixteen networks (one convolution per
+    layer for both, then split): the same networks read back, and the same probabilities as each
+    output written as a stack of its own, with half the convolutions per call."""
+    from pipeline.recognition.networks import TOWERS_KEY, fused_model, read_networks
+
+    proto = onnx.load(str(DEFAULT_MODEL_PATH))
+    meta = {p.key: p.value for p in proto.metadata_props}
+    assert meta[TOWERS_KEY] == "probs:0:8,start_probs:8:8"
+    full, start = read_networks(proto, "probs"), read_networks(proto, "start_probs")
+    heads = [("probs", full, None), ("start_probs", start, None)]  # the start networks read masked
+    kept = {k: v for k, v in meta.items() if k not in ("layout", TOWERS_KEY)}
+    shared, apart = fused_model(proto, heads, kept), fused_model(proto, heads, kept, share=False)
+    convs = [sum(n.op_type == "Conv" for n in m.graph.node) for m in (proto, shared, apart)]
+    assert convs == [8, 8, 16], convs
+    assert TOWERS_KEY not in {p.key for p in apart.metadata_props}
+    for name, nets in (("probs", full), ("start_probs", start)):
+        again = read_networks(shared, name)
+        for a, b in zip(again, nets, strict=True):
+            for (wa, ba), (wb, bb) in zip(a.convs, b.convs, strict=True):
+                np.testing.assert_array_equal(wa, wb)
+                np.testing.assert_array_equal(ba, bb)
+            np.testing.assert_array_equal(a.head[0], b.head[0])
+    windows, evidence = _windows()
+    x = np.concatenate(
+        [
+            model_input(window_features(windows, FPS), evidence, "v2"),
+            np.random.default_rng(4).normal(0.0, 3.0, (40, 135, 32)).astype(np.float32),
+        ]
+    )
+    committed, one, two = (
+        [np.asarray(o) for o in _in_memory(m).run(None, {"x": x})] for m in (proto, shared, apart)
+    )
+    for got in (*committed, *one):
+        assert np.isfinite(got).all()
+    for a, b, c in zip(committed, one, two, strict=True):
+        np.testing.assert_array_equal(a, b)  # this file is what fused_model writes
+        np.testing.assert_allclose(b, c, rtol=0, atol=1e-6)  # the same arithmetic in other groupings
+    assert np.abs(committed[0] - committed[1]).max() > 0.01, "the two outputs differ"
+
+
+def test_a_towers_entry_that_does_not_name_the_output_is_an_error() -> None:
+    from pipeline.recognition.networks import TOWERS_KEY, read_networks
+
+    proto = onnx.load(str(DEFAULT_MODEL_PATH))
+    for value, message in (
+        ("probs:0:8", "does not name output 'start_probs'"),
+        ("probs:0:8,start_probs:8:9", "networks 8 to 16 are not in a stack of 16"),
+        ("probs:0:8,start_probs:x", "does not name output 'start_probs'"),
+    ):
+        entry = next(p for p in proto.metadata_props if p.key == TOWERS_KEY)
+        entry.value = value
+        with pytest.raises(ValueError, match=message):
+            read_networks(proto, "start_probs")
