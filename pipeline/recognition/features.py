@@ -180,16 +180,21 @@ def fill_unknown(joints: NDArray[np.floating]) -> tuple[NDArray[np.float64], NDA
     Returns (filled, known) with known (..., T, 17) True where the joint was measured.
     """
     arr = _check_joints(joints)
-    known: NDArray[np.bool_] = np.asarray(np.isfinite(arr).all(axis=-1))
+    finite = np.isfinite(arr)
+    # all three coordinates finite (numpy's all() over a 3-long last axis costs more than two ands)
+    known: NDArray[np.bool_] = finite[..., 0] & finite[..., 1] & finite[..., 2]
+    filled = arr.copy()
     if known.all():
-        return arr.copy(), known
+        return filled, known
     t = arr.shape[-3]
     steps = np.arange(t).reshape(t, 1)
     last = np.maximum.accumulate(np.where(known, steps, -1), axis=-2)  # (..., T, 17) newest known frame
     first = np.where(known.any(axis=-2), known.argmax(axis=-2), -1)  # (..., 17) the first known frame
     src = np.where(last >= 0, last, first[..., None, :])  # before the first known value: that value
-    gathered = np.take_along_axis(arr, np.maximum(src, 0)[..., None], axis=-3)
-    filled = np.where((src >= 0)[..., None], gathered, 0.0)  # never known: 0
+    gaps = np.nonzero(~known)  # only the unknown joints are copied in: (..., frame, joint) indices
+    frm = src[gaps]
+    value = arr[(*gaps[:-2], np.maximum(frm, 0), gaps[-1])]
+    filled[gaps] = np.where((frm >= 0)[:, None], value, 0.0)  # never known: 0
     return filled, known
 
 

@@ -70,12 +70,12 @@ def raw_yaw_deg(joints: NDArray[np.floating]) -> float:
     arr = np.asarray(joints, dtype=np.float64)
     if arr.shape != (NUM_JOINTS, 3):
         raise ValueError(f"joints must have shape (17, 3), got {arr.shape}")
-    vec = np.array(facing_vector(arr))
-    if not np.isfinite(vec).all():
-        vec = head_facing_vector(arr)
-    if not np.isfinite(vec).all() or np.linalg.norm(vec) < 1e-9:
+    x, y = facing_vector(arr)
+    if not (math.isfinite(x) and math.isfinite(y)):
+        x, y = head_facing_vector(arr).tolist()
+    if not (math.isfinite(x) and math.isfinite(y)) or math.sqrt(x * x + y * y) < 1e-9:
         return math.nan
-    return float(yaw_from_vector(vec))
+    return float(yaw_from_vector(np.array((x, y))))
 
 
 def wrap_deg(angle: NDArray[np.floating] | float) -> NDArray[np.float64]:

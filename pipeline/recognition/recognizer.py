@@ -406,7 +406,7 @@ class ActionRecognizer:
         label = self._label
         return ActionEstimate(
             label=ACTIONS[label],
-            probs={name: float(p) for name, p in zip(ACTIONS, self._probs(), strict=True)},
+            probs=dict(zip(ACTIONS, self._probs().tolist(), strict=True)),
             yaw_deg=self._yaw.yaw_deg,
             speed_mps=self._speed if label != _STILL else 0.0,
             steps=self._step_frame,

@@ -82,6 +82,8 @@ def leg_heights(frame: NDArray[np.float64]) -> tuple[float, float]:
 def gap_filled(signal: NDArray[np.float64]) -> NDArray[np.float64]:
     """A signal (T,) with its unknown samples linearly filled (zeros when none is known)."""
     ok = np.isfinite(signal)
+    if ok.all():  # nothing to fill (np.interp at its own points gives the same numbers)
+        return np.array(signal, dtype=np.float64)
     if not ok.any():
         return np.zeros(len(signal))
     idx = np.arange(len(signal))
@@ -133,8 +135,16 @@ def cadence_sps(times: NDArray[np.floating], steps_per_crossing: float, config: 
     t = np.asarray(times, dtype=np.float64)
     if t.size < 2:
         return config.default_cadence_sps
-    cad = steps_per_crossing / float(np.median(np.diff(t)))
-    return float(np.clip(cad, config.min_cadence_sps, config.max_cadence_sps))
+    cad = steps_per_crossing / _median(np.diff(t).tolist())
+    return min(max(cad, config.min_cadence_sps), config.max_cadence_sps)
+
+
+def _median(values: list[float]) -> float:
+    """np.median of a few numbers, in plain floats (the same number: the middle one, or the mean of
+    the middle two; numpy's call costs more than the sort)."""
+    s = sorted(values)
+    mid = len(s) // 2
+    return s[mid] if len(s) % 2 else (s[mid - 1] + s[mid]) / 2.0
 
 
 def speed_mps(frames: NDArray[np.floating], fps: float, action: str, config: SpeedConfig) -> float:
@@ -166,11 +176,12 @@ def speed_from_heights(
         times = rising_crossings(signal, fps)
     else:
         raise ValueError(f"action must be still, forward, left or right, got {action!r}")
-    if lift_amplitude_m(signal) < config.min_lift_m:
+    amplitude = lift_amplitude_m(signal)
+    if amplitude < config.min_lift_m:
         times = np.zeros(0)  # sway and weight shifts, no steps to time
     speed = cadence_sps(times, 1.0, config) * step_m
     if config.amplitude_gain > 0:
         lo, hi = config.amplitude_range
-        ratio = lift_amplitude_m(signal) / config.reference_lift_m
+        ratio = amplitude / config.reference_lift_m
         speed *= float(np.clip(max(ratio, 1e-6) ** config.amplitude_gain, lo, hi))
     return float(speed)

@@ -107,6 +107,37 @@ def test_unknown_joints_take_the_last_known_value_and_are_flagged() -> None:
     np.testing.assert_allclose(batch[1, 2:, J["l_wrist"]], other[[1, 1, 1, 1], J["l_wrist"]])
 
 
+def _filled_one_by_one(seq: np.ndarray) -> np.ndarray:
+    """fill_unknown's rule, joint by joint and frame by frame: the last known value, else the
+    first known one, else 0 (a joint is known when all three coordinates are finite)."""
+    out = seq.copy()
+    for j in range(seq.shape[1]):
+        known = [t for t in range(len(seq)) if np.isfinite(seq[t, j]).all()]
+        for t in range(len(seq)):
+            if t in known:
+                continue
+            before = [k for k in known if k < t]
+            out[t, j] = seq[before[-1], j] if before else seq[known[0], j] if known else 0.0
+    return out
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.floats(0.0, 0.6))
+def test_filling_unknown_joints_copies_exactly_the_values_the_rule_names(seed: int, share: float) -> None:
+    """fill_unknown copies only the unknown joints, from the frames the rule names, for a batch of
+    windows at once: NaN, an infinite coordinate, one coordinate of three, never-known joints."""
+    rng = np.random.default_rng(seed)
+    batch = rng.normal(0.0, 1.0, (3, 12, 17, 3))
+    gaps = rng.random(batch.shape) < share / 3.0
+    batch[gaps] = rng.choice([np.nan, np.inf, -np.inf], size=int(gaps.sum()))
+    batch[1, :, 4] = np.nan  # one joint never known in one window
+    filled, known = fill_unknown(batch)
+    for w in range(len(batch)):
+        np.testing.assert_array_equal(filled[w], _filled_one_by_one(batch[w]))
+        np.testing.assert_array_equal(known[w], np.isfinite(batch[w]).all(axis=-1))
+    assert np.isfinite(filled).all()
+
+
 def test_velocity_channels_are_per_second_and_zero_across_gaps() -> None:
     seq = np.repeat(standing_pose()[None], 8, axis=0)
     seq[:, J["l_wrist"], 2] += np.arange(8) * 0.01  # 0.3 m/s upwards at 30 fps

@@ -7,6 +7,7 @@ import pytest
 
 from pipeline.recognition.speed import (
     SpeedConfig,
+    cadence_sps,
     gap_filled,
     leg_heights,
     rising_crossings,
@@ -95,3 +96,19 @@ def test_bad_config(kwargs: dict[str, object], match: str) -> None:
 def test_unknown_action() -> None:
     with pytest.raises(ValueError, match="action"):
         speed_mps(np.zeros((30, 17, 3)), 30.0, "jump", SpeedConfig())
+
+
+def test_the_cadence_is_the_median_interval_between_crossings_within_the_bounds() -> None:
+    """cadence_sps: steps per crossing over the median interval (the middle one, or the mean of the
+    middle two), clipped to the configured range; the default with fewer than two crossings."""
+    config = SpeedConfig()
+    rng = np.random.default_rng(8)
+    for n in range(2, 30):
+        times = np.sort(rng.uniform(0.0, 3.0, n))
+        want = np.clip(1.5 / np.median(np.diff(times)), config.min_cadence_sps, config.max_cadence_sps)
+        assert cadence_sps(times, 1.5, config) == float(want)
+    assert cadence_sps(np.array([0.0, 1.0, 3.0, 3.125]), 1.0, config) == 1.0  # intervals 1, 2, 1/8
+    assert cadence_sps(np.array([0.0, 0.25, 1.0]), 1.0, config) == 2.0  # the mean of 1/4 and 3/4
+    assert cadence_sps(np.array([0.0, 0.01]), 1.0, config) == config.max_cadence_sps
+    assert cadence_sps(np.array([0.0, 30.0]), 1.0, config) == config.min_cadence_sps
+    assert cadence_sps(np.array([1.0]), 1.0, config) == config.default_cadence_sps
