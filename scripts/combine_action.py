@@ -1,4 +1,4 @@
-"""Join trained action models into one file with a start head, written as grouped stacks.
+"""Join trained action models into one file with a start head, written as one grouped stack.
 
     .venv/bin/python scripts/combine_action.py --full FULL.onnx [FULL2.onnx ...] \
         --start START.onnx [START2.onnx ...] --out pipeline/recognition/action.onnx
@@ -11,8 +11,9 @@ what :func:`pipeline.recognition.features.model_input` does for ``v3``). A file 
 given to ``--start`` gives its start head's networks, to ``--full`` its first output's: so the
 committed file and newly trained ones can be joined. One onnxruntime call gives both outputs; the bout
 gate reads the start head only while no bout is on (:class:`pipeline.recognition.bout.GateConfig`,
-``start_network``). Every output is written as one grouped stack
-(:func:`pipeline.recognition.networks.fused_model`: a few dozen graph nodes instead of forty per
+``start_network``). Both outputs' networks are written as one grouped stack
+(:func:`pipeline.recognition.networks.fused_model`: each layer one convolution for all of them, split
+per output before the pooling; 47 graph nodes for eight networks per output instead of forty per
 network) and checked against the files it came from (at most 1e-5 apart) before it is written.
 Needs the ``train`` extra (onnx). The files come from ``scripts/train_action.py`` with the same
 ``--window``; the first START file's metadata is kept under ``start_`` keys, ``seed`` and
