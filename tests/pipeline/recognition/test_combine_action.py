@@ -4,6 +4,8 @@ grouped stacks (`pipeline.recognition.networks`); the recogniser, the replay and
 
 from __future__ import annotations
 
+import contextlib
+import io
 import subprocess
 import sys
 from pathlib import Path
@@ -33,6 +35,9 @@ from .kinematic import Scene, Swing, march, noisy, render
 
 ROOT = Path(__file__).resolve().parents[3]
 SCRIPT = ROOT / "scripts" / "combine_action.py"
+sys.path.insert(0, str(SCRIPT.parent))
+import combine_action  # noqa: E402
+
 FPS = 30.0
 
 
@@ -107,33 +112,51 @@ def test_the_recogniser_streams_what_the_replay_of_both_heads_gives(models: tupl
     assert (streamed != 0).any(), "the march is a bout"
 
 
+def _combine_in_process(*args: str | Path) -> subprocess.CompletedProcess[str]:
+    """The script's command line run in this process (its ``main``), stdout and stderr captured."""
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        try:
+            code = combine_action.main([str(a) for a in args])
+        except SystemExit as exc:
+            code = exc.code if isinstance(exc.code, int) else 1
+    return subprocess.CompletedProcess(
+        ["combine_action.py", *map(str, args)], code, out.getvalue(), err.getvalue()
+    )
+
+
 def test_bad_input_gets_one_error_and_writes_nothing(models: tuple[Path, Path, Path], tmp_path: Path) -> None:
     full, legs, _ = models
     out = tmp_path / "x.onnx"
+    done = _combine("--full", tmp_path / "none.onnx", "--start", legs, "--out", out)  # the script itself
+    assert done.returncode == 2 and done.stderr == f"error: no such model: {tmp_path / 'none.onnx'}\n", (
+        done.stderr
+    )
+    # the other refusals: the same command line, in this process
     for args, message in (
         (("--full", tmp_path / "none.onnx", "--start", legs), "no such model"),
         (("--full", legs, "--start", full), "full model must take features v2, legs.onnx takes 'v3'"),
         (("--full", full, legs, "--start", legs), "full model must take features v2, legs.onnx"),
     ):
-        done = _combine(*args, "--out", out)
+        done = _combine_in_process(*args, "--out", out)
         assert done.returncode == 2 and done.stderr.startswith("error: "), done.stderr
         assert message in done.stderr, done.stderr
         assert not out.exists()
     (tmp_path / "text.onnx").write_text("not a model")
-    done = _combine("--full", tmp_path / "text.onnx", "--start", legs, "--out", out)
+    done = _combine_in_process("--full", tmp_path / "text.onnx", "--start", legs, "--out", out)
     assert done.returncode == 2 and done.stderr == "error: text.onnx is not an ONNX model (DecodeError)\n"
     assert not out.exists()
     folder_is_file = tmp_path / "text.onnx" / "x.onnx"
-    done = _combine("--full", full, "--start", legs, "--out", folder_is_file)
+    done = _combine_in_process("--full", full, "--start", legs, "--out", folder_is_file)
     assert done.returncode == 2 and done.stderr.startswith("error: ") and done.stderr.count("\n") == 1
     other = onnx.load(str(legs))
     for p in other.metadata_props:
         if p.key == "fps":
             p.value = "60"
     onnx.save(other, str(tmp_path / "fast.onnx"))
-    done = _combine("--full", full, "--start", tmp_path / "fast.onnx", "--out", out)
+    done = _combine_in_process("--full", full, "--start", tmp_path / "fast.onnx", "--out", out)
     assert done.returncode == 2 and "differ in fps" in done.stderr and not out.exists()
-    done = _combine("--full", full, "--start", legs, tmp_path / "fast.onnx", "--out", out)
+    done = _combine_in_process("--full", full, "--start", legs, tmp_path / "fast.onnx", "--out", out)
     assert done.returncode == 2 and "differ in fps" in done.stderr and not out.exists()
 
 

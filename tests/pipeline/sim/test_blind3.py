@@ -16,7 +16,7 @@ from pipeline.sim.blind3 import FILE_KEYS, SOURCE, make_record, write_set
 from pipeline.sim.blind3.check import check_folder
 from pipeline.sim.blind3.kin import leg_angles_for, leg_fk
 from pipeline.skeleton import load_npz
-from tests.pipeline.sim.npzfiles import arrays, assert_same_arrays, fingerprint, run_module
+from tests.pipeline.sim.npzfiles import arrays, assert_same_arrays, fingerprint, run_main, run_module
 
 REPO = Path(__file__).resolve().parents[3]
 PACKAGE = REPO / "pipeline" / "sim" / "blind3"
@@ -203,6 +203,11 @@ def run_cli(*args: str) -> subprocess.CompletedProcess[str]:
     return run_module("pipeline.sim.blind3", *args)
 
 
+def run_in_process(*args: str) -> subprocess.CompletedProcess[str]:
+    """The same command line without starting an interpreter (for the refusals)."""
+    return run_main("pipeline.sim.blind3", *args)
+
+
 def test_cli_writes_a_set(tmp_path: Path) -> None:
     out = tmp_path / "set"
     r = run_cli(str(out), "--count", "2", "--seed", "5", "--duration", "2")
@@ -229,7 +234,7 @@ def test_cli_writes_a_set(tmp_path: Path) -> None:
 )
 def test_cli_refuses_bad_arguments(tmp_path: Path, args: list[str], match: str) -> None:
     out = tmp_path / "set"
-    r = run_cli(str(out), *args)
+    r = run_in_process(str(out), *args)
     assert r.returncode == 2, (r.returncode, r.stderr)
     assert r.stderr.count("\n") == 1 and r.stderr.startswith("error: ") and match in r.stderr, r.stderr
     assert r.stdout == ""
@@ -240,11 +245,11 @@ def test_cli_refuses_a_file_as_out_dir_and_a_missing_one(tmp_path: Path) -> None
     taken = tmp_path / "taken"
     taken.write_text("keep me")
     for out, match in ((taken, "not a folder"), (taken / "set", "error: ")):
-        r = run_cli(str(out), "--count", "1", "--duration", "2")
+        r = run_in_process(str(out), "--count", "1", "--duration", "2")
         assert r.returncode == 2 and r.stderr.count("\n") == 1 and r.stderr.startswith("error: "), r.stderr
         assert match in r.stderr and "Traceback" not in r.stderr
         assert taken.read_text() == "keep me" and sorted(tmp_path.iterdir()) == [taken]
-    r = run_cli()
+    r = run_in_process()
     assert r.returncode == 2 and r.stderr.count("\n") == 1 and r.stderr.startswith("error: ")
     assert "out_dir" in r.stderr
 

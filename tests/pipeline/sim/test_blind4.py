@@ -28,7 +28,7 @@ from pipeline.sim.blind4.__main__ import main as write_main
 from pipeline.sim.blind4.check import check_folder
 from pipeline.sim.blind4.check import main as check_main
 from pipeline.skeleton import load_npz
-from tests.pipeline.sim.npzfiles import arrays, assert_same_arrays, fingerprint, run_module
+from tests.pipeline.sim.npzfiles import arrays, assert_same_arrays, fingerprint, run_main, run_module
 
 REPO = Path(__file__).resolve().parents[3]
 PACKAGE = REPO / "pipeline" / "sim" / "blind4"
@@ -401,7 +401,7 @@ def test_cli_writes_a_set_and_refuses_bad_input_in_one_line(tmp_path: Path) -> N
     assert sorted(out.iterdir()) == paths
     assert_same_arrays(arrays(paths[1]), generate(5, 1, 10.0))
     bad = tmp_path / "bad"
-    r = run_cli(str(bad), "--count", "0")
+    r = run_main("pipeline.sim.blind4", str(bad), "--count", "0")  # in-process: the same command line
     assert r.returncode == 2 and r.stdout == "", (r.returncode, r.stdout)
     assert r.stderr.count("\n") == 1 and r.stderr.startswith("error: count must be"), r.stderr
     assert not bad.exists()

@@ -20,7 +20,7 @@ from pipeline.sim.blind5.check import check_file as check5
 from pipeline.sim.blind6.check import check_file as check6
 from pipeline.sim.blind7.check import check_file as check7
 from pipeline.skeleton import load_npz
-from tests.pipeline.sim.npzfiles import arrays, assert_same_arrays, fingerprint, run_module
+from tests.pipeline.sim.npzfiles import arrays, assert_same_arrays, fingerprint, run_main, run_module
 
 
 @dataclass(frozen=True)
@@ -180,15 +180,15 @@ def test_bad_arguments_are_refused_before_anything_is_written(model: str, tmp_pa
     assert not (tmp_path / "out").exists()
     done = run_module(module, str(tmp_path / "out"), "--count", "0")
     assert done.returncode == 2 and done.stderr.startswith("error: count must be") and not done.stdout
-    done = run_module(module, str(tmp_path / "out"), "--seed", "x")
+    done = run_main(module, str(tmp_path / "out"), "--seed", "x")  # the same command line in-process
     assert done.returncode == 2 and done.stderr.startswith("error: ") and not done.stdout
     assert not (tmp_path / "out").exists()
     (tmp_path / "file").write_text("x")
-    done = run_module(module, str(tmp_path / "file"), "--count", "1", "--duration", "10")
+    done = run_main(module, str(tmp_path / "file"), "--count", "1", "--duration", "10")
     assert (
         done.returncode == 2
         and done.stderr.startswith("error: cannot write")
         and done.stderr.count("\n") == 1
     )
-    done = run_module(f"{module}.check", str(tmp_path / "empty"))
+    done = run_main(f"{module}.check", str(tmp_path / "empty"))
     assert done.returncode == 2 and done.stderr.startswith("error: ")
