@@ -146,7 +146,7 @@ def _unfuse(
     count: int | None = None,
 ) -> list[Network]:
     """The networks of one output of a grouped stack (the layout :func:`_towers` writes): ``count``
-    networks (all but ``first`` by default) from the stack's network ``first`` on."""
+    networks from the stack's network ``first`` on (by default every network from ``first`` on)."""
     if len(convs) != len(LAYERS) or len(heads) != 1:
         raise ValueError(f"a grouped model has {len(LAYERS)} convolutions and one head per output")
     total = convs[LAYERS.index("lat1")][2]
@@ -186,12 +186,9 @@ def _towers(
     nets = [n for group, _ in heads for n in group]
     if not nets or not all(n.fast for n in nets):
         raise ValueError("only networks with both pathways can be fused")
-    first = nets[0]
-    shape = [tuple(w.shape) for w, _ in first.convs]
-    if any(
-        [tuple(w.shape) for w, _ in n.convs] != shape or n.head[0].shape != first.head[0].shape for n in nets
-    ):
+    if not _one_architecture(nets):
         raise ValueError("the networks differ in shape; only networks of one architecture can be fused")
+    first = nets[0]
     g, a = len(nets), first.alpha
     cs, cf = first.conv("slow1")[0].shape[0], first.conv("fast1")[0].shape[0]
     scales = [scale for group, scale in heads for _ in group]
@@ -334,6 +331,7 @@ def _pooled_head(nets: list[Network], slow: str, fast: str, prefix: str) -> tupl
 
 
 def _one_architecture(nets: list[Network]) -> bool:
+    """Every network has the first one's pathways and layer shapes."""
     first = nets[0]
     shape = [tuple(w.shape) for w, _ in first.convs]
     return all(
@@ -356,7 +354,7 @@ def fused_model(
 
     With ``share`` and networks of one architecture in every output, all of them share one stack
     (each layer one convolution for every output's networks; the metadata's ``towers`` names each
-    output's networks in it): the same arithmetic as a stack per output, with half the nodes
+    output's networks in it): the same arithmetic as a stack per output, with half the convolutions
     onnxruntime runs per call for two outputs."""
     import onnx
     from onnx import helper
