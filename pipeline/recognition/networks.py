@@ -175,13 +175,24 @@ def _unfuse(
     return nets
 
 
+_TO_END = np.array([np.iinfo(np.int64).max], np.int64)  # a Slice's end: to the end of the axis
+
+
+def _constant(inits: list[Any], name: str, value: Any) -> str:
+    """Add ``value`` to ``inits`` as the initializer ``name``; its name."""
+    from onnx import numpy_helper
+
+    inits.append(numpy_helper.from_array(np.asarray(value), name))
+    return name
+
+
 def _towers(
     heads: list[tuple[list[Network], NDArray[np.float32] | None]], x: str, prefix: str
 ) -> tuple[list[Any], list[Any], list[tuple[str, str]]]:
     """(nodes, initializers, each output's (slow, fast) last layer) of the networks of every output
     as one stack: each layer one convolution whose groups are the networks, every output's in turn,
     split per output at the end. ``heads`` = [(networks, input scale or None)]."""
-    from onnx import helper, numpy_helper
+    from onnx import helper
 
     nets = [n for group, _ in heads for n in group]
     if not nets or not all(n.fast for n in nets):
@@ -196,8 +207,7 @@ def _towers(
     inits: list[Any] = []
 
     def const(name: str, value: Any) -> str:
-        inits.append(numpy_helper.from_array(np.asarray(value), f"{prefix}/{name}"))
-        return f"{prefix}/{name}"
+        return _constant(inits, f"{prefix}/{name}", value)
 
     def conv(name: str, src: str, stride: int = 1, causal: bool = True, group: int = 1) -> str:
         ws = [n.conv(name)[0] for n in nets]
@@ -237,14 +247,13 @@ def _towers(
         )
         return p
 
-    big = np.array([np.iinfo(np.int64).max], np.int64)
     nodes.append(
         helper.make_node(
             "Slice",
             [
                 x,
                 const("every_alpha/start", [a - 1]),
-                const("every_alpha/end", big),
+                const("every_alpha/end", _TO_END),
                 const("time_axis", [2]),
                 const("every_alpha/step", [a]),
             ],
@@ -272,17 +281,15 @@ def _towers(
 def _pooled_head(nets: list[Network], slow: str, fast: str, prefix: str) -> tuple[list[Any], list[Any], str]:
     """(nodes, initializers, logits name) of one output: its networks' pooling and heads, on their
     stack's last slow and fast layers."""
-    from onnx import helper, numpy_helper
+    from onnx import helper
 
     g, a = len(nets), nets[0].alpha
     cs, cf = nets[0].conv("slow1")[0].shape[0], nets[0].conv("fast1")[0].shape[0]
     inits: list[Any] = []
 
     def const(name: str, value: Any) -> str:
-        inits.append(numpy_helper.from_array(np.asarray(value), f"{prefix}/{name}"))
-        return f"{prefix}/{name}"
+        return _constant(inits, f"{prefix}/{name}", value)
 
-    big = np.array([np.iinfo(np.int64).max], np.int64)
     p = prefix
     nodes = [
         helper.make_node("ReduceMean", [slow], [f"{p}/slow_mean"], axes=[2], keepdims=0),
@@ -290,7 +297,7 @@ def _pooled_head(nets: list[Network], slow: str, fast: str, prefix: str) -> tupl
         helper.make_node("ReduceMean", [fast], [f"{p}/fast_mean"], axes=[2], keepdims=0),
         helper.make_node(
             "Slice",
-            [fast, const("tail/start", [-a]), const("tail/end", big), const("tail_axis", [2])],
+            [fast, const("tail/start", [-a]), const("tail/end", _TO_END), const("tail_axis", [2])],
             [f"{p}/fast_tail"],
         ),
         helper.make_node("ReduceMean", [f"{p}/fast_tail"], [f"{p}/fast_last"], axes=[2], keepdims=0),
