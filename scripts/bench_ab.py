@@ -31,6 +31,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
+from bench_recognition import routine  # noqa: E402
+
 from pipeline.machine import machine_facts  # noqa: E402
 
 MODEL = Path("pipeline") / "recognition" / "action.onnx"
@@ -106,23 +108,10 @@ class _Worker:
             self.proc.wait(timeout=30)
 
 
-def _frames(count: int, fps: float) -> np.ndarray:
-    """The bench's routine (scripts/bench_recognition.py): a random script, capture noise."""
-    from pipeline.recognition.train import NoiseConfig, capture
-    from pipeline.sim.body import sample_body
-    from pipeline.sim.motion import simulate_user
-    from pipeline.sim.script import random_script
-
-    rng = np.random.default_rng(1)
-    script = random_script(rng, max(count / fps + 1.0, 100 / fps + 2.0))
-    motion = simulate_user(script, sample_body(rng), fps, seed=1)
-    return capture(motion.joints_m, rng, NoiseConfig(), fps)[:count]
-
-
 def compare(baseline: Path, frames: int, chunk: int, passes: int) -> dict[str, Any]:
     """Per-frame ``update()`` times (ms) of this checkout and ``baseline``, taking turns by chunks."""
     fps = 30.0
-    joints = _frames(frames, fps)
+    joints = routine(frames, fps)[:frames]  # scripts/bench_recognition.py's routine
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "frames.npy"
         np.save(path, joints)

@@ -60,6 +60,20 @@ class _TimedSession:
         return getattr(self._session, name)
 
 
+def routine(frames: int, fps: float) -> np.ndarray:
+    """The bench's skeletons (T, 17, 3): a random simulated routine (seed 1) captured with noise, at
+    least ``frames`` long and at least the warm-up's 100 frames and a window (the same routine for
+    100 frames or more)."""
+    from pipeline.sim.body import sample_body
+    from pipeline.sim.motion import simulate_user
+    from pipeline.sim.script import random_script
+
+    rng = np.random.default_rng(1)
+    script = random_script(rng, max(frames / fps + 1.0, 100 / fps + 2.0))
+    motion = simulate_user(script, sample_body(rng), fps, seed=1)
+    return capture(motion.joints_m, rng, NoiseConfig(), fps)
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--model", type=Path, default=ROOT / "pipeline" / "recognition" / "action.onnx")
@@ -75,16 +89,8 @@ def main() -> int:
     if not args.model.is_file():
         ap.error(f"no model file {args.model}")
 
-    from pipeline.sim.body import sample_body
-    from pipeline.sim.motion import simulate_user
-    from pipeline.sim.script import random_script
-
-    rng = np.random.default_rng(1)
     fps = 30.0
-    # the frames, and at least the warm-up's 100 and a window (the same routine as before for >= 100)
-    script = random_script(rng, max(args.frames / fps + 1.0, 100 / fps + 2.0))
-    motion = simulate_user(script, sample_body(rng), fps, seed=1)
-    captured = capture(motion.joints_m, rng, NoiseConfig(), fps)
+    captured = routine(args.frames, fps)
     joints = captured[: args.frames]
 
     config = RecognizerConfig(model_path=args.model, threads=args.threads, gate=not args.no_gate)
