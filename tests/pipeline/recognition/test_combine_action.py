@@ -4,8 +4,6 @@ grouped stacks (`pipeline.recognition.networks`); the recogniser, the replay and
 
 from __future__ import annotations
 
-import contextlib
-import io
 import subprocess
 import sys
 from pathlib import Path
@@ -13,7 +11,6 @@ from pathlib import Path
 import numpy as np
 import onnx
 import onnx.utils
-import onnxruntime as ort
 import pytest
 
 from pipeline.recognition.evaluation import network_trace, replay
@@ -30,6 +27,7 @@ from pipeline.recognition.recognizer import (
 )
 from pipeline.recognition.steps import StepTracker
 from pipeline.skeleton import ACTIONS
+from tests.inprocess import run_main
 
 from .kinematic import Scene, Swing, march, noisy, render
 
@@ -113,16 +111,8 @@ def test_the_recogniser_streams_what_the_replay_of_both_heads_gives(models: tupl
 
 
 def _combine_in_process(*args: str | Path) -> subprocess.CompletedProcess[str]:
-    """The script's command line run in this process (its ``main``), stdout and stderr captured."""
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        try:
-            code = combine_action.main([str(a) for a in args])
-        except SystemExit as exc:
-            code = exc.code if isinstance(exc.code, int) else 1
-    return subprocess.CompletedProcess(
-        ["combine_action.py", *map(str, args)], code, out.getvalue(), err.getvalue()
-    )
+    """The script's command line run in this process (its ``main``)."""
+    return run_main("combine_action", *map(str, args))
 
 
 def test_bad_input_gets_one_error_and_writes_nothing(models: tuple[Path, Path, Path], tmp_path: Path) -> None:
@@ -262,15 +252,6 @@ def test_the_committed_file_is_grouped_and_reads_back_into_its_networks() -> Non
     assert len(start) == int(meta["start_members"]) == len(meta["start_seed"].split(","))
 
 
-def _in_memory(proto: onnx.ModelProto) -> ort.InferenceSession:
-    """A one-thread onnxruntime session of a model not written to a file (as the recogniser opens
-    one)."""
-    opts = ort.SessionOptions()
-    opts.intra_op_num_threads = 1
-    opts.log_severity_level = 3
-    return ort.InferenceSession(proto.SerializeToString(), opts, providers=["CPUExecutionProvider"])
-
-
 def test_both_outputs_of_the_committed_file_share_one_stack_and_give_what_two_stacks_give() -> None:
     """The full-body judge and the start head are one stack of sixteen networks (one convolution per
     layer for both, then split): the same networks read back, and the same probabilities as each
@@ -301,8 +282,9 @@ def test_both_outputs_of_the_committed_file_share_one_stack_and_give_what_two_st
             np.random.default_rng(4).normal(0.0, 3.0, (40, 135, 32)).astype(np.float32),
         ]
     )
+    session = combine_action._session  # one thread, the model in memory
     committed, one, two = (
-        [np.asarray(o) for o in _in_memory(m).run(None, {"x": x})] for m in (proto, shared, apart)
+        [np.asarray(o) for o in session(m).run(None, {"x": x})] for m in (proto, shared, apart)
     )
     for got in (*committed, *one):
         assert np.isfinite(got).all()

@@ -3,10 +3,6 @@ for their tests."""
 
 from __future__ import annotations
 
-import contextlib
-import importlib
-import importlib.util
-import io
 import subprocess
 import sys
 from pathlib import Path
@@ -50,24 +46,3 @@ def fingerprint(d: dict[str, np.ndarray]) -> dict[str, object]:
         "mean_xyz": np.round(np.nanmean(x, axis=(0, 1)), 5).tolist(),
         "sd": round(float(np.nanstd(x)), 5),
     }
-
-
-def run_main(module: str, *args: str) -> subprocess.CompletedProcess[str]:
-    """``python -m module args...`` in this process: the module's (or its package's ``__main__``'s)
-    ``main(argv)`` with stdout and stderr captured, its exit code from the return value or
-    ``SystemExit`` (no interpreter start: for the many refusals a test checks; :func:`run_module`
-    checks the real command line once per generator)."""
-    spec = importlib.util.find_spec(module)
-    target = f"{module}.__main__" if spec is not None and spec.submodule_search_locations else module
-    main = importlib.import_module(target).main
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        try:
-            code = main(list(args))
-        except SystemExit as exc:
-            code = exc.code
-    if not isinstance(code, int):
-        code = 0 if code is None else 1
-    return subprocess.CompletedProcess(
-        [sys.executable, "-m", module, *args], code, out.getvalue(), err.getvalue()
-    )

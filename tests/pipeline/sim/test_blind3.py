@@ -16,7 +16,8 @@ from pipeline.sim.blind3 import FILE_KEYS, SOURCE, make_record, write_set
 from pipeline.sim.blind3.check import check_folder
 from pipeline.sim.blind3.kin import leg_angles_for, leg_fk
 from pipeline.skeleton import load_npz
-from tests.pipeline.sim.npzfiles import arrays, assert_same_arrays, fingerprint, run_main, run_module
+from tests.inprocess import run_main
+from tests.pipeline.sim.npzfiles import arrays, assert_same_arrays, fingerprint, run_module
 
 REPO = Path(__file__).resolve().parents[3]
 PACKAGE = REPO / "pipeline" / "sim" / "blind3"

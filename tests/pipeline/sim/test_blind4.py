@@ -28,7 +28,8 @@ from pipeline.sim.blind4.__main__ import main as write_main
 from pipeline.sim.blind4.check import check_folder
 from pipeline.sim.blind4.check import main as check_main
 from pipeline.skeleton import load_npz
-from tests.pipeline.sim.npzfiles import arrays, assert_same_arrays, fingerprint, run_main, run_module
+from tests.inprocess import run_main
+from tests.pipeline.sim.npzfiles import arrays, assert_same_arrays, fingerprint, run_module
 
 REPO = Path(__file__).resolve().parents[3]
 PACKAGE = REPO / "pipeline" / "sim" / "blind4"

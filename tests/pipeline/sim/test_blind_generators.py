@@ -20,7 +20,8 @@ from pipeline.sim.blind5.check import check_file as check5
 from pipeline.sim.blind6.check import check_file as check6
 from pipeline.sim.blind7.check import check_file as check7
 from pipeline.skeleton import load_npz
-from tests.pipeline.sim.npzfiles import arrays, assert_same_arrays, fingerprint, run_main, run_module
+from tests.inprocess import run_main
+from tests.pipeline.sim.npzfiles import arrays, assert_same_arrays, fingerprint, run_module
 
 
 @dataclass(frozen=True)
