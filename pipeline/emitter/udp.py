@@ -72,6 +72,8 @@ class SharedStream(Protocol):
     @property
     def version(self) -> int: ...
 
+    def peek_seq(self) -> int: ...
+
     def take_seq(self) -> int: ...
 
     def add_sent(self, n: int) -> None: ...
@@ -317,7 +319,10 @@ class UdpEmitter:
         if self._shared is not None:  # one seq per datagram for every destination, shared
             if not self._endpoints:
                 return
-            data = build(self._shared.take_seq())
+            # built before its seq is taken, so a sender killed while it builds leaves no gap
+            # (the window for a kill is the take and the send alone)
+            data = build(self._shared.peek_seq())
+            self._shared.take_seq()
             for ep in self._endpoints:
                 try:
                     self._sock.sendto(data, ep)

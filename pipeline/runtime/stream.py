@@ -74,6 +74,10 @@ class StreamBook:
         return cls(spec, attach_segment(spec.shm_name), owner=False)
 
     # -- seq and counts (the one sender of the moment) ------------------------------------
+    def peek_seq(self) -> int:
+        """The ``seq`` the next datagram will take (it is not taken yet)."""
+        return int(self._words[0])
+
     def take_seq(self) -> int:
         """The next ``seq`` (one per datagram, the same for every destination)."""
         seq = int(self._words[0])

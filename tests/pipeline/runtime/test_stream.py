@@ -16,6 +16,7 @@ from typing import Any
 
 import pytest
 
+from pipeline.emitter import udp
 from pipeline.emitter.udp import EmitterConfig, UdpEmitter, stream_socket
 from pipeline.errors import InputError
 from pipeline.recognition.recognizer import DEFAULT_MODEL_PATH
@@ -131,5 +132,34 @@ def test_the_book_hands_seq_and_endpoints_between_the_two_emitters() -> None:
     finally:
         standby.close()
         fusion.close()
+        rx.close()
+        book.unlink()
+
+
+def test_a_datagram_takes_its_seq_only_once_it_is_built(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A sender that dies while it builds a datagram (here: its encoder fails) leaves no gap in
+    ``seq``: the next datagram, from whichever emitter, carries the seq the lost one would have."""
+    book = StreamBook.create()
+    rx = DatagramRecorder()
+    config = EmitterConfig(heartbeat_s=10.0)
+    emitter = UdpEmitter(config, [("127.0.0.1", rx.port)], shared=book, role="standby")
+
+    def dies_while_building(*args: Any) -> dict[str, Any]:
+        raise RuntimeError("the sender died while building")
+
+    try:
+        emitter.tick(time.monotonic())
+        wait_until(lambda: len(rx.got) == 1, "the first heartbeat")
+        monkeypatch.setattr(udp, "prompt_message", dies_while_building)
+        with pytest.raises(RuntimeError, match="while building"):
+            emitter.send_prompt("Walk forward", "forward", 3.0)
+        assert book.peek_seq() == 1, "the datagram never built took no seq"
+        monkeypatch.undo()
+        emitter.send_prompt("Walk forward", "forward", 3.0)
+        wait_until(lambda: len(rx.got) == 2, "the prompt")
+        assert [(m["type"], m["seq"]) for _, m in rx.got] == [("heartbeat", 0), ("prompt", 1)]
+        assert book.peek_seq() == 2
+    finally:
+        emitter.close()
         rx.close()
         book.unlink()
