@@ -9,4 +9,7 @@ echo "==> mypy"
 mypy
 echo "==> pytest"
 # pytest exits 5 when it collects nothing: that is a failure here too.
-exec pytest -p no:cacheprovider "$@"
+# Two test processes where there are two cores (much of the suite waits on servers, browsers and
+# worker processes); each test file runs whole, in its order, in one of them (--dist loadfile).
+# `bash scripts/test.sh -n 0` runs everything in one process.
+exec pytest -p no:cacheprovider -n auto --maxprocesses 2 --dist loadfile "$@"

@@ -18,6 +18,7 @@ import contextlib
 import logging
 import secrets
 import time
+from collections.abc import Iterable
 from dataclasses import dataclass
 from multiprocessing import resource_tracker, shared_memory
 from pathlib import Path
@@ -248,10 +249,11 @@ def unlink_attached() -> list[str]:
     return removed
 
 
-def _mapped_segments(proc_dir: Path) -> set[str]:
-    """The /dev/shm names that some live process maps (``/proc/*/maps``)."""
+def mapped_segments(proc_dir: Path = Path("/proc"), pids: Iterable[int] | None = None) -> set[str]:
+    """The /dev/shm names that some live process maps (``/proc/*/maps``), or one of ``pids``."""
     mapped: set[str] = set()
-    for maps in proc_dir.glob("[0-9]*/maps"):
+    files = proc_dir.glob("[0-9]*/maps") if pids is None else (proc_dir / str(p) / "maps" for p in pids)
+    for maps in files:
         with contextlib.suppress(OSError):
             for line in maps.read_text(errors="replace").splitlines():
                 if "/dev/shm/" in line:
@@ -273,10 +275,10 @@ def sweep_stale_segments(
     candidates = {p.name for p in shm_dir.iterdir() if p.name.startswith(PREFIXES)}
     if not candidates:
         return []
-    stale = candidates - _mapped_segments(proc_dir)
+    stale = candidates - mapped_segments(proc_dir)
     if stale:
         time.sleep(settle_s)
-        stale -= _mapped_segments(proc_dir)
+        stale -= mapped_segments(proc_dir)
     removed = []
     for name in sorted(stale):
         with contextlib.suppress(OSError):

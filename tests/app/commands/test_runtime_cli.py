@@ -15,8 +15,9 @@ import pytest
 
 from pipeline.emitter import EmitterConfig, LocomotionCommand, UdpEmitter
 from pipeline.machine import machine_facts
+from pipeline.runtime.shm import PREFIXES
 from tests.app.test_cli_errors import run_cli
-from tests.pipeline.runtime.live import children_alive, shm_segments
+from tests.pipeline.runtime.live import children_alive, segments_of, shm_segments
 from tests.waiting import free_udp_port
 
 ROOT = Path(__file__).resolve().parents[3]
@@ -156,7 +157,6 @@ def test_bench_sim_writes_json(tmp_path: Path) -> None:
 @pytest.mark.slow
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGKILL])
 def test_signal_stops_bench_cleanly(sig: signal.Signals) -> None:
-    before = shm_segments()
     # no warm-up: the signal comes once the first progress line shows the pipeline running
     proc = subprocess.Popen(cavewalk("bench", "--source", "sim", "--duration", "120", "--warmup", "0"),
                             cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -169,6 +169,8 @@ def test_signal_stops_bench_cleanly(sig: signal.Signals) -> None:
             assert time.monotonic() < deadline, "bench did not start"
         workers = [c.pid for c in psutil.Process(proc.pid).children(recursive=True)]
         assert workers, "the pipeline runs in worker processes"
+        ours = segments_of(proc.pid)  # this run's (other test processes may run pipelines too)
+        assert ours, "its mailboxes and stream book"
         proc.send_signal(sig)
         proc.wait(timeout=60)
     finally:
@@ -182,4 +184,7 @@ def test_signal_stops_bench_cleanly(sig: signal.Signals) -> None:
     while children_alive(workers) and time.monotonic() < deadline:
         time.sleep(0.1)
     assert children_alive(workers) == [], "no orphan worker"
-    assert shm_segments() == before
+    if sig == signal.SIGTERM:
+        assert not ours & shm_segments(PREFIXES), "an interrupted run unlinks its shared memory"
+    else:  # the process and its resource tracker died: the next start sweeps (test_serve_faults.py)
+        assert not ours & shm_segments(), "the workers notice and unlink the camera rings"

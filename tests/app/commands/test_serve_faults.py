@@ -22,7 +22,8 @@ import psutil
 import pytest
 
 from pipeline.demo_data import DemoData
-from tests.pipeline.runtime.live import shm_segments, shrink_video
+from pipeline.runtime.shm import SHM_PREFIX
+from tests.pipeline.runtime.live import segments_of, shm_segments, shrink_video
 from tests.waiting import free_port
 
 ROOT = Path(__file__).resolve().parents[3]
@@ -130,11 +131,10 @@ def test_kill_9_of_the_server_leaves_no_worker_and_no_shared_memory(
         cam: str(shrink_video(demo_data.videos[cam], tmp_path / f"{cam}.mp4", 60))
         for cam in ("cam01", "cam02")
     }
-    before = shm_segments()
     srv = server("serve")
     srv.api("POST", "/pipeline/start", {"source": "videos", "videos": videos})
     _running(srv)
-    ours = shm_segments() - before
+    ours = segments_of(srv.proc.pid, SHM_PREFIX)  # this server's (other test processes run pipelines too)
     assert len(ours) >= 2, "a ring per camera"
     children = srv.descendants()
     assert len(children) >= 4, children  # capture x2, detect, fuse (+ the fork server, resource tracker)

@@ -13,9 +13,10 @@ from pipeline.emitter.udp import EmitterConfig
 from pipeline.runtime.chain import SimWorldFactory
 from pipeline.runtime.config import RuntimeConfig
 from pipeline.runtime.pipeline import Pipeline
+from pipeline.runtime.shm import FrameRing
 from pipeline.sim.world import SimConfig
 
-from .live import Listener, shrink_video
+from .live import CreatedRings, Listener, shrink_video
 
 
 @pytest.fixture(scope="session")
@@ -24,6 +25,14 @@ def small_videos(demo_data: DemoData, tmp_path_factory: pytest.TempPathFactory) 
     folder = tmp_path_factory.mktemp("small_videos")
     lengths = {"cam01": 60, "cam02": 60, "cam03": 12}
     return {cam: shrink_video(demo_data.videos[cam], folder / f"{cam}.mp4", n) for cam, n in lengths.items()}
+
+
+@pytest.fixture()
+def created_rings(monkeypatch: pytest.MonkeyPatch) -> CreatedRings:
+    """Every ring this test's pipelines create, by name (``live.CreatedRings``)."""
+    rings = CreatedRings()
+    monkeypatch.setattr(FrameRing, "create", rings.spy(FrameRing.create))
+    return rings
 
 
 @pytest.fixture()

@@ -13,7 +13,7 @@ import cv2
 import psutil
 
 from pipeline.emitter import ReceiverStats, open_receiver_socket, receive
-from pipeline.runtime.shm import SHM_PREFIX
+from pipeline.runtime.shm import PREFIXES, SHM_PREFIX, FrameRing, mapped_segments
 
 
 def shrink_video(src: Path, dst: Path, frames: int, scale: float = 0.25) -> Path:
@@ -32,8 +32,40 @@ def shrink_video(src: Path, dst: Path, frames: int, scale: float = 0.25) -> Path
     return dst
 
 
-def shm_segments() -> set[str]:
-    return {n for n in os.listdir("/dev/shm") if n.startswith(SHM_PREFIX)}
+def shm_segments(prefixes: str | tuple[str, ...] = SHM_PREFIX) -> set[str]:
+    """cavewalk's /dev/shm segments (by default the camera rings)."""
+    return {n for n in os.listdir("/dev/shm") if n.startswith(prefixes)}
+
+
+def segments_of(root: int, prefixes: str | tuple[str, ...] = PREFIXES) -> set[str]:
+    """cavewalk's /dev/shm segments that process ``root`` or one of its descendants maps now: one
+    run's own, whatever other test processes (``pytest -n``) create and remove meanwhile."""
+    pids = [root, *(p.pid for p in psutil.Process(root).children(recursive=True))]
+    return {n for n in mapped_segments(pids=pids) if n.startswith(prefixes)}
+
+
+class CreatedRings:
+    """The /dev/shm names of every ring (camera ring, mailbox) this process creates while it is
+    installed (:meth:`FrameRing.create`, spied on, still creates them): a test checks its own
+    pipeline's segments, whatever other test processes create and remove meanwhile."""
+
+    def __init__(self) -> None:
+        self.names: list[str] = []
+
+    def spy(self, create: Callable[..., FrameRing]) -> Callable[..., FrameRing]:
+        def created(*args: Any, **kwargs: Any) -> FrameRing:
+            ring = create(*args, **kwargs)
+            self.names.append(ring.spec.shm_name)
+            return ring
+
+        return created
+
+    def of(self, prefix: str) -> list[str]:
+        return [n for n in self.names if n.startswith(prefix)]
+
+    def existing(self) -> set[str]:
+        """Those still in /dev/shm."""
+        return {n for n in self.names if os.path.exists(f"/dev/shm/{n}")}
 
 
 def children_alive(pids: list[int]) -> list[int]:

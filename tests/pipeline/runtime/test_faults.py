@@ -18,7 +18,7 @@ from pipeline.runtime.mailbox import Mailbox
 from pipeline.runtime.pipeline import Pipeline
 from pipeline.runtime.shm import MAILBOX_PREFIX
 
-from .live import Listener, children_alive, wait_for
+from .live import CreatedRings, Listener, children_alive, wait_for
 
 pytestmark = pytest.mark.slow
 
@@ -100,16 +100,15 @@ def test_a_killed_fork_server_stops_nothing(sim_pipeline: Pipeline) -> None:
     assert children_alive(pids) == [], "stop() ends the workers of the dead fork server too"
 
 
-def test_the_mailboxes_between_the_stages_are_unlinked_at_stop(sim_pipeline: Pipeline) -> None:
-    def boxes() -> set[str]:
-        return {n for n in os.listdir("/dev/shm") if n.startswith(MAILBOX_PREFIX)}
-
-    before = boxes()
+def test_the_mailboxes_between_the_stages_are_unlinked_at_stop(
+    sim_pipeline: Pipeline, created_rings: CreatedRings
+) -> None:
     sim_pipeline.start("simulator")
     _running(sim_pipeline)
-    assert len(boxes() - before) == 2, "simulator -> fuse, fuse -> collector"
+    boxes = set(created_rings.of(MAILBOX_PREFIX))
+    assert len(boxes) == 2 and boxes <= created_rings.existing(), "simulator -> fuse, fuse -> collector"
     sim_pipeline.stop()
-    assert not (boxes() - before)
+    assert not created_rings.existing()
 
 
 def test_a_mailbox_hands_on_the_newest_or_every_message_and_survives_its_writer() -> None:

@@ -12,13 +12,14 @@ from pipeline.recognition.recognizer import DEFAULT_MODEL_PATH
 from pipeline.runtime.config import RuntimeConfig
 from pipeline.runtime.pipeline import Pipeline
 
-from .live import Listener, children_alive, shm_segments, wait_for
+from .live import CreatedRings, Listener, children_alive, wait_for
 
 pytestmark = pytest.mark.slow
 
 
-def test_simulator_runs_reports_and_stops_clean(sim_pipeline: Pipeline, listener: Listener) -> None:
-    before = shm_segments()
+def test_simulator_runs_reports_and_stops_clean(
+    sim_pipeline: Pipeline, listener: Listener, created_rings: CreatedRings
+) -> None:
     sim_pipeline.set_workstations([("127.0.0.1", listener.port)])
     sim_pipeline.start("simulator")
     wait_for(lambda: sim_pipeline.status().processed >= 45, 60, "45 processed frames")
@@ -45,7 +46,7 @@ def test_simulator_runs_reports_and_stops_clean(sim_pipeline: Pipeline, listener
 
     sim_pipeline.stop()
     assert children_alive(pids) == [], "no worker outlives stop()"
-    assert shm_segments() == before
+    assert created_rings.names and not created_rings.existing(), "its mailboxes are unlinked at stop"
     assert sim_pipeline.status().state == "stopped"
     kinds = [(e.kind, e.data.get("state")) for e in sim_pipeline.drain_events()]
     assert ("state", "starting") in kinds and ("state", "running") in kinds and ("state", "stopped") in kinds

@@ -17,10 +17,11 @@ from pipeline.pose.config import PoseConfig
 from pipeline.runtime.chain import PoseModel
 from pipeline.runtime.config import RuntimeConfig
 from pipeline.runtime.pipeline import Pipeline
+from pipeline.runtime.shm import SHM_PREFIX
 from pipeline.sources.grouper import GrouperConfig
 from tests.waiting import wait_until
 
-from .live import children_alive, shm_segments, wait_for
+from .live import CreatedRings, children_alive, shm_segments, wait_for
 
 pytestmark = pytest.mark.slow
 
@@ -34,12 +35,12 @@ def video_pipeline(pose_model_path: Path, cameras: dict[str, str] | None = None,
 
 
 def test_videos_run_with_the_real_detector_and_stop_clean(
-        pose_model_path: Path, small_videos: dict[str, Path]) -> None:
-    before = shm_segments()
+        pose_model_path: Path, small_videos: dict[str, Path], created_rings: CreatedRings) -> None:
     pipeline = video_pipeline(pose_model_path)
     try:
         pipeline.start("videos", {k: small_videos[k] for k in ("cam01", "cam02")})
-        assert len(shm_segments() - before) == 2, "one shared-memory ring per camera"
+        rings = set(created_rings.of(SHM_PREFIX))
+        assert len(rings) == 2 and rings <= shm_segments(), "one shared-memory ring per camera"
         wait_for(lambda: pipeline.status().processed >= 5, 120, "5 processed multi-view frames")
         st = pipeline.status()
         assert st.state == "running" and st.source == "videos"
@@ -55,7 +56,7 @@ def test_videos_run_with_the_real_detector_and_stop_clean(
     finally:
         pipeline.close()
     assert children_alive(pids) == []
-    assert shm_segments() == before, "every ring is unlinked at stop"
+    assert not created_rings.existing(), "every ring (and mailbox) is unlinked at stop"
 
 
 def test_a_video_that_ends_and_a_camera_that_vanishes_do_not_stop_the_others(
@@ -119,8 +120,7 @@ def test_a_video_that_ends_and_a_camera_that_vanishes_do_not_stop_the_others(
 
 def test_bad_videos_are_rejected_and_nothing_starts(
         pose_model_path: Path, small_videos: dict[str, Path],
-        tmp_path: Path) -> None:
-    before = shm_segments()
+        tmp_path: Path, created_rings: CreatedRings) -> None:
     bad = tmp_path / "bad.mp4"
     bad.write_bytes(b"not a video")
     pipeline = video_pipeline(pose_model_path)
@@ -132,7 +132,7 @@ def test_bad_videos_are_rejected_and_nothing_starts(
         with pytest.raises(SourceError, match="no camera has a real source"):
             pipeline.start("cameras")
         assert pipeline.status().state == "stopped"
-        assert shm_segments() == before, "a rejected start leaves no ring behind"
+        assert not created_rings.existing(), "a rejected start leaves no ring behind"
     finally:
         pipeline.close()
 
