@@ -15,7 +15,7 @@ import pytest
 
 from pipeline.emitter import EmitterConfig, LocomotionCommand, UdpEmitter
 from pipeline.machine import machine_facts
-from pipeline.runtime.shm import PREFIXES
+from pipeline.runtime.shm import PREFIXES, mapped_segments
 from tests.app.test_cli_errors import run_cli
 from tests.pipeline.runtime.live import children_alive, segments_of, shm_segments
 from tests.waiting import free_udp_port
@@ -186,5 +186,6 @@ def test_signal_stops_bench_cleanly(sig: signal.Signals) -> None:
     assert children_alive(workers) == [], "no orphan worker"
     if sig == signal.SIGTERM:
         assert not ours & shm_segments(PREFIXES), "an interrupted run unlinks its shared memory"
-    else:  # the process and its resource tracker died: the next start sweeps (test_serve_faults.py)
-        assert not ours & shm_segments(), "the workers notice and unlink the camera rings"
+    else:  # killed with its resource tracker: what it left is mapped by no process, so the next start
+        # sweeps it away (tests/app/test_takes_crash.py)
+        assert not ours & mapped_segments(), "no process holds the killed run's shared memory"
