@@ -20,6 +20,7 @@ import hashlib
 import json
 import logging
 import math
+import os
 import tarfile
 import tomllib
 import urllib.error
@@ -258,14 +259,28 @@ def sha256_file(path: Path) -> str:
 
 @contextlib.contextmanager
 def _exclusive(lock_path: Path) -> Iterator[None]:
-    """Hold an exclusive ``flock`` on ``lock_path`` (made if missing): a second process (or thread)
-    that fetches into the same folder waits here, then finds the work done, instead of writing the
-    same files at the same time."""
+    """Hold an exclusive ``flock`` on ``lock_path``: a second process (or thread) that fetches into
+    the same folder waits here, then finds the work done, instead of writing the same files at the
+    same time. The lock file is removed before the lock is let go, so nothing is left behind; a
+    waiter that then holds the removed file's lock tries again on a new one."""
     lock_path.parent.mkdir(parents=True, exist_ok=True)
-    with lock_path.open("a") as f:
-        if fcntl is not None:
-            fcntl.flock(f.fileno(), fcntl.LOCK_EX)  # released when the file is closed
+    if fcntl is None:
         yield
+        return
+    while True:
+        f = lock_path.open("a")
+        fcntl.flock(f.fileno(), fcntl.LOCK_EX)
+        try:
+            if lock_path.stat().st_ino == os.fstat(f.fileno()).st_ino:
+                break  # the lock file in place, not one its holder removed
+        except FileNotFoundError:
+            pass
+        f.close()
+    try:
+        yield
+    finally:
+        lock_path.unlink(missing_ok=True)
+        f.close()  # lets the lock go
 
 
 def download(pkg: Package, dest_dir: Path, files_url: str, progress: Callable[[str], None]) -> Path:

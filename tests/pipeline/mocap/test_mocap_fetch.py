@@ -133,4 +133,4 @@ def test_two_downloads_of_one_archive_at_once_make_one_file(base_settings: Any, 
     assert got == [dest / pkg.filename] * 2
     assert sha256_file(dest / pkg.filename) == pkg.sha256
     assert _SlowArchive.requests == [f"/{pkg.path}"], "one download; the other waited and reused it"
-    assert not list(dest.glob("*.part")), "no partial file left"
+    assert [p.name for p in dest.iterdir()] == [pkg.filename], "no partial file, no lock file left"
