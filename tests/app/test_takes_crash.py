@@ -16,14 +16,11 @@ import pytest
 
 from pipeline.runtime.shm import PREFIXES, mapped_segments
 from pipeline.takes.files import check_files
+from tests.pipeline.runtime.live import shm_segments
 from tests.waiting import free_port
 
 pytestmark = pytest.mark.slow
 ROOT = Path(__file__).resolve().parents[2]
-
-
-def _segments() -> set[str]:
-    return {n for n in os.listdir("/dev/shm") if n.startswith(PREFIXES)}
 
 
 def _start(command: str, db: Path, port: int) -> subprocess.Popen[str]:
@@ -62,7 +59,7 @@ def _wait(url: str, ok, timeout_s: float = 300.0) -> dict:  # type: ignore[no-un
 def test_kill_9_mid_take_loses_at_most_the_last_second_and_recovers_as_incomplete(tmp_path: Path) -> None:
     db, port = tmp_path / "crash.db", free_port()
     base = f"http://127.0.0.1:{port}/api/v1"
-    before = _segments()
+    before = shm_segments(PREFIXES)
     server = _start("demo", db, port)
     try:
         _wait(f"{base}/status", lambda s: s["state"] == "running" and s["navigator"] is not None)
@@ -76,7 +73,7 @@ def test_kill_9_mid_take_loses_at_most_the_last_second_and_recovers_as_incomplet
         server.wait(timeout=30)
     # the killed run's shared memory (its workers and tracker died too); a run of another test
     # process at the same time (pytest -n) maps its own
-    left = _segments() - before - mapped_segments()
+    left = shm_segments(PREFIXES) - before - mapped_segments()
     folder = tmp_path / "takes" / take["uid"]
     assert json.loads((folder / "take.json").read_text())["complete"] is False
     assert not (folder / "skeletons.npz").exists(), "the crash came before the take was finished"
@@ -89,7 +86,7 @@ def test_kill_9_mid_take_loses_at_most_the_last_second_and_recovers_as_incomplet
         server.wait(timeout=60)
     assert row["status"] == "incomplete", row
     assert left, "the kill left the run's mailboxes in /dev/shm"
-    assert not left & _segments(), "the next start removed what the crashed run left in /dev/shm"
+    assert not left & shm_segments(PREFIXES), "the next start removed what the crashed run left in /dev/shm"
     assert row["frames"] >= cur["frames"], (
         f"recovered {row['frames']} frames; {cur['frames']} were written 1.2 s before the kill"
     )

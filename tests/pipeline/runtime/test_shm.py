@@ -9,11 +9,9 @@ import numpy as np
 import pytest
 
 from pipeline.errors import SourceError
-from pipeline.runtime.shm import PREFIXES, SHM_PREFIX, FrameRing, RingSpec, sweep_stale_segments
+from pipeline.runtime.shm import PREFIXES, FrameRing, RingSpec, sweep_stale_segments
 
-
-def shm_names() -> set[str]:
-    return {n for n in os.listdir("/dev/shm") if n.startswith(SHM_PREFIX)}
+from .live import shm_segments
 
 
 def img(value: int, h: int = 6, w: int = 5) -> np.ndarray:
@@ -84,7 +82,7 @@ def _reader(spec: RingSpec, out: mp.Queue) -> None:  # type: ignore[type-arg]
 
 
 def test_another_process_reads_the_frames_and_nothing_is_left() -> None:
-    before = shm_names()
+    before = shm_segments()
     ring = FrameRing.create(3, 6 * 5 * 3, "proc")
     ring.write(img(42), 1.0, 0)
     ctx = mp.get_context("spawn")
@@ -95,12 +93,12 @@ def test_another_process_reads_the_frames_and_nothing_is_left() -> None:
     p.join(timeout=30)
     assert got == (0, 42, (6, 5, 3))
     assert p.exitcode == 0
-    assert ring.spec.shm_name in shm_names(), "a reader exiting must not unlink the owner's segment"
+    assert ring.spec.shm_name in shm_segments(), "a reader exiting must not unlink the owner's segment"
     ring.unlink()
     ring.unlink()  # twice is fine
     # only this test's own segments: other processes on a shared machine come and go in /dev/shm
-    assert ring.spec.shm_name not in shm_names(), "the segment is gone after unlink"
-    assert not {n for n in shm_names() - before if "proc" in n}, "no segment of this test left"
+    assert ring.spec.shm_name not in shm_segments(), "the segment is gone after unlink"
+    assert not {n for n in shm_segments() - before if "proc" in n}, "no segment of this test left"
 
 
 def test_attach_to_missing_ring() -> None:
