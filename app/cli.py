@@ -19,6 +19,7 @@ from app.commands import (
     calibration,
     config,
     data,
+    db,
     evaluate,
     export,
     models,
@@ -71,6 +72,7 @@ cli.add_typer(recognize.app)  # cavewalk recognize
 cli.add_typer(evaluate.app)  # cavewalk evaluate
 cli.add_typer(serve.app)  # cavewalk serve, cavewalk demo
 cli.add_typer(study.app)  # cavewalk study report
+cli.add_typer(db.app)  # cavewalk db backup|backups|restore
 cli.add_typer(runtime.app)  # cavewalk receive, cavewalk bench
 cli.add_typer(simulate.app)  # cavewalk simulate
 cli.add_typer(plan.app)  # cavewalk plan

@@ -34,6 +34,7 @@ from app.core.config import Settings, get_settings
 from app.db.engine import DatabaseLock, make_engine, make_session_factory
 from app.db.migrate import upgrade
 from app.db.repositories import fail_unfinished_calibration_runs, running_session
+from app.services.backup import BackupService
 from app.services.calibration import CalibrationService
 from app.services.event_log import EventWriter
 from app.services.live import LiveFeed, PipelineFacade, PipelineService, SourceName
@@ -106,6 +107,8 @@ def create_app(
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         db_lock = DatabaseLock.acquire(settings.paths.db)  # one server per database (issue 15 D5)
+        backups = BackupService(settings.paths.db, settings.backup)
+        backups.before_start()  # a copy of what the last server left, before any migration
         engine = make_engine(settings.paths.db)
         upgrade(engine)
         factory = make_session_factory(engine)
@@ -120,6 +123,9 @@ def create_app(
             events.set_session(
                 running.id, since_ts=running.started_at.timestamp() if running.started_at else 0.0
             )
+        backups.attach(events)  # a session's end is backed up
+        backups.start()
+        app.state.backups = backups
         viewer = None
         if settings.server.viser:
             viewer = Viewer.start(settings)
@@ -202,6 +208,7 @@ def create_app(
             pipeline.close()
             events.record("server", {"state": "stopped"})
             events.close()
+            backups.close()  # the last backup holds the last events
             if viewer is not None:
                 viewer.stop()
             engine.dispose()

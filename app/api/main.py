@@ -12,6 +12,7 @@ from fastapi import APIRouter
 from app.api.deps import TokenDep
 from app.api.routes import (
     analysis,
+    backups,
     calibration,
     health,
     live,
@@ -43,3 +44,4 @@ api_router.include_router(study.router, dependencies=[TokenDep])
 api_router.include_router(analysis.router, dependencies=[TokenDep])
 api_router.include_router(takes.router, dependencies=[TokenDep])
 api_router.include_router(models.router, dependencies=[TokenDep])
+api_router.include_router(backups.router, dependencies=[TokenDep])

@@ -153,6 +153,18 @@ class PathSettings(_Section):
     calibration: Path | None = None
 
 
+class BackupSettings(_Section):
+    """Backups of the database while the server runs (``cavewalk db backup`` makes one by hand): at
+    start when the data changed since the newest backup (always before a migration), when a study
+    session ends, every ``interval_min`` while the data changes, and at stop; the newest ``keep``
+    are kept."""
+
+    enabled: bool = True
+    folder: Path | None = None  # default: backups/ beside the database
+    keep: int = Field(20, ge=1)
+    interval_min: float = Field(15.0, ge=0)  # 0: no timed backups (the others still)
+
+
 #: Keys that moved when each stage came to own its config: old dotted key -> new dotted key.
 #: A settings file or ``CAVEWALK_*`` variable with an old key still works (with a warning
 #: naming the new one); giving both is an error.
@@ -201,6 +213,7 @@ class Settings(BaseSettings):
     workstations: list[str] = Field(default_factory=list)  # HOST:PORT of the UDP receivers
     server: ServerSettings = ServerSettings()
     paths: PathSettings = PathSettings()
+    backup: BackupSettings = BackupSettings()
     event_log: EventWriterConfig = EventWriterConfig()
     study: StudyConfig = StudyConfig()
     pose: PoseConfig = PoseConfig()

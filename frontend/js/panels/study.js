@@ -1,6 +1,7 @@
 // The study panel: plan all sessions for N participants at once (Latin square, with an override),
 // or one participant / one session by hand; the participants and sessions with start times and run
-// times; start/stop; exclusions and deletions with a reason. Selecting a session hands it on at once
+// times; start/stop; exclusions and deletions with a reason; the database's last backup and
+// *Back up now*. Selecting a session hands it on at once
 // (the questionnaire form, the session panel and the script follow it).
 
 import { get, post, patch, del, toast, el } from "../api.js";
@@ -71,9 +72,29 @@ export function mountStudy({ onSelectSession }) {
     await refresh();
   }
 
+  const backupState = document.getElementById("backup-state");
+  const reasons = { "session-end": "session end", "before-upgrade": "before an upgrade", "before-restore": "before a restore", auto: "timed" };
+
+  function showBackups(b) {
+    // the last backup (or its failure), how many are kept and where: an experimenter sees the data is safe
+    const kept = `${b.backups.length} kept in ${b.folder}`;
+    if (b.last_error) {
+      backupState.textContent = `Backup FAILED: ${b.last_error} (${kept})`;
+    } else if (!b.enabled) {
+      backupState.textContent = `Automatic backups are off (backup.enabled); ${kept}`;
+    } else {
+      const newest = b.last ?? b.backups[0];
+      backupState.textContent = newest
+        ? `Last backup ${fmtTime(newest.created)} (${reasons[newest.reason] ?? newest.reason}); ${kept}`
+        : `No backup yet; ${kept}`;
+    }
+    backupState.classList.toggle("failed", Boolean(b.last_error));
+  }
+
   async function refresh() {
-    const [participants, all] = await Promise.all([get("/participants"), get("/sessions")]);
+    const [participants, all, backups] = await Promise.all([get("/participants"), get("/sessions"), get("/backups")]);
     sessions = all;
+    showBackups(backups);
     ptable.replaceChildren(
       ...participants.map((p) => {
         const mine = sessions.filter((s) => s.participant_id === p.id);
@@ -171,6 +192,15 @@ export function mountStudy({ onSelectSession }) {
       return;
     }
     await act("/sessions", { participant_id, condition: document.getElementById("session-condition").value }, "session");
+  });
+  document.getElementById("backup-now").addEventListener("click", async () => {
+    try {
+      const made = await post("/backups");
+      toast(`backed up: ${made.name}`, "ok");
+    } catch (err) {
+      toast(`backup: ${err.message}`);
+    }
+    await refresh();
   });
   setInterval(() => {
     if (!document.hidden) refresh().catch(() => {});

@@ -7,6 +7,7 @@ form, and the analysis panel. Screenshots go to test-artifacts/.
 
 from __future__ import annotations
 
+import sqlite3
 import threading
 import time
 from collections.abc import Iterator
@@ -147,6 +148,8 @@ def test_scripted_session_on_the_participant_page(server: str, artifacts_dir: Pa
         tablet.locator('input[type="range"][name="frustration"]').fill("10")
         tablet.click("#p-submit")
         expect(tablet.locator("#p-end")).to_contain_text("hand the tablet back")
+        # the server backed the database up when the timer ended the session; the panel says so
+        expect(operator.locator("#backup-state")).to_contain_text("(session end)", timeout=20_000)
         expect(tablet.locator("#p-progress-text")).to_have_text("All done")
         assert "score" not in tablet.locator("body").inner_text().lower(), "no scores on the tablet"
         tablet.screenshot(path=str(artifacts_dir / "participant-end.png"))
@@ -183,6 +186,15 @@ def test_scripted_session_on_the_participant_page(server: str, artifacts_dir: Pa
         ("nasa_tlx", "post", "participant"),
         ("ipq", "post", "operator"),
     ], used
+    backups = httpx.get(f"{api}/backups").json()
+    (end,) = [b for b in backups["backups"] if b["reason"] == "session-end"]
+    assert backups["last_error"] is None
+    con = sqlite3.connect(Path(backups["folder"]) / end["name"])  # the copy holds the ended session
+    try:
+        row = con.execute("SELECT status FROM study_sessions WHERE id = ?", (sid,)).fetchone()
+        assert row == ("stopped",)
+    finally:
+        con.close()
     replaced = next(q for q in entries if q["instrument"] == "ipq" and not q["in_use"])
     assert replaced["entered_by"] == "participant" and replaced["scores"]["G1"] == 4
     tlx = next(q for q in entries if q["instrument"] == "nasa_tlx")
@@ -208,3 +220,24 @@ def test_a_participant_code_is_corrected_on_the_dashboard_with_a_reason(server: 
     trail = httpx.get(f"{api}/audit", params={"entity": "participant", "entity_id": pid}).json()
     assert trail and trail[0]["reason"] == "typo at sign-up", trail
     assert trail[0]["before"]["code"] == "Q017" and trail[0]["after"]["code"] == "Q071", trail
+
+
+def test_back_up_now_on_the_dashboard(server: str) -> None:
+    """*Back up now* makes a checked copy and the panel shows it as the last backup."""
+    from playwright.sync_api import expect, sync_playwright
+
+    api = f"{server}/api/v1"
+    before = {b["name"] for b in httpx.get(f"{api}/backups").json()["backups"]}
+    with sync_playwright() as pw, chromium(pw) as browser:
+        errors: list[str] = []
+        page = watched_page(browser, errors, "operator", viewport=OPERATOR)
+        page.goto(server)
+        expect(page.locator("#backup-state")).to_contain_text("kept in")
+        page.locator("#backup-now").click()
+        expect(page.locator("#toast")).to_contain_text("backed up:")
+        expect(page.locator("#backup-state")).to_contain_text("(manual)")
+    assert not errors, errors
+    after = httpx.get(f"{api}/backups").json()
+    (new,) = [b for b in after["backups"] if b["name"] not in before]
+    assert new["reason"] == "manual" and after["last"]["name"] == new["name"]
+    assert (Path(after["folder"]) / new["name"]).stat().st_size == new["size_bytes"] > 0
