@@ -169,6 +169,17 @@ def test_pruning_keeps_the_newest_of_this_database_and_nothing_else_is_touched(t
     assert sorted(folder.iterdir()) == sorted([same_second, made[4], other, notes])
 
 
+def test_every_commit_of_the_app_is_synced_to_disk(tmp_path: Path) -> None:
+    """WAL with synchronous=FULL: a power cut loses no committed transaction (NORMAL may)."""
+    engine = make_engine(_db(tmp_path))
+    try:
+        with engine.connect() as conn:
+            assert conn.exec_driver_sql("PRAGMA journal_mode").scalar() == "wal"
+            assert conn.exec_driver_sql("PRAGMA synchronous").scalar() == 2  # FULL
+    finally:
+        engine.dispose()
+
+
 # -- restore -------------------------------------------------------------------------------------
 
 
