@@ -241,3 +241,30 @@ def test_back_up_now_on_the_dashboard(server: str) -> None:
     (new,) = [b for b in after["backups"] if b["name"] not in before]
     assert new["reason"] == "manual" and after["last"]["name"] == new["name"]
     assert (Path(after["folder"]) / new["name"]).stat().st_size == new["size_bytes"] > 0
+
+
+def test_a_failed_backup_is_shown_in_red_on_the_dashboard(tmp_path: Path) -> None:
+    """A backup folder that cannot be made (here a file is in its place): *Back up now* says why,
+    and the panel shows the failure in red until a backup succeeds."""
+    from playwright.sync_api import expect, sync_playwright
+
+    from tests.app.conftest import Served, make_settings
+
+    blocker = tmp_path / "usb-stick"
+    blocker.write_text("not a folder")
+    settings = make_settings(tmp_path)
+    settings = settings.model_copy(update={"backup": settings.backup.model_copy(update={"folder": blocker})})
+    with Served(settings, autostart=None, pipeline_factory=None) as served, sync_playwright() as pw:
+        with chromium(pw) as browser:
+            errors: list[str] = []
+            page = watched_page(browser, errors, "operator", viewport=OPERATOR)
+            page.goto(served.base)
+            expect(page.locator("#backup-state")).to_contain_text("No backup yet")
+            page.locator("#backup-now").click()
+            expect(page.locator("#toast")).to_contain_text("cannot create the backup folder")
+            state = page.locator("#backup-state")
+            expect(state).to_contain_text("Backup FAILED")
+            expect(state).to_have_class("backup-state failed")
+            color = state.evaluate("e => getComputedStyle(e).color")
+        assert not errors, errors
+    assert color == "rgb(220, 38, 38)"  # --bad
