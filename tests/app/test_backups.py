@@ -51,6 +51,13 @@ def _db(tmp_path: Path, codes: tuple[str, ...] = ()) -> Path:
     return db
 
 
+def _write(db: Path, sql: str) -> None:
+    con = sqlite3.connect(db)
+    with con:
+        con.execute(sql)
+    con.close()
+
+
 def _codes(db: Path) -> list[str]:
     con = sqlite3.connect(f"file:{db}?mode=ro", uri=True)
     try:
@@ -191,10 +198,7 @@ def test_restore_puts_a_backup_back_and_keeps_the_database_it_replaces(
     assert run_cli(["db", "backup"], monkeypatch) == 0
     (first,) = list_backups(tmp_path / "backups", db)
     assert "1 participants" in capsys.readouterr().out
-    con = sqlite3.connect(db)
-    with con:
-        con.execute("INSERT INTO participants (code, notes, created_at) VALUES ('P02', '', '2026-12-07')")
-    con.close()
+    _write(db, "INSERT INTO participants (code, notes, created_at) VALUES ('P02', '', '2026-12-07')")
     assert run_cli(["db", "restore", first.path.name], monkeypatch) == 0  # a name in the backup folder
     out = capsys.readouterr().out
     assert _codes(db) == ["P01"]
@@ -211,10 +215,7 @@ def test_restore_refuses_while_a_server_holds_the_database_and_changes_nothing(
 ) -> None:
     db = _db(tmp_path, ("P01",))
     backup = backup_database(db, tmp_path / "b.db").path
-    con = sqlite3.connect(db)
-    with con:
-        con.execute("INSERT INTO participants (code, notes, created_at) VALUES ('P02', '', '2026-12-07')")
-    con.close()
+    _write(db, "INSERT INTO participants (code, notes, created_at) VALUES ('P02', '', '2026-12-07')")
     before = _sha(db)
     holder = subprocess.Popen(  # another process holds the database's lock, as a running server does
         [
@@ -246,10 +247,7 @@ def test_restore_refuses_bad_backups_before_touching_the_database(
 ) -> None:
     db = _db(tmp_path, ("P01",))
     newer = backup_database(db, tmp_path / "newer.db").path
-    con = sqlite3.connect(newer)
-    with con:
-        con.execute("UPDATE alembic_version SET version_num = '0099_from_the_future'")
-    con.close()
+    _write(newer, "UPDATE alembic_version SET version_num = '0099_from_the_future'")
     foreign = tmp_path / "foreign.db"
     sqlite3.connect(foreign).execute("CREATE TABLE t (x)").connection.close()
     before = _sha(db)
@@ -284,10 +282,7 @@ def test_the_server_backs_up_before_a_migration_at_a_session_end_at_stop_and_aft
     engine = make_engine(db)
     upgrade(engine, "0001_initial")  # a database an older cavewalk left
     engine.dispose()
-    con = sqlite3.connect(db)
-    with con:
-        con.execute("INSERT INTO participants (code, notes, created_at) VALUES ('P01', '', '2026-12-01')")
-    con.close()
+    _write(db, "INSERT INTO participants (code, notes, created_at) VALUES ('P01', '', '2026-12-01')")
     with TestClient(create_app(settings, pipeline_factory=None)) as c:
         (before,) = list_backups(db.parent / "backups", db)
         assert before.reason == "before-upgrade" and inspect_database(before.path)[0] == "0001_initial"
@@ -310,10 +305,7 @@ def test_the_server_backs_up_before_a_migration_at_a_session_end_at_stop_and_aft
         assert _reasons(settings) == ["stop", "session-end", "before-upgrade"]  # unchanged since the stop
     assert _reasons(settings)[0] == "stop"
     n = len(_reasons(settings))
-    con = sqlite3.connect(db)  # what a killed server leaves: a change no backup holds
-    with con:
-        con.execute("INSERT INTO participants (code, notes, created_at) VALUES ('P02', '', '2026-12-07')")
-    con.close()
+    _write(db, "INSERT INTO participants (code, notes, created_at) VALUES ('P02', '', '2026-12-07')")
     with TestClient(create_app(settings, pipeline_factory=None)):
         wait_until(lambda: "start" in _reasons(settings), "the start backup of what the killed server left")
         assert _reasons(settings)[0] == "start" and len(_reasons(settings)) == n + 1
