@@ -42,9 +42,10 @@ from app.services.locomotion_watch import LocomotionWatch
 from app.services.models import ModelService
 from app.services.pipeline_factory import runtime_factory, simulator_factory
 from app.services.planner import PlannerService
-from app.services.recorder import RecorderService
+from app.services.recorder import RecorderService, takes_folder
 from app.services.replay import TakeReplay
 from app.services.session_timer import SessionTimer
+from app.services.storage import StorageWatch
 from app.services.training import TrainingService
 from app.viewer import Viewer
 from pipeline.calibration.io import calibration_to_dict
@@ -143,8 +144,17 @@ def create_app(
             message["running_session_id"] = events.session_id
             message["active_calibration_id"] = calibration.active_id
             message["alarm"] = watch.current()
+            message["storage"] = storage.current()
             return message
 
+        storage = StorageWatch(  # free disk space where the server writes
+            {"database": settings.paths.db.parent, "backups": backups.folder,
+             "takes": takes_folder(settings)},
+            settings.storage,
+            events,
+            on_change=lambda: feed.publish(),
+        )
+        backups.refuse_when(storage)  # no backup takes the last space the database needs
         feed = LiveFeed(live_message, settings.server.live_rate_hz)  # the WebSockets' fan-out
         feed.bind(asyncio.get_running_loop())
         watch = LocomotionWatch(events, on_change=feed.publish)
@@ -173,8 +183,11 @@ def create_app(
         recorder = RecorderService(settings, factory, events, source=lambda: _recording_source(pipeline),
                                    sim_calibration=lambda: _sim_calibration(settings),
                                    send_prompt=pipeline.send_prompt, video_controls=pipeline.video_controls,
-                                   model=lambda: models.running or models.active())
+                                   model=lambda: models.running or models.active(), storage=storage)
         recorder.recover()  # a take the last server left recording is kept as incomplete
+        storage.on_full(recorder.stop_for)  # a full disk ends the take being recorded (it is kept)
+        storage.start()
+        app.state.storage = storage
         if built is not None:
             sweep_stale_segments()  # the shared memory of a run the last server left crashed
         pipeline.add_result_sink(recorder)
@@ -199,6 +212,7 @@ def create_app(
         try:
             yield
         finally:
+            storage.close()
             planner.close()
             training.close()
             recorder.close()

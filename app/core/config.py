@@ -165,6 +165,24 @@ class BackupSettings(_Section):
     interval_min: float = Field(15.0, ge=0)  # 0: no timed backups (the others still)
 
 
+class StorageSettings(_Section):
+    """Free disk space where the server writes (the database, its backups, the takes): below
+    ``warn_free_gb`` the dashboard warns; below ``min_free_gb`` a take being recorded stops and new
+    takes and backups are refused (see ``app/services/storage.py``); checked every ``check_s``."""
+
+    warn_free_gb: float = Field(10.0, ge=0)
+    min_free_gb: float = Field(2.0, ge=0)
+    check_s: float = Field(5.0, gt=0)
+
+    @model_validator(mode="after")
+    def _ordered(self) -> StorageSettings:
+        if self.warn_free_gb < self.min_free_gb:
+            raise ValueError(
+                f"warn_free_gb ({self.warn_free_gb}) must be at least min_free_gb ({self.min_free_gb})"
+            )
+        return self
+
+
 #: Keys that moved when each stage came to own its config: old dotted key -> new dotted key.
 #: A settings file or ``CAVEWALK_*`` variable with an old key still works (with a warning
 #: naming the new one); giving both is an error.
@@ -214,6 +232,7 @@ class Settings(BaseSettings):
     server: ServerSettings = ServerSettings()
     paths: PathSettings = PathSettings()
     backup: BackupSettings = BackupSettings()
+    storage: StorageSettings = StorageSettings()
     event_log: EventWriterConfig = EventWriterConfig()
     study: StudyConfig = StudyConfig()
     pose: PoseConfig = PoseConfig()

@@ -103,6 +103,16 @@ class AlarmPublic(BaseModel):
     reason: str
 
 
+class StoragePublic(BaseModel):
+    """Free disk space where the server writes (``app/services/storage.py``)."""
+
+    level: Literal["ok", "low", "full"] = "ok"
+    free_gb: float | None = Field(None, description="The least free of the file systems, GB.")
+    where: str | None = Field(None, description="What it holds: database, backups or takes.")
+    path: str | None = None
+    message: str = ""
+
+
 class StatusPublic(BaseModel):
     """Everything the dashboard shows live (also the WebSocket message, with ``type: "status"``)."""
 
@@ -120,6 +130,7 @@ class StatusPublic(BaseModel):
     running_session_id: int | None = None
     active_calibration_id: int | None = None
     alarm: AlarmPublic | None = None
+    storage: StoragePublic = Field(default_factory=StoragePublic)
     ts: float = 0.0
     extra: dict[str, Any] = Field(default_factory=dict)
 

@@ -34,8 +34,10 @@ from app.db.backup import (
     new_backup_path,
     prune_backups,
 )
+from app.db.errors import StateConflict
 from app.db.migrate import head_revision
 from app.services.event_log import EventWriter
+from app.services.storage import StorageWatch
 from pipeline.errors import ConfigError
 
 log = logging.getLogger(__name__)
@@ -61,6 +63,7 @@ class BackupService:
         self.settings = settings
         self.folder = backup_folder(db_path, settings.folder)
         self._events: EventWriter | None = None
+        self._storage: StorageWatch | None = None
         self._lock = threading.Lock()  # one backup at a time
         self._wake = threading.Condition()
         self._pending: list[str] = []
@@ -111,6 +114,10 @@ class BackupService:
         self._events = events
         self._session = events.session_id
         events.on_session_change(self.session_changed)
+
+    def refuse_when(self, storage: StorageWatch) -> None:
+        """No backup while ``storage`` says the disk is full (a copy would take the last space)."""
+        self._storage = storage
 
     def start(self) -> None:
         if self.settings.enabled and self._thread is None:
@@ -191,6 +198,11 @@ class BackupService:
                 self._events.flush()
             sig = _signature(self.db_path)
             try:
+                if self._storage is not None:
+                    try:
+                        self._storage.require("a backup")
+                    except StateConflict as exc:
+                        raise BackupError(str(exc)) from exc
                 info = backup_database(self.db_path, new_backup_path(self.folder, self.db_path, reason))
             except BackupError as exc:
                 self.last_error = f"{datetime.now(UTC).isoformat(timespec='seconds')}: {exc}"

@@ -31,6 +31,7 @@ from app.db.models import PARTICIPANT_CODE_PATTERN, StudySession, Take
 from app.db.repositories import active_calibration_run
 from app.db.take_repository import create_take, finish_take_row, get_take, unfinished_takes
 from app.services.event_log import EventWriter
+from app.services.storage import StorageWatch
 from pipeline.errors import InputError
 from pipeline.results import FrameResult
 from pipeline.takes.files import recover_take
@@ -97,10 +98,13 @@ class RecorderService:
         prompt_period_s: float = 0.5,
         video_controls: Callable[[], dict[str, tuple[VideoControl, float]]] = dict,
         model: Callable[[], dict[str, Any] | None] = lambda: None,
+        storage: StorageWatch | None = None,
     ) -> None:
         """``model()``: the action model the pipeline runs, as the model registry knows it (its
-        ``id``, ``uid``, ``file``...); None = the settings' ``recognition.model_path``."""
+        ``id``, ``uid``, ``file``...); None = the settings' ``recognition.model_path``. ``storage``:
+        no take starts while the disk is full (409)."""
         self.settings = settings
+        self._storage = storage
         self._model = model
         self.config = settings.takes
         self.folder = takes_folder(settings)
@@ -179,6 +183,8 @@ class RecorderService:
         code = req.participant_code
         if code is not None and not re.match(PARTICIPANT_CODE_PATTERN, code):
             raise InputError(f"participant_code must be 1-32 letters, digits, '_' or '-', got {code!r}")
+        if self._storage is not None:
+            self._storage.require("a new take")
         source = self._source()
         if source is None:
             raise StateConflict("the pipeline is not running: start it (simulator, cameras or videos) first")
@@ -277,6 +283,18 @@ class RecorderService:
         recorder.stop()
         with self._factory() as db:
             return get_take(db, take_id)
+
+    def stop_for(self, reason: str) -> int | None:
+        """Stop the take being recorded, if any, because of ``reason`` (kept, with what it has; the
+        event log says why); its id."""
+        with self._lock:
+            recorder, take_id = self._current, self._current_id
+        if recorder is None or recorder.done or take_id is None:
+            return None
+        log.warning("take %d stopped: %s", take_id, reason)
+        self._events.record("take", {"state": "stopping", "take_id": take_id, "reason": reason})
+        recorder.stop()
+        return take_id
 
     def _finished(self, take_id: int, manifest: dict[str, Any]) -> None:
         status = "complete" if manifest.get("complete") else "incomplete"

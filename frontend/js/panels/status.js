@@ -1,4 +1,4 @@
-// Top bar and latency panel: pipeline state, fps, dropped frames, per-stage latency, camera health;
+// Top bar and latency panel: pipeline state, fps, dropped frames, free disk space, per-stage latency, camera health;
 // start/stop of the pipeline.
 
 import { post, toast, el } from "../api.js";
@@ -17,6 +17,11 @@ export function mountStatus() {
     document.getElementById("fps").textContent = fmt(s.fps);
     document.getElementById("dropped").textContent = s.dropped;
     document.getElementById("running-session").textContent = s.running_session_id ?? "none";
+    const storage = s.storage || {};
+    const disk = document.getElementById("disk");
+    document.getElementById("disk-free").textContent = storage.free_gb == null ? "–" : `${fmt(storage.free_gb)} GB free`;
+    disk.dataset.level = storage.level || "ok";
+    disk.title = storage.message || "free disk space where the server writes (database, backups, takes)";
     tbody.replaceChildren(
       ...Object.entries(s.latency_ms || {}).map(([stage, q]) =>
         el("tr", {}, el("td", {}, stage), el("td", {}, fmt(q.p50)), el("td", {}, fmt(q.p95)), el("td", {}, fmt(q.p99))),

@@ -268,3 +268,32 @@ def test_a_failed_backup_is_shown_in_red_on_the_dashboard(tmp_path: Path) -> Non
             color = state.evaluate("e => getComputedStyle(e).color")
         assert not errors, errors
     assert color == "rgb(220, 38, 38)"  # --bad
+
+
+def test_a_nearly_full_disk_is_shown_in_the_top_bar_and_a_banner(tmp_path: Path) -> None:
+    """storage.min_free_gb above this machine's free space: the top bar's free space turns red and a
+    banner says takes and backups wait; *Back up now* is refused with the reason."""
+    from playwright.sync_api import expect, sync_playwright
+
+    from tests.app.conftest import Served, make_settings
+
+    settings = make_settings(tmp_path)
+    full = settings.storage.model_copy(update={"warn_free_gb": 1e6, "min_free_gb": 1e6})
+    with Served(
+        settings.model_copy(update={"storage": full}), autostart=None, pipeline_factory=None
+    ) as served:
+        with sync_playwright() as pw, chromium(pw) as browser:
+            errors: list[str] = []
+            page = watched_page(browser, errors, "operator", viewport=OPERATOR)
+            page.goto(served.base)
+            expect(page.locator("#disk-free")).to_contain_text("GB free")
+            expect(page.locator("#disk")).to_have_attribute("data-level", "full")
+            banner = page.locator("#storage-alarm")
+            expect(banner).to_be_visible()
+            expect(banner).to_contain_text("Disk nearly full")
+            expect(banner).to_contain_text("min_free_gb")
+            color = page.locator("#disk-free").evaluate("e => getComputedStyle(e).color")
+            page.locator("#backup-now").click()
+            expect(page.locator("#toast")).to_contain_text("a backup refused")
+        assert not errors, errors
+    assert color == "rgb(220, 38, 38)"  # --bad
