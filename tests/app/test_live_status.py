@@ -42,7 +42,7 @@ from pipeline.sim.world import SimConfig
 from tests.app.conftest import Served, make_settings
 from tests.waiting import HTTP_TIMEOUT_S
 
-APP_FIELDS = {"running_session_id", "active_calibration_id", "alarm"}
+APP_FIELDS = {"running_session_id", "active_calibration_id", "alarm", "storage"}
 
 
 def group_status() -> PipelineStatus:
