@@ -25,13 +25,13 @@ from pipeline.runtime.board import StatusBoard
 from pipeline.runtime.chain import ChainConfig, PoseModel, SimWorldFactory
 from pipeline.runtime.config import RuntimeConfig
 from pipeline.runtime.mailbox import Mailbox
-from pipeline.runtime.messages import T, WorkerEvent
+from pipeline.runtime.messages import ControlMessage, T, WorkerEvent
 from pipeline.runtime.metrics import RuntimeMetrics
 from pipeline.runtime.plan import slot_bytes
 from pipeline.runtime.run import Run, RunCamera
 from pipeline.runtime.shm import FrameRing, RingSpec
 from pipeline.runtime.sinks import StreamSpec
-from pipeline.runtime.supervisor import Supervisor, WorkerDef, drain
+from pipeline.runtime.supervisor import PerSpawn, Supervisor, WorkerDef, drain
 from pipeline.runtime.workers import CaptureSpec, DetectSpec, capture_loop, detect_loop, fuse_loop, sim_loop
 from pipeline.sources import source_kind
 from pipeline.sources.opencv import probe_video
@@ -90,9 +90,8 @@ class Launcher:
         det, out, stream = run.det_box.spec, run.out_box.spec, parts.stream
 
         def build_sim() -> list[WorkerDef]:
-            run.control_q = ctx.Queue(maxsize=16)
             return [("simulator", sim_loop, (chain, det)),
-                    ("fuse", fuse_loop, (chain, det, out, run.control_q, stream))]
+                    ("fuse", fuse_loop, (chain, det, out, _control_queue(ctx, run), stream))]
 
         run.supervisor.add_group("chain", build_sim)
 
@@ -115,9 +114,8 @@ class Launcher:
         det, out, stream = run.det_box.spec, run.out_box.spec, parts.stream
 
         def build_workers() -> list[WorkerDef]:
-            run.control_q = ctx.Queue(maxsize=16)
             return [("detect", detect_loop, (dspec, rings, chain, det)),
-                    ("fuse", fuse_loop, (chain, det, out, run.control_q, stream))]
+                    ("fuse", fuse_loop, (chain, det, out, _control_queue(ctx, run), stream))]
 
         run.supervisor.add_group("chain", build_workers)
 
@@ -229,6 +227,18 @@ class Supervision:
             elif not fresh and cam.ok:
                 cam.ok = False
                 cam.last_error = cam.last_error or f"no frame for {gone:.1f} s"
+
+
+def _control_queue(ctx: BaseContext, run: Run) -> PerSpawn:
+    """The fusion worker's control queue, new for each fusion worker (also one started again
+    alone): the one it replaces is released, and the pipeline puts into ``run.control_q``."""
+
+    def make() -> mpq.Queue[ControlMessage]:
+        old, run.control_q = run.control_q, ctx.Queue(maxsize=16)
+        _release(old)  # its messages were for the worker that is gone
+        return run.control_q
+
+    return PerSpawn(make)
 
 
 def _release(q: mpq.Queue[T] | None) -> None:

@@ -46,7 +46,7 @@ class Run:
     supervisor: Supervisor
     out_box: Mailbox | None = None  # fusion -> the collector
     det_box: Mailbox | None = None  # detect/simulator -> fusion
-    control_q: mpq.Queue[ControlMessage] | None = None  # the fusion worker's (rebuilt with its group)
+    control_q: mpq.Queue[ControlMessage] | None = None  # the fusion worker's (new for each fusion worker)
     stop: threading.Event = field(default_factory=threading.Event)
     threads: list[threading.Thread] = field(default_factory=list)
     metrics: RuntimeMetrics = field(default_factory=RuntimeMetrics)

@@ -6,7 +6,9 @@ when a worker dies without having ended on purpose:
 
 - **one worker of a group whose others still run** is started again alone, at once, on
   the same queues (the others keep their state: fusion keeps its tracks when the
-  simulator dies, the simulator keeps going while fusion comes back). Should the group
+  simulator dies, the simulator keeps going while fusion comes back), except the arguments
+  made afresh for each start (:class:`PerSpawn`: a queue only that worker reads, whose
+  reader lock the killed worker may have held). Should the group
   then make no progress for ``partial_grace_s`` (a message cut in half by the crash could
   jam a queue), the whole group is rebuilt on fresh queues;
 - **every worker of a group** dead: the group is built afresh by its ``build`` callback
@@ -49,6 +51,16 @@ from pipeline.runtime.workers import SIGTERM_EXIT, worker_main
 log = logging.getLogger(__name__)
 
 WorkerDef = tuple[str, Callable[..., None], tuple[Any, ...]]  # (name, loop body, body args)
+
+
+@dataclass(frozen=True, slots=True)
+class PerSpawn:
+    """A worker argument made afresh by ``make()`` each time the worker starts, also when it is
+    started again alone: a queue only that worker reads. A worker killed inside ``get`` holds the
+    queue's reader lock for ever, so a successor on the same queue would never read it again."""
+
+    make: Callable[[], Any]
+
 FORKSERVER_LOST = 255  # the exit code multiprocessing reports when the fork server's pipe closed
 
 
@@ -181,6 +193,7 @@ class Supervisor:
 
     def _spawn(self, group: WorkerGroup, wdef: WorkerDef) -> Worker:
         wname, body, args = wdef
+        args = tuple(a.make() if isinstance(a, PerSpawn) else a for a in args)
         proc = self._mp.Process(
             target=worker_main, name=f"cavewalk-{wname}",
             args=(wname, body, self.events, group.stop, os.getpid(), *args), daemon=True,

@@ -8,6 +8,7 @@ shared book hands ``seq`` and the endpoints between the two emitters of one stre
 from __future__ import annotations
 
 import itertools
+import multiprocessing
 import os
 import signal
 import threading
@@ -100,6 +101,48 @@ def test_seq_goes_on_from_one_sender_across_a_killed_fusion_worker(
     seqs = [m["seq"] for _, m in recorder.got]
     assert all(b > a for a, b in itertools.pairwise(seqs)), "seq never repeats or goes back"
     assert seqs == list(range(seqs[0], seqs[0] + len(seqs))), "one seq per datagram, no gap"
+
+
+def _hold_reader_lock(q: Any, held: Any) -> None:
+    """What a worker killed inside ``get`` leaves: the queue's reader lock taken, never let go."""
+    q._rlock.acquire()
+    held.set()
+    time.sleep(600)
+
+
+@pytest.mark.slow
+@needs_model
+def test_a_fusion_worker_started_again_reads_control_messages_its_killed_predecessor_jammed(
+    sim_pipeline: Pipeline, recorder: DatagramRecorder
+) -> None:
+    """A lone restart keeps the other workers' queues, but the fusion worker gets a new control
+    queue: on the old one, a predecessor killed inside ``get`` holds the reader lock for ever, and
+    the prompts, the navigator and the navigation mode would never reach the new worker."""
+    sim_pipeline.set_workstations([("127.0.0.1", recorder.port)])
+    sim_pipeline.start("simulator")
+    wait_until(lambda: recorder.fresh_locomotion() >= 5, "locomotion from the running pipeline")
+    workers = sim_pipeline.workers()
+    run = sim_pipeline._run
+    assert run is not None and run.control_q is not None
+    fork = multiprocessing.get_context("fork")  # inherits the queue as the worker did
+    held = fork.Event()
+    holder = fork.Process(target=_hold_reader_lock, args=(run.control_q, held), daemon=True)
+    holder.start()
+    try:
+        assert held.wait(30)
+        for pid in (holder.pid, workers["fuse"]):  # both die: the lock stays taken
+            assert pid is not None
+            os.kill(pid, signal.SIGKILL)
+    finally:
+        holder.join(10)
+    wait_for(lambda: sim_pipeline.workers().get("fuse") not in (None, workers["fuse"]), 60,
+             "a new fusion worker")
+    assert sim_pipeline.workers()["simulator"] == workers["simulator"], "the fusion worker was started alone"
+    count = len(recorder.of_type("locomotion"))
+    wait_until(lambda: len(recorder.of_type("locomotion")) >= count + 30, "locomotion from the new worker")
+    sim_pipeline.send_prompt("Step left", "left", 2.0)
+    wait_until(lambda: recorder.of_type("prompt"), "the prompt through the new worker's control queue", 30)
+    assert recorder.of_type("prompt")[0]["text"] == "Step left"
 
 
 def test_the_book_hands_seq_and_endpoints_between_the_two_emitters() -> None:
