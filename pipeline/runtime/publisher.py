@@ -66,6 +66,8 @@ class StatusPublisher:
         caller waits for: its answer shows the new state); the clock goes on from here."""
         with self._cond:
             sinks = self._sinks
+            if sinks:
+                self._last_s = time.monotonic()
         if sinks:
             self._publish(sinks)
 
@@ -88,11 +90,13 @@ class StatusPublisher:
                     self._cond.wait(wait_s)
                     continue  # due now, or woken (a close, a new subscriber): look again
                 sinks = self._sinks
+                # due from now, set with the sinks taken: a subscriber that comes after this sets
+                # it back (its first status at once), which the publish below no longer undoes
+                self._last_s = time.monotonic()
             self._publish(sinks)
 
     def _publish(self, sinks: tuple[StatusSink, ...]) -> None:
         with self._publishing:
-            self._last_s = time.monotonic()
             try:
                 status = self._build()
             except Exception:  # the loop boundary: report, keep publishing

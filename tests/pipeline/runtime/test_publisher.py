@@ -4,6 +4,7 @@ publisher's clock; the pipeline publishes its start and stop at once."""
 from __future__ import annotations
 
 import threading
+import time
 
 import pytest
 
@@ -69,7 +70,10 @@ def test_publish_now_is_synchronous_and_a_failing_subscriber_stops_nobody() -> N
     publisher.subscribe(got)
     wait_until(lambda: len(got.statuses) == 1, "the first status at once")
     publisher.publish_now()  # on this thread, before it returns, whatever the period
-    assert [s.processed for s in got.statuses] == [1, 2]
+    # the newest build, the one after the first; that first may be build 2 (the clock's first
+    # status can go out to the broken subscriber alone, before ``got`` subscribed)
+    first = got.statuses[0].processed
+    assert [s.processed for s in got.statuses] == [first, first + 1] and built.calls == first + 1
     assert got.threads[-1] == threading.current_thread().name
     publisher.subscribe(later)  # a new subscriber gets its first status at once
     wait_until(lambda: len(later.statuses) == 1, "the new subscriber's first status")
@@ -98,3 +102,36 @@ def test_the_pipeline_pushes_typed_statuses_from_start_to_stop(sim_pipeline: Pip
     assert got.statuses[-1].state == "stopped", "the stop's status is pushed before stop() returns"
     stamps = [s.timestamp_s for s in got.statuses]
     assert stamps == sorted(stamps), "statuses arrive in the order they were made"
+
+
+def test_a_subscriber_that_comes_while_a_status_is_being_built_gets_its_first_at_once() -> None:
+    """The clock's thread takes the subscribers, then waits for a publish under way (a start's
+    ``publish_now``); one who subscribes meanwhile is not in that round, and still gets a status at
+    once after it (before, that round reset the clock and the newcomer waited a whole period)."""
+    release, building = threading.Event(), threading.Event()
+
+    class Slow(Built):
+        def __call__(self) -> PipelineStatus:
+            if self.calls == 1:  # the second build: the publish_now below, held
+                building.set()
+                release.wait(30)
+            return super().__call__()
+
+    first, second, late = Collected(), Collected(), Collected()
+    publisher = StatusPublisher(Slow(), rate_hz=0.01)  # a period of 100 s
+    try:
+        publisher.subscribe(first)
+        wait_until(lambda: len(first.statuses) == 1, "the first subscriber's first status")
+        now = threading.Thread(target=publisher.publish_now)
+        now.start()
+        assert building.wait(30), "publish_now is building (and holds the publish)"
+        publisher.subscribe(second)  # the clock's thread takes (first, second), then waits
+        time.sleep(0.2)
+        publisher.subscribe(late)  # not in that round
+        release.set()
+        now.join(30)
+        wait_until(lambda: late.statuses, "the late subscriber's first status", timeout_s=20)
+        assert second.statuses and len(first.statuses) >= 3
+    finally:
+        release.set()
+        publisher.close()
