@@ -16,8 +16,10 @@ up the database it replaces.
 from __future__ import annotations
 
 import contextlib
+import logging
 import os
 import re
+import shutil
 import sqlite3
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -27,6 +29,8 @@ from pathlib import Path
 from app.db.engine import DatabaseLock
 from app.db.migrate import head_revision, known_revisions
 from pipeline.errors import InputError
+
+log = logging.getLogger(__name__)
 
 #: Why a backup was made (the last part of its file name).
 REASONS = ("manual", "start", "before-upgrade", "session-end", "auto", "stop", "before-restore")
@@ -232,6 +236,7 @@ def prune_backups(folder: Path, db_path: Path, keep: int) -> list[Path]:
         with contextlib.suppress(FileNotFoundError):
             b.path.unlink()
             gone.append(b.path)
+        b.path.with_name(b.path.name + "-wal").unlink(missing_ok=True)  # a raw before-restore copy's
     return gone
 
 
@@ -244,13 +249,41 @@ def _exclusive_db(db_path: Path) -> Iterator[None]:
         lock.release()
 
 
+def _safety_copy(db_path: Path, folder: Path) -> BackupInfo | None:
+    """The database a restore replaces, kept in ``folder`` (``before-restore``): a checked backup,
+    or, when the database cannot be read (the damage a restore repairs), its files as they are."""
+    if not db_path.is_file() or db_path.stat().st_size == 0:
+        return None
+    out = new_backup_path(folder, db_path, "before-restore")
+    try:
+        return backup_database(db_path, out)
+    except BackupError as exc:
+        if out.exists() or not db_path.is_file():
+            raise
+        reason = exc
+    try:
+        shutil.copyfile(db_path, out)  # byte for byte, and its WAL beside it: nothing is lost
+        wal = db_path.with_name(db_path.name + "-wal")
+        if wal.is_file():
+            shutil.copyfile(wal, out.with_name(out.name + "-wal"))
+    except OSError as exc:
+        out.unlink(missing_ok=True)
+        raise BackupError(
+            f"cannot keep the database {db_path} before the restore: {exc.strerror or exc}"
+        ) from exc
+    log.warning("the database could not be read (%s): its files are kept as they are in %s", reason, out)
+    return BackupInfo(out, datetime.now(UTC), "before-restore", out.stat().st_size, None, {})
+
+
 def restore_database(backup: Path, db_path: Path, folder: Path) -> tuple[BackupInfo | None, BackupInfo]:
     """Put the backup ``backup`` in place of the database ``db_path``.
 
     The backup is checked first (a damaged, foreign or newer-than-this-cavewalk file is refused and
     nothing changes). No server may be using the database (its lock is taken). The database it
-    replaces is backed up into ``folder`` first (reason ``before-restore``; None when there was no
-    database). Returns (that safety copy, the restored database's info)."""
+    replaces is kept in ``folder`` first (reason ``before-restore``: a checked backup, or its files
+    as they are when it cannot be read; None when there was no database). The backup is copied
+    beside the database, checked, and renamed over it (the old WAL and shared-memory files go).
+    Returns (that safety copy, the restored database's info)."""
     revision, _counts = inspect_database(backup)
     if revision not in known_revisions():
         raise BackupError(
@@ -260,20 +293,21 @@ def restore_database(backup: Path, db_path: Path, folder: Path) -> tuple[BackupI
     if db_path.is_dir():
         raise BackupError(f"database {db_path} is a folder, not a file")
     with _exclusive_db(db_path):
-        safety = None
-        if db_path.is_file() and db_path.stat().st_size > 0:
-            safety = backup_database(db_path, new_backup_path(folder, db_path, "before-restore"))
-        src = _connect_ro(backup)
+        safety = _safety_copy(db_path, folder)
+        part = db_path.with_name(db_path.name + ".restoring")
         try:
-            dst = sqlite3.connect(db_path, timeout=10)
-            try:
-                src.backup(dst)  # through SQLite: its WAL and shared-memory files stay consistent
-            finally:
-                dst.close()
-        except sqlite3.Error as exc:
-            raise BackupError(f"cannot restore {backup} into {db_path}: {exc}") from exc
+            shutil.copyfile(backup, part)
+            with part.open("rb+") as f:
+                os.fsync(f.fileno())
+            inspect_database(part)
+            for suffix in ("-wal", "-shm"):  # the replaced database's (kept in the safety copy)
+                db_path.with_name(db_path.name + suffix).unlink(missing_ok=True)
+            part.replace(db_path)
+            _fsync_dir(db_path.parent)
+        except OSError as exc:
+            raise BackupError(f"cannot restore {backup} into {db_path}: {exc.strerror or exc}") from exc
         finally:
-            src.close()
+            part.unlink(missing_ok=True)
         revision, counts = inspect_database(db_path)
     return safety, BackupInfo(
         db_path, datetime.now(UTC), "restored", db_path.stat().st_size, revision, counts

@@ -210,6 +210,35 @@ def test_restore_puts_a_backup_back_and_keeps_the_database_it_replaces(
     assert "2 backup(s)" in listing and first.path.name in listing and safety.path.name in listing
 
 
+def test_a_damaged_database_is_restored_and_its_files_are_kept_as_they_were(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The case a restore is for: the database cannot be read any more (here its pages are
+    overwritten); its files are kept byte for byte, WAL included, and the backup goes in place."""
+    db = _db(tmp_path, ("P01",))
+    backup = backup_database(db, tmp_path / "good.db").path
+    _write(db, "INSERT INTO participants (code, notes, created_at) VALUES ('P02', '', '2026-12-07')")
+    data = bytearray(db.read_bytes())
+    data[4096:] = b"\x5a" * (len(data) - 4096)
+    db.write_bytes(bytes(data))
+    wal = db.with_name(db.name + "-wal")
+    wal.write_bytes(b"the damaged database's WAL")
+    with pytest.raises(BackupError):
+        inspect_database(db)
+    monkeypatch.setenv("CAVEWALK_PATHS__DB", str(db))
+    assert run_cli(["db", "restore", str(backup)], monkeypatch) == 0, capsys.readouterr().err
+    assert _codes(db) == ["P01"] and inspect_database(db)[0] == head_revision()
+    assert not wal.exists() and not db.with_name(db.name + "-shm").exists()
+    (kept,) = list_backups(tmp_path / "backups", db)
+    assert kept.reason == "before-restore" and kept.path.read_bytes() == bytes(data)
+    assert kept.path.with_name(kept.path.name + "-wal").read_bytes() == b"the damaged database's WAL"
+    assert prune_backups(tmp_path / "backups", db, keep=1) == []
+    assert sorted(p.name for p in (tmp_path / "backups").iterdir()) == [
+        kept.path.name,
+        kept.path.name + "-wal",
+    ]
+
+
 def test_restore_refuses_while_a_server_holds_the_database_and_changes_nothing(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
