@@ -92,9 +92,15 @@ export function mountStudy({ onSelectSession }) {
   }
 
   async function refresh() {
-    const [participants, all, backups] = await Promise.all([get("/participants"), get("/sessions"), get("/backups")]);
+    // the backups line on its own: a failure there must not stop the participants and sessions
+    get("/backups")
+      .then(showBackups)
+      .catch((err) => {
+        backupState.textContent = `backups: ${err.message}`;
+        backupState.classList.add("failed");
+      });
+    const [participants, all] = await Promise.all([get("/participants"), get("/sessions")]);
     sessions = all;
-    showBackups(backups);
     ptable.replaceChildren(
       ...participants.map((p) => {
         const mine = sessions.filter((s) => s.participant_id === p.id);
