@@ -14,7 +14,6 @@ from app.db.backup import (
     BackupInfo,
     backup_database,
     backup_folder,
-    inspect_database,
     list_backups,
     new_backup_path,
     prune_backups,
@@ -85,8 +84,8 @@ def restore_cmd(
     backup: Annotated[Path, typer.Argument(help="The backup file (a path, or a name in the backup folder).")],
     db: DbOption = None,
 ) -> None:
-    """Put a backup in place of the database (no server may be using it); the database it replaces
-    is backed up first."""
+    """Put a backup in place of the database (no server may be using it). A damaged, foreign or newer
+    backup is refused before anything changes; the database it replaces is kept first."""
     path, folder = _paths(db)
     source = backup.expanduser()
     if not source.is_file() and not source.is_absolute() and (folder / backup).is_file():
@@ -95,7 +94,6 @@ def restore_cmd(
         raise BackupError(f"backup not found: {backup}")
     if source.resolve() == path.resolve():
         raise BackupError(f"{backup} is the database itself")
-    inspect_database(source)  # a damaged or foreign file is refused before the database is touched
     safety, restored = restore_database(source, path, folder)
     if safety is not None:
         typer.echo(f"the replaced database is kept as {safety.path}")
