@@ -9,7 +9,7 @@ from typing import Annotated
 import typer
 
 from app.core.config import get_settings
-from app.db.engine import make_engine, make_session_factory
+from app.db.engine import connect_read_only, make_engine, make_session_factory, table_names
 from app.db.migrate import upgrade
 from app.study.data import load_study
 from app.study.report import write_report
@@ -21,14 +21,13 @@ app = typer.Typer(name="study", help="The user study.", no_args_is_help=True)
 
 def _table_names(path: Path) -> set[str]:
     try:
-        con = sqlite3.connect(f"file:{path}?mode=ro", uri=True)
+        con = connect_read_only(path)
         try:
-            rows = con.execute("SELECT name FROM sqlite_master WHERE type = 'table'").fetchall()
+            return table_names(con)
         finally:
             con.close()
     except sqlite3.DatabaseError as exc:
         raise InputError(f"{path} is not an SQLite database: {exc}") from exc
-    return {str(r[0]) for r in rows}
 
 
 @app.command("report")

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 
-from app.db.engine import DatabaseLock
+from app.db.engine import DatabaseLock, connect_read_only, table_names
 from app.db.migrate import head_revision, known_revisions
 from pipeline.errors import InputError
 
@@ -76,7 +76,7 @@ def _connect_ro(path: Path) -> sqlite3.Connection:
     if not path.is_file():
         raise BackupError(f"database not found: {path}")
     try:
-        return sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True, timeout=10)
+        return connect_read_only(path)
     except sqlite3.Error as exc:
         raise BackupError(f"cannot open {path}: {exc}") from exc
 
@@ -89,7 +89,7 @@ def _summary(con: sqlite3.Connection, path: Path) -> tuple[str | None, dict[str,
         check = [r[0] for r in con.execute("PRAGMA quick_check").fetchall()]
         if check != ["ok"]:
             raise BackupError(f"{path} is damaged (integrity check: {'; '.join(map(str, check[:3]))})")
-        tables = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+        tables = table_names(con)
         if "alembic_version" not in tables or "participants" not in tables:
             raise BackupError(f"{path} is not a cavewalk database (no participants table or revision)")
         row = con.execute("SELECT version_num FROM alembic_version").fetchone()
@@ -108,7 +108,7 @@ def content_fingerprint(path: Path) -> tuple[str | None, tuple[tuple[str, int, i
     study records add audit rows, and its other changes add events)."""
     con = _connect_ro(path)
     try:
-        tables = sorted(r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type = 'table'"))
+        tables = sorted(table_names(con))
         if "alembic_version" not in tables:
             raise BackupError(f"{path} is not a cavewalk database (no revision)")
         row = con.execute("SELECT version_num FROM alembic_version").fetchone()
@@ -299,7 +299,7 @@ def restore_database(backup: Path, db_path: Path, folder: Path) -> tuple[BackupI
             shutil.copyfile(backup, part)
             with part.open("rb+") as f:
                 os.fsync(f.fileno())
-            inspect_database(part)
+            revision, counts = inspect_database(part)  # what goes in place, checked once
             for suffix in ("-wal", "-shm"):  # the replaced database's (kept in the safety copy)
                 db_path.with_name(db_path.name + suffix).unlink(missing_ok=True)
             part.replace(db_path)
@@ -308,7 +308,6 @@ def restore_database(backup: Path, db_path: Path, folder: Path) -> tuple[BackupI
             raise BackupError(f"cannot restore {backup} into {db_path}: {exc.strerror or exc}") from exc
         finally:
             part.unlink(missing_ok=True)
-        revision, counts = inspect_database(db_path)
     return safety, BackupInfo(
         db_path, datetime.now(UTC), "restored", db_path.stat().st_size, revision, counts
     )

@@ -112,6 +112,17 @@ def _on_connect(dbapi_connection: Any, _record: Any) -> None:
         cur.close()
 
 
+def connect_read_only(path: Path, timeout_s: float = 10.0) -> sqlite3.Connection:
+    """A plain sqlite3 connection that only reads ``path``: it never creates the file and never
+    switches its journal (the app's engine sets WAL on connect, which writes to the file)."""
+    return sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True, timeout=timeout_s)
+
+
+def table_names(con: sqlite3.Connection) -> set[str]:
+    """The tables of the database behind ``con`` (sqlite3.DatabaseError when it is not one)."""
+    return {str(r[0]) for r in con.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+
+
 def make_engine(db_path: Path) -> Engine:
     """An engine on the SQLite file ``db_path`` (its folder is created)."""
     try:

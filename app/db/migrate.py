@@ -12,7 +12,7 @@ from alembic.script import ScriptDirectory
 from sqlalchemy import Engine
 from sqlalchemy.exc import SQLAlchemyError
 
-from app.db.engine import make_engine
+from app.db.engine import connect_read_only, make_engine, table_names
 from pipeline.errors import ConfigError
 
 log = logging.getLogger(__name__)
@@ -66,11 +66,11 @@ def _foreign_tables(db_path: Path) -> list[str]:
     if not db_path.is_file() or db_path.stat().st_size == 0:
         return []
     try:
-        con = sqlite3.connect(f"{db_path.resolve().as_uri()}?mode=ro", uri=True)
+        con = connect_read_only(db_path)
     except sqlite3.Error:
         return []
     try:
-        names = [r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type = 'table'")]
+        names = table_names(con)
     except sqlite3.Error:
         return []  # not a database: the engine says so below
     finally:
