@@ -74,7 +74,7 @@ class StorageWatch:
     def check(self) -> dict[str, Any]:
         """Measure now; the state (also kept for :meth:`current`). A change of level is logged,
         recorded and shown; ``full`` calls the ``on_full`` callbacks."""
-        free: dict[int, tuple[int, str, Path]] = {}  # one entry per file system: the least free
+        free: dict[int, tuple[int, str, Path]] = {}  # one entry per file system (its first label)
         for label, path in self.paths.items():
             where = _existing(path)
             try:
@@ -83,8 +83,7 @@ class StorageWatch:
             except OSError as exc:
                 log.warning("free space of %s (%s) unknown: %s", label, where, exc)
                 continue
-            if dev not in free or left < free[dev][0]:
-                free[dev] = (left, label, where)
+            free.setdefault(dev, (left, label, where))
         if not free:
             return self.current()
         left, label, where = min(free.values(), key=lambda x: x[0])
@@ -94,9 +93,9 @@ class StorageWatch:
         message = {
             "ok": "",
             "low": f"{gb:.1f} GB free for the {label} ({where}): below storage.warn_free_gb "
-            f"({self.settings.warn_free_gb:g} GB); free space before the next takes",
+            f"({cfg.warn_free_gb:g} GB); free space before the next takes",
             "full": f"the disk is nearly full: {gb:.2f} GB free for the {label} ({where}), below "
-            f"storage.min_free_gb ({self.settings.min_free_gb:g} GB); takes and backups stop until "
+            f"storage.min_free_gb ({cfg.min_free_gb:g} GB); takes and backups stop until "
             "space is freed",
         }[level]
         state = {
