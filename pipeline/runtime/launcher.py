@@ -25,7 +25,7 @@ from pipeline.runtime.board import StatusBoard
 from pipeline.runtime.chain import ChainConfig, PoseModel, SimWorldFactory
 from pipeline.runtime.config import RuntimeConfig
 from pipeline.runtime.mailbox import Mailbox
-from pipeline.runtime.messages import ControlMessage, T, WorkerEvent
+from pipeline.runtime.messages import ControlMessage, SetAdaptation, SetNavigation, T, WorkerEvent, put_latest
 from pipeline.runtime.metrics import RuntimeMetrics
 from pipeline.runtime.plan import slot_bytes
 from pipeline.runtime.run import Run, RunCamera
@@ -54,6 +54,9 @@ class ChainParts:
     cameras_calibrated: tuple[Camera, ...] | None
     pose: PoseModel | None
     simulator: SimWorldFactory | None
+    #: the pipeline's chain now: its navigation mode and teach adaptation, changed while the run goes
+    #: on, reach a fusion worker started later in the run (``chain`` holds those of the start)
+    current: Callable[[], ChainConfig] | None = None
 
 
 class Launcher:
@@ -91,7 +94,7 @@ class Launcher:
 
         def build_sim() -> list[WorkerDef]:
             return [("simulator", sim_loop, (chain, det)),
-                    ("fuse", fuse_loop, (chain, det, out, _control_queue(ctx, run), stream))]
+                    ("fuse", fuse_loop, (chain, det, out, _control_queue(ctx, run, parts), stream))]
 
         run.supervisor.add_group("chain", build_sim)
 
@@ -115,7 +118,7 @@ class Launcher:
 
         def build_workers() -> list[WorkerDef]:
             return [("detect", detect_loop, (dspec, rings, chain, det)),
-                    ("fuse", fuse_loop, (chain, det, out, _control_queue(ctx, run), stream))]
+                    ("fuse", fuse_loop, (chain, det, out, _control_queue(ctx, run, parts), stream))]
 
         run.supervisor.add_group("chain", build_workers)
 
@@ -229,13 +232,23 @@ class Supervision:
                 cam.last_error = cam.last_error or f"no frame for {gone:.1f} s"
 
 
-def _control_queue(ctx: BaseContext, run: Run) -> PerSpawn:
+def _control_queue(ctx: BaseContext, run: Run, parts: ChainParts) -> PerSpawn:
     """The fusion worker's control queue, new for each fusion worker (also one started again
-    alone): the one it replaces is released, and the pipeline puts into ``run.control_q``."""
+    alone): the one it replaces is released, and the pipeline puts into ``run.control_q``.
+
+    A worker started again in the middle of a run is built from the run's start; its queue first
+    carries the navigation mode and the teach adaptation the pipeline holds now. The queue is in
+    place before the pipeline's chain is read: a change made meanwhile is either read here or put
+    into this queue, never into the released one."""
 
     def make() -> mpq.Queue[ControlMessage]:
         old, run.control_q = run.control_q, ctx.Queue(maxsize=16)
         _release(old)  # its messages were for the worker that is gone
+        now = parts.current() if parts.current is not None else parts.chain
+        if now.navigation != parts.chain.navigation:
+            put_latest(run.control_q, SetNavigation(now.navigation.mode, now.navigation.user_ids))
+        if now.adaptation != parts.chain.adaptation:
+            put_latest(run.control_q, SetAdaptation(now.adaptation))
         return run.control_q
 
     return PerSpawn(make)

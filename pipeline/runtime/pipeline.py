@@ -113,7 +113,7 @@ class Pipeline:
             self._router.begin()
             self._snapshots.clear()
             parts = ChainParts(self.chain, self._stream_spec(), inputs.cameras_calibrated, self.pose,
-                               self.simulator)
+                               self.simulator, current=lambda: self.chain)
             try:
                 run = self._launcher.launch(source, plan, parts)
             except BaseException:

@@ -15,6 +15,7 @@ import threading
 import time
 from typing import Any
 
+import numpy as np
 import pytest
 
 from pipeline.emitter import udp
@@ -24,6 +25,7 @@ from pipeline.recognition.recognizer import DEFAULT_MODEL_PATH
 from pipeline.results import FrameResult
 from pipeline.runtime.pipeline import Pipeline
 from pipeline.runtime.stream import MAX_ENDPOINTS, StreamBook
+from pipeline.takes.teach import OutputAdaptation
 from tests.datagrams import DatagramRecorder
 from tests.waiting import wait_until
 
@@ -143,6 +145,60 @@ def test_a_fusion_worker_started_again_reads_control_messages_its_killed_predece
     sim_pipeline.send_prompt("Step left", "left", 2.0)
     wait_until(lambda: recorder.of_type("prompt"), "the prompt through the new worker's control queue", 30)
     assert recorder.of_type("prompt")[0]["text"] == "Step left"
+
+
+class Results:
+    """A main-process sink that keeps the fused results (the collector's thread appends)."""
+
+    def __init__(self) -> None:
+        self.got: list[FrameResult] = []
+
+    def on_result(self, result: FrameResult) -> None:
+        self.got.append(result)
+
+
+#: the network's output replaced by fixed probabilities: forward : left : right = 2 : 3 : 4 whatever
+#: the gate decides (it scales still, or the three movements, together)
+FIXED = OutputAdaptation.from_arrays(np.zeros((4, 4)), np.log([0.1, 0.2, 0.3, 0.4]), adaptation_id=7,
+                                     participant_code="P7")
+
+
+def _adapted(result: FrameResult) -> bool:
+    p = result.action.probs if result.action is not None else {}
+    f = p.get("forward", 0.0)
+    return f > 0 and abs(p["left"] / f - 1.5) < 0.01 and abs(p["right"] / f - 2.0) < 0.01
+
+
+@pytest.mark.slow
+@needs_model
+def test_a_fusion_worker_started_again_keeps_the_navigation_mode_and_teach_adaptation_set_in_the_run(
+    sim_pipeline: Pipeline, recorder: DatagramRecorder
+) -> None:
+    """The mode and the adaptation changed while the run goes on (the status shows them) hold for a
+    fusion worker started again after a crash too, not only for the worker that got them."""
+    results = Results()
+    sim_pipeline.add_sink(results)
+    sim_pipeline.set_workstations([("127.0.0.1", recorder.port)])
+    sim_pipeline.start("simulator")
+    wait_until(lambda: recorder.fresh_locomotion() >= 5, "locomotion from the running pipeline")
+    sim_pipeline.set_navigation("each")
+    sim_pipeline.set_adaptation(FIXED)
+    wait_until(lambda: any(m["mode"] == "each" for m in recorder.of_type("navigation")), "the mode each")
+    wait_until(lambda: len(results.got) > 30 and all(_adapted(r) for r in results.got[-30:]),
+               "one second of adapted outputs")
+    fuse = sim_pipeline.workers()["fuse"]
+    os.kill(fuse, signal.SIGKILL)
+    wait_for(lambda: sim_pipeline.workers().get("fuse") not in (None, fuse), 60, "a new fusion worker")
+    seen, announced = len(results.got), len(recorder.of_type("navigation"))
+    wait_until(lambda: len(results.got) >= seen + 60 and len(recorder.of_type("navigation")) > announced,
+               "two seconds of results and a navigation datagram from the new worker")
+    after = results.got[seen:]
+    assert sim_pipeline.status().navigation.mode == "each"
+    assert {r.navigation.mode for r in after if r.navigation is not None} == {"each"}, (
+        "the new worker navigates in the mode the pipeline shows"
+    )
+    assert {m["mode"] for m in recorder.of_type("navigation")[announced:]} == {"each"}
+    assert all(map(_adapted, after[-30:])), "the new worker applies the participant's adaptation"
 
 
 def test_the_book_hands_seq_and_endpoints_between_the_two_emitters() -> None:
