@@ -25,7 +25,15 @@ from pipeline.runtime.board import StatusBoard
 from pipeline.runtime.chain import ChainConfig, PoseModel, SimWorldFactory
 from pipeline.runtime.config import RuntimeConfig
 from pipeline.runtime.mailbox import Mailbox
-from pipeline.runtime.messages import ControlMessage, SetAdaptation, SetNavigation, T, WorkerEvent, put_latest
+from pipeline.runtime.messages import (
+    ControlMessage,
+    NumberFrom,
+    SetAdaptation,
+    SetNavigation,
+    T,
+    WorkerEvent,
+    put_latest,
+)
 from pipeline.runtime.metrics import RuntimeMetrics
 from pipeline.runtime.plan import slot_bytes
 from pipeline.runtime.run import Run, RunCamera
@@ -57,6 +65,9 @@ class ChainParts:
     #: the pipeline's chain now: its navigation mode and teach adaptation, changed while the run goes
     #: on, reach a fusion worker started later in the run (``chain`` holds those of the start)
     current: Callable[[], ChainConfig] | None = None
+    #: the first user id of the run: past those of the pipeline's earlier runs, so that a choice of
+    #: people kept from an earlier run (the navigation mode's) is nobody in this one
+    first_user_id: int = 1
 
 
 class Launcher:
@@ -191,6 +202,10 @@ class Supervision:
     def on_worker_event(self, run: Run, ev: WorkerEvent) -> None:
         cam_name = ev.worker.removeprefix("capture-")
         cam = run.cameras.get(cam_name) if ev.worker.startswith("capture-") else None
+        if ev.kind == "started" and ev.worker == "fuse" and run.numbered_from is not None:
+            self._board.event("navigator", f"the fusion worker started again: people are numbered from "
+                              f"{run.numbered_from} on; choose the navigators again",
+                              {"numbered_from": run.numbered_from})
         if ev.kind in ("started", "stopped"):
             log.debug("%s %s", ev.worker, ev.kind)
             return
@@ -237,13 +252,20 @@ def _control_queue(ctx: BaseContext, run: Run, parts: ChainParts) -> PerSpawn:
     alone): the one it replaces is released, and the pipeline puts into ``run.control_q``.
 
     A worker started again in the middle of a run is built from the run's start; its queue first
-    carries the navigation mode and the teach adaptation the pipeline holds now. The queue is in
-    place before the pipeline's chain is read: a change made meanwhile is either read here or put
-    into this queue, never into the released one."""
+    carries where to number people from (past the ids its predecessors gave out, in this run and
+    the earlier ones: an operator's choice of an id must not fall on somebody new), then the
+    navigation mode and the teach adaptation the pipeline holds now. The queue is in place before
+    the pipeline's chain is read: a change made meanwhile is either read here or put into this
+    queue, never into the released one."""
 
     def make() -> mpq.Queue[ControlMessage]:
         old, run.control_q = run.control_q, ctx.Queue(maxsize=16)
         _release(old)  # its messages were for the worker that is gone
+        first = max(run.max_user_id + 1, parts.first_user_id)
+        if first > 1:
+            put_latest(run.control_q, NumberFrom(first))
+        if run.max_user_id:  # started again in the run, after people were numbered
+            run.numbered_from = first
         now = parts.current() if parts.current is not None else parts.chain
         if now.navigation != parts.chain.navigation:
             put_latest(run.control_q, SetNavigation(now.navigation.mode, now.navigation.user_ids))

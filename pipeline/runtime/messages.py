@@ -130,7 +130,16 @@ class SendPrompt:
     remaining_s: float
 
 
-ControlMessage = SetNavigator | SetAdaptation | SetNavigation | SendPrompt
+@dataclass(frozen=True, slots=True)
+class NumberFrom:
+    """Control message to a fusion worker started again in a run: number the people it finds from
+    ``first_user_id`` on, past every id its predecessor gave out, so that an operator's choice of
+    a user id (a navigator, the chosen people of a mode) never falls on somebody else."""
+
+    first_user_id: int
+
+
+ControlMessage = SetNavigator | SetAdaptation | SetNavigation | SendPrompt | NumberFrom
 """What the main process tells a running fusion worker (its control queue)."""
 
 

@@ -94,6 +94,7 @@ class Pipeline:
         self._publisher = StatusPublisher(self.status, status_rate_hz)
         self._router = ResultRouter(self._board)
         self._launcher = Launcher(config)
+        self._numbered_past = 0  # the highest user id of the runs so far: the next run numbers past it
         self._supervision = Supervision(config, self._board)
         self._snapshots = SnapshotCache(config.snapshot_interval_s, config.snapshot_long_side)
         self.emitter.start()
@@ -113,7 +114,8 @@ class Pipeline:
             self._router.begin()
             self._snapshots.clear()
             parts = ChainParts(self.chain, self._stream_spec(), inputs.cameras_calibrated, self.pose,
-                               self.simulator, current=lambda: self.chain)
+                               self.simulator, current=lambda: self.chain,
+                               first_user_id=self._numbered_past + 1)
             try:
                 run = self._launcher.launch(source, plan, parts)
             except BaseException:
@@ -149,6 +151,7 @@ class Pipeline:
         if run is None:
             return
         self._launcher.teardown(run)
+        self._numbered_past = max(self._numbered_past, run.max_user_id)
         self._book.release()  # no fusion worker sends now: the standby emitter does
 
     def close(self) -> None:

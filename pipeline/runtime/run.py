@@ -56,11 +56,14 @@ class Run:
     latest: FusedFrame | None = None
     last_result_s: float = 0.0  # time.monotonic() of the newest fused frame
     seen_s: dict[int, float] = field(default_factory=dict)  # user id -> time.monotonic() last fused
+    max_user_id: int = 0  # the highest user id fused in this run (0: none yet)
+    numbered_from: int | None = None  # the first user id of a fusion worker started again in the run
 
     def note_people(self, user_ids: Iterable[int], now_s: float) -> None:
         """The people of a fused frame; those not seen for an hour are forgotten."""
         for uid in user_ids:
             self.seen_s[uid] = now_s
+            self.max_user_id = max(self.max_user_id, uid)
         if len(self.seen_s) > 64:
             for uid in [u for u, t in self.seen_s.items() if now_s - t > 3600.0]:
                 del self.seen_s[uid]

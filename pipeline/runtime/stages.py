@@ -97,6 +97,8 @@ class Reconstructor(Protocol):
 
     def update(self, views: Sequence[TrackedView], timestamp_s: float) -> Sequence[Person3D]: ...
 
+    def number_from(self, first_user_id: int) -> None: ...
+
 
 class Recognizer(Protocol):
     """pipeline.recognition.recognizer.ActionRecognizer."""
@@ -158,6 +160,11 @@ class Fusion:
         if self.navigation is None:
             raise InputError("navigation modes need the 3D stage (a calibration)")
         self.navigation.set_mode(mode, user_ids)
+
+    def number_from(self, first_user_id: int) -> None:
+        """New people get user ids from ``first_user_id`` on (a fusion worker started again)."""
+        if self.reconstructor is not None:
+            self.reconstructor.number_from(first_user_id)
 
     def take_changes(self) -> tuple[NavigatorChange, ...]:
         out, self.changes = tuple(self.changes), []

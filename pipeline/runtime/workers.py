@@ -38,6 +38,7 @@ from pipeline.runtime.messages import (
     ControlMessage,
     DetectedFrame,
     FusedFrame,
+    NumberFrom,
     SendPrompt,
     SetAdaptation,
     SetNavigation,
@@ -371,6 +372,8 @@ def _control(ctx: _Ctx, fusion: Fusion, control_q: BoundedQueue[ControlMessage],
             sink.send_prompt(msg.text, msg.label, msg.remaining_s)
         elif isinstance(msg, SetAdaptation):
             fusion.set_adaptation(msg.adaptation)
+        elif isinstance(msg, NumberFrom):
+            fusion.number_from(msg.first_user_id)
 
 
 # ---------------------------------------------------------------------------------- simulator

@@ -79,11 +79,19 @@ class Reconstructor:
         self.config = config or ReconstructionConfig()
         self.rig = CameraRig.from_cameras(cameras)
         self._cam_index = {name: i for i, name in enumerate(self.rig.names)}
+        self._first_user_id = 1
         self.tracks = self._new_tracks()
 
     def _new_tracks(self) -> Tracks3D:
-        return Tracks3D(self.config.tracks, memory_s=self.config.association.memory_s,
-                        identity=self.config.identity)
+        tracks = Tracks3D(self.config.tracks, memory_s=self.config.association.memory_s,
+                          identity=self.config.identity)
+        tracks.number_from(self._first_user_id)
+        return tracks
+
+    def number_from(self, first_user_id: int) -> None:
+        """New users get ids from ``first_user_id`` on (also after a :meth:`reset`)."""
+        self._first_user_id = max(self._first_user_id, int(first_user_id))
+        self.tracks.number_from(self._first_user_id)
 
     @property
     def cameras(self) -> tuple[Camera, ...]:

@@ -192,6 +192,11 @@ class Tracks3D:
         self.memory: dict[ViewKey, tuple[int, float]] = {}
         self._next_id = 1
 
+    def number_from(self, first_user_id: int) -> None:
+        """Give the next new user ``first_user_id`` at least (the ids of a fusion worker that went
+        before in the same run are never given out again)."""
+        self._next_id = max(self._next_id, int(first_user_id))
+
     def prior_user(self, key: ViewKey) -> int:
         """The user this (camera, track_id) belonged to recently, or -1."""
         hit = self.memory.get(key)

@@ -66,8 +66,26 @@ def test_the_people_list_follows_the_navigation_mode(tmp_path: Path, artifacts_d
             chosen = sorted(status["navigation"]["chosen"])
             assert chosen == sorted(ids), (status["navigation"], status["people"])
             panel.screenshot(path=str(artifacts_dir / "navigation-group.png"))
+            missing = page.locator("#navigation-missing")
+            expect(missing).to_be_hidden()
+
+            # a new run numbers people afresh, past the ids of the last: the kept choice is nobody
+            r = httpx.post(f"{served.base}/api/v1/pipeline/start", json={"source": "simulator"},
+                           timeout=HTTP_TIMEOUT_S)
+            assert r.status_code == 200, r.text
+            expect(missing).to_have_text(f"Chosen but not tracked now: {', '.join(map(str, sorted(ids)))} "
+                                         "(nobody navigates). Tick the people and choose the mode again.",
+                                         timeout=30_000)
+            expect(panel.locator(".mode.active")).to_have_text("Group")
+            expect(rows).to_have_count(3, timeout=30_000)
+            new_ids = [int(rows.nth(i).get_attribute("data-user-id") or -1) for i in range(3)]
+            assert min(new_ids) > max(ids), (ids, new_ids)
+            for i in range(3):
+                expect(rows.nth(i).locator(".person-command")).to_have_text("no command", timeout=30_000)
+            panel.screenshot(path=str(artifacts_dir / "navigation-kept-choice.png"))
 
             panel.locator(".mode[data-mode=single]").click()
             expect(panel.locator(".mode.active")).to_have_text("Single", timeout=30_000)
             expect(page.locator("#navigation-group")).to_have_text("")
+            expect(missing).to_be_hidden()
         assert not errors, errors

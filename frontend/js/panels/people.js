@@ -89,6 +89,7 @@ export function mountPeople() {
   const list = document.getElementById("people-list");
   const modes = document.getElementById("navigation-modes");
   const groupText = document.getElementById("navigation-group");
+  const missingText = document.getElementById("navigation-missing");
   const rows = new Map(); // user id -> its <li>, kept while the person is tracked
   const seen = new Map(); // user id -> Date.now() of the last status that had them
   onStatus((s) => {
@@ -106,6 +107,13 @@ export function mountPeople() {
     const now = new Set(people.map((p) => p.user_id));
     const t = Date.now();
     for (const id of now) seen.set(id, t);
+    // chosen people nobody has now (gone, or numbered afresh by a new run): they get no command
+    const chosenNow = nav.mode === "single" ? [] : nav.chosen || [];
+    const missing = chosenNow.filter((id) => t - (seen.get(id) ?? 0) > LOST_GRACE_MS);
+    missingText.hidden = !missing.length;
+    missingText.textContent = !missing.length ? "" : `Chosen but not tracked now: ${missing.join(", ")}`
+      + (missing.length === chosenNow.length ? " (nobody navigates)" : "")
+      + ". Tick the people and choose the mode again.";
     for (const [id, row] of rows) {
       const lost = !now.has(id);
       row.classList.toggle("lost", lost);

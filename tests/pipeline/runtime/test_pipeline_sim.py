@@ -17,6 +17,16 @@ from .live import CreatedRings, Listener, children_alive, wait_for
 pytestmark = pytest.mark.slow
 
 
+def navigating(pipeline: Pipeline) -> list[int]:
+    return [p.user_id for p in pipeline.status().people if p.navigating]
+
+
+def both_found(pipeline: Pipeline) -> bool:
+    """The simulator's walker (the navigator, nearest the centre) and its bystander are tracked."""
+    st = pipeline.status()
+    return len(st.people) == 2 and st.navigator is not None
+
+
 def test_simulator_runs_reports_and_stops_clean(
     sim_pipeline: Pipeline, listener: Listener, created_rings: CreatedRings
 ) -> None:
@@ -73,6 +83,32 @@ def test_navigator_choice(sim_pipeline: Pipeline) -> None:
     wait_for(lambda: sim_pipeline.status().navigator_mode == "auto", 10, "auto mode")
     nav_events = [e for e in sim_pipeline.drain_events() if e.kind == "navigator"]
     assert any(e.data["mode"] == "manual" and e.data["current"] == uid for e in nav_events)
+
+
+def test_a_new_run_numbers_people_past_the_last_run_so_a_kept_choice_moves_nobody(
+    sim_pipeline: Pipeline,
+) -> None:
+    """The navigation mode holds for the next runs, with its chosen people's ids; a new run's people
+    get new ids, so that kept choice is nobody until the operator chooses again (numbered from 1
+    again, the id would go to whoever the new run found first)."""
+    sim_pipeline.start("simulator")
+    wait_for(lambda: both_found(sim_pipeline), 60, "the walker and the bystander")
+    first = sim_pipeline.status()
+    assert first.navigator is not None
+    sim_pipeline.set_navigation("each", [first.navigator])
+    wait_for(lambda: navigating(sim_pipeline) == [first.navigator], 30, "the chosen walker navigates")
+    last_id = max(p.user_id for p in sim_pipeline.status().people)
+    sim_pipeline.stop()
+    sim_pipeline.start("simulator")
+    wait_for(lambda: both_found(sim_pipeline) and sim_pipeline.status().processed > 60, 60,
+             "two seconds of the new run")
+    st = sim_pipeline.status()
+    assert st.navigation.mode == "each" and list(st.navigation.chosen) == [first.navigator], st.navigation
+    assert min(p.user_id for p in st.people) > last_id, st.people
+    assert not any(p.navigating for p in st.people), "the kept choice is nobody in the new run"
+    assert st.navigator is not None
+    sim_pipeline.set_navigation("each", [st.navigator])  # chosen again
+    wait_for(lambda: navigating(sim_pipeline) == [st.navigator], 30, "the walker navigates")
 
 
 def test_killing_a_worker_mid_run_recovers(sim_pipeline: Pipeline) -> None:

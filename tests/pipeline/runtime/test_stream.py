@@ -171,21 +171,27 @@ def _adapted(result: FrameResult) -> bool:
 
 @pytest.mark.slow
 @needs_model
-def test_a_fusion_worker_started_again_keeps_the_navigation_mode_and_teach_adaptation_set_in_the_run(
+def test_a_fusion_worker_started_again_keeps_the_run_s_navigation_and_adaptation_and_numbers_people_anew(
     sim_pipeline: Pipeline, recorder: DatagramRecorder
 ) -> None:
     """The mode and the adaptation changed while the run goes on (the status shows them) hold for a
-    fusion worker started again after a crash too, not only for the worker that got them."""
+    fusion worker started again after a crash too. It numbers people past the ids its predecessor
+    gave out: the chosen navigator's id is nobody now, so nobody moves until the operator chooses
+    again (a new tracker would give that id to whoever it found first)."""
     results = Results()
     sim_pipeline.add_sink(results)
     sim_pipeline.set_workstations([("127.0.0.1", recorder.port)])
     sim_pipeline.start("simulator")
     wait_until(lambda: recorder.fresh_locomotion() >= 5, "locomotion from the running pipeline")
-    sim_pipeline.set_navigation("each")
+    wait_until(lambda: len(sim_pipeline.status().people) == 2, "the walker and the bystander")
+    walker = results.got[-1].navigator  # the simulator's walker, nearest the centre
+    assert walker is not None
+    sim_pipeline.set_navigation("each", [walker])
     sim_pipeline.set_adaptation(FIXED)
     wait_until(lambda: any(m["mode"] == "each" for m in recorder.of_type("navigation")), "the mode each")
     wait_until(lambda: len(results.got) > 30 and all(_adapted(r) for r in results.got[-30:]),
                "one second of adapted outputs")
+    before = max(p.user_id for r in results.got for p in r.people3d)
     fuse = sim_pipeline.workers()["fuse"]
     os.kill(fuse, signal.SIGKILL)
     wait_for(lambda: sim_pipeline.workers().get("fuse") not in (None, fuse), 60, "a new fusion worker")
@@ -198,7 +204,19 @@ def test_a_fusion_worker_started_again_keeps_the_navigation_mode_and_teach_adapt
         "the new worker navigates in the mode the pipeline shows"
     )
     assert {m["mode"] for m in recorder.of_type("navigation")[announced:]} == {"each"}
-    assert all(map(_adapted, after[-30:])), "the new worker applies the participant's adaptation"
+    ids = {p.user_id for r in after for p in r.people3d}
+    assert ids and min(ids) > before, f"new numbers past {before}: {sorted(ids)}"
+    assert all(r.navigation is not None and not r.navigation.commands for r in after[-30:]), (
+        "the chosen id is nobody now: nobody navigates"
+    )
+    events = [e.message for e in sim_pipeline.drain_events() if e.kind == "navigator"]
+    assert any(f"numbered from {before + 1}" in m for m in events), events
+    walker = results.got[-1].navigator
+    assert walker is not None and walker > before
+    sim_pipeline.set_navigation("each", [walker])  # the operator chooses again
+    seen = len(results.got)
+    wait_until(lambda: len(results.got) >= seen + 60, "two seconds of results")
+    assert all(_adapted(r) for r in results.got[-30:]), "the new worker applies the participant's adaptation"
 
 
 def test_the_book_hands_seq_and_endpoints_between_the_two_emitters() -> None:
