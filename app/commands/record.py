@@ -19,6 +19,7 @@ from app.db.migrate import prepare_database
 from app.db.take_repository import create_take, finish_take_row, take_by_uid
 from app.services.pipeline_factory import build_pipeline, simulator_factory
 from app.services.recorder import model_identity, settings_snapshot
+from app.services.storage import DiskFull, StorageWatch
 from pipeline.calibration.io import calibration_to_dict, load_calibration
 from pipeline.errors import InputError, SourceError
 from pipeline.takes.files import MANIFEST, write_json
@@ -132,8 +133,10 @@ def _record_local(
     participant: str | None,
     out: Path,
     stop: threading.Event,
+    disk: StorageWatch,
     videos: bool = False,
-) -> dict:
+) -> tuple[dict, str | None]:
+    """The take's manifest, and why it stopped early when the disk became full (None: it did not)."""
     cameras = load_calibration(calibration) if calibration else None
     sim = simulator_factory(settings)
     pipeline = build_pipeline(settings, cameras, sim)
@@ -176,19 +179,23 @@ def _record_local(
             calibration=cal,
             videos=VideoSession(controls, out / "videos", settings.takes) if controls else None,
         )
+        full: list[str] = []
+        disk.on_full(full.append)  # the watch's thread: checked every storage.check_s
+        disk.start()
         recorder.start()
         pipeline.add_sink(recorder)
         typer.echo(f"recording {out} from {source}", err=True)
         last = None
         while not recorder.wait(0.25):
-            if stop.is_set():
+            if stop.is_set() or full:
                 break
             p = recorder.prompt()
             if p is not None and p[0] != last:
                 last = p[0]
                 typer.echo(f"  [{p[0] + 1}/{len(protocol.steps) if protocol else 0}] {p[1].text}", err=True)
-        return recorder.stop()
+        return recorder.stop(), full[0] if full else None
     finally:
+        disk.close()
         if recorder is not None:
             pipeline.remove_sink(recorder)
         pipeline.close()
@@ -287,6 +294,7 @@ def record_cmd(
     margin_s = check_margin(settings.takes.margin_s if margin is None else margin, "--margin")
     stop = threading.Event()
     _stop_on_signals(stop)
+    disk_full = None  # why a take recorded here stopped early: the disk became full
     if url is not None:
         if db is not None:
             raise InputError("--db is for a take recorded here; with --url the server indexes it")
@@ -315,10 +323,13 @@ def record_cmd(
         if calibration is not None and not calibration.is_file():
             raise InputError(f"--calibration: file not found: {calibration}")
         index_db = (db or settings.paths.db).expanduser()
-        _check_index(index_db, out.name)
         if with_videos and source == "simulator":
             raise InputError("--videos: the simulator has no camera images; use --source cameras or videos")
-        manifest = _record_local(
+        disk = StorageWatch({"take": out, "database": index_db}, settings.storage)
+        if (state := disk.check())["level"] == "full":
+            raise DiskFull(f"the take refused: {state['message']}")
+        _check_index(index_db, out.name)
+        manifest, disk_full = _record_local(
             settings,
             source,
             videos,
@@ -329,6 +340,7 @@ def record_cmd(
             participant,
             out,
             stop,
+            disk,
             with_videos,
         )
         manifest["take_id"] = _index_take(index_db, out, manifest)
@@ -340,3 +352,6 @@ def record_cmd(
         f"{manifest.get('duration_s')} s)",
         err=True,
     )
+    if disk_full is not None:  # the take is kept and indexed, but it is shorter than asked
+        typer.echo(f"error: the take stopped early: {disk_full}", err=True)
+        raise typer.Exit(1)

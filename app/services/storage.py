@@ -26,11 +26,16 @@ from typing import Any
 from app.core.config import StorageSettings
 from app.db.errors import StateConflict
 from app.services.event_log import EventWriter
+from pipeline.errors import CavewalkError
 
 log = logging.getLogger(__name__)
 
 LEVELS = ("ok", "low", "full")
 _GB = 1e9
+
+
+class DiskFull(CavewalkError):
+    """A command refused, or stopped, because the disk is ``full`` (the message says how full)."""
 
 
 def _existing(path: Path) -> Path:

@@ -5,8 +5,10 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import subprocess
 import sys
+import time
 import zipfile
 from collections.abc import Iterator
 from pathlib import Path
@@ -22,6 +24,7 @@ from pipeline.demo_data import DemoData
 from pipeline.takes.files import check_files
 from tests.app.conftest import Served, make_settings
 from tests.app.test_cli_errors import run_cli
+from tests.waiting import wait_until
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -88,6 +91,65 @@ def test_record_refuses_a_name_the_index_already_has(
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and "already has a take 'take'; choose another --out name" in err[-1], err
     assert not (tmp_path / "take").exists() and db.read_bytes() == before
+
+
+def test_record_refuses_to_start_on_a_full_disk_and_writes_nothing(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The real free space is below ``storage.min_free_gb`` (set above it): one error, no folder,
+    no index database."""
+    monkeypatch.setenv("CAVEWALK_STORAGE__WARN_FREE_GB", "1000000")
+    monkeypatch.setenv("CAVEWALK_STORAGE__MIN_FREE_GB", "1000000")
+    db = tmp_path / "index.db"
+    args = ["record", "--out", str(tmp_path / "take"), "--duration", "1", "--db", str(db)]
+    code = run_cli(args, monkeypatch)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and err[-1].startswith("error: the take refused: the disk is nearly full"), err
+    assert "storage.min_free_gb" in err[-1]
+    assert not (tmp_path / "take").exists() and not db.exists()
+
+
+@pytest.mark.slow
+def test_record_stops_a_take_when_the_disk_fills_up_and_keeps_it(tmp_path: Path) -> None:
+    """A real file takes 3 GB away while ``cavewalk record`` records 120 s: the take stops within a
+    few checks, is kept and indexed, and the command says why (exit 1)."""
+    free = shutil.disk_usage(tmp_path).free / 1e9
+    if free < 8:
+        pytest.fail(f"this test needs 8 GB free in {tmp_path}, there are {free:.1f}")
+    out, db, ballast = tmp_path / "take", tmp_path / "index.db", tmp_path / "ballast.bin"
+    env = {
+        **os.environ,
+        "CAVEWALK_STORAGE__WARN_FREE_GB": f"{free - 1.5:.3f}",
+        "CAVEWALK_STORAGE__MIN_FREE_GB": f"{free - 1.5:.3f}",
+        "CAVEWALK_STORAGE__CHECK_S": "0.2",
+    }
+    cmd = [sys.executable, "-m", "app.cli", "record", "--out", str(out), "--duration", "120", "--db", str(db)]
+    proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        wait_until(lambda: (out / "take.json").exists() or proc.poll() is not None, "the take to begin", 120)
+        assert proc.poll() is None, proc.communicate()[1][-2000:]
+        time.sleep(1.0)
+        fd = os.open(ballast, os.O_CREAT | os.O_WRONLY)
+        try:
+            os.posix_fallocate(fd, 0, 3 * 10**9)
+        finally:
+            os.close(fd)
+        stdout, stderr = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        ballast.unlink(missing_ok=True)
+    err = stderr.strip().splitlines()
+    assert proc.returncode == 1, stderr[-2000:]
+    assert err[-1].startswith("error: the take stopped early: the disk is nearly full"), err[-3:]
+    summary = json.loads(stdout.strip().splitlines()[-1])
+    assert summary["status"] == "complete" and 0.5 < summary["duration_s"] < 30, summary
+    assert check_files(out) == []
+    engine = make_engine(db)
+    with make_session_factory(engine)() as session:
+        row = take_by_uid(session, "take")
+        assert row is not None and row.frames == summary["frames"]
+    engine.dispose()
 
 
 @pytest.mark.slow
