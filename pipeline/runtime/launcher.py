@@ -26,13 +26,14 @@ from pipeline.runtime.chain import ChainConfig, PoseModel, SimWorldFactory
 from pipeline.runtime.config import RuntimeConfig
 from pipeline.runtime.mailbox import Mailbox
 from pipeline.runtime.messages import (
+    ControlChannel,
     ControlMessage,
     NumberFrom,
+    ResumeNavigator,
     SetAdaptation,
     SetNavigation,
     T,
     WorkerEvent,
-    put_latest,
 )
 from pipeline.runtime.metrics import RuntimeMetrics
 from pipeline.runtime.plan import slot_bytes
@@ -105,7 +106,7 @@ class Launcher:
 
         def build_sim() -> list[WorkerDef]:
             return [("simulator", sim_loop, (chain, det)),
-                    ("fuse", fuse_loop, (chain, det, out, _control_queue(ctx, run, parts), stream))]
+                    ("fuse", fuse_loop, (chain, det, out, _control(ctx, run, parts), stream))]
 
         run.supervisor.add_group("chain", build_sim)
 
@@ -129,7 +130,7 @@ class Launcher:
 
         def build_workers() -> list[WorkerDef]:
             return [("detect", detect_loop, (dspec, rings, chain, det)),
-                    ("fuse", fuse_loop, (chain, det, out, _control_queue(ctx, run, parts), stream))]
+                    ("fuse", fuse_loop, (chain, det, out, _control(ctx, run, parts), stream))]
 
         run.supervisor.add_group("chain", build_workers)
 
@@ -247,31 +248,36 @@ class Supervision:
                 cam.last_error = cam.last_error or f"no frame for {gone:.1f} s"
 
 
-def _control_queue(ctx: BaseContext, run: Run, parts: ChainParts) -> PerSpawn:
-    """The fusion worker's control queue, new for each fusion worker (also one started again
-    alone): the one it replaces is released, and the pipeline puts into ``run.control_q``.
+def _control(ctx: BaseContext, run: Run, parts: ChainParts) -> PerSpawn:
+    """The fusion worker's control, new for each fusion worker (also one started again alone): a
+    new queue (the one it replaces is released; the pipeline puts into ``run.control_q``) and the
+    messages the worker applies before its first frame.
 
-    A worker started again in the middle of a run is built from the run's start; its queue first
-    carries where to number people from (past the ids its predecessors gave out, in this run and
-    the earlier ones: an operator's choice of an id must not fall on somebody new), then the
-    navigation mode and the teach adaptation the pipeline holds now. The queue is in place before
-    the pipeline's chain is read: a change made meanwhile is either read here or put into this
-    queue, never into the released one."""
+    Those tell a worker started again in the middle of a run (it is built from the run's start)
+    where to number people from (past the ids its predecessors gave out, in this run and the
+    earlier ones: an operator's choice of an id must not fall on somebody new), which navigator the
+    operator had chosen and where they were, and the navigation mode and the teach adaptation the
+    pipeline holds now. The queue is in place before the pipeline's chain is read: a change made
+    meanwhile is either read here or put into the new queue, never into the released one."""
 
-    def make() -> mpq.Queue[ControlMessage]:
+    def make() -> ControlChannel:
         old, run.control_q = run.control_q, ctx.Queue(maxsize=16)
         _release(old)  # its messages were for the worker that is gone
-        first = max(run.max_user_id + 1, parts.first_user_id)
-        if first > 1:
-            put_latest(run.control_q, NumberFrom(first))
+        first: list[ControlMessage] = []
+        number_from = max(run.max_user_id + 1, parts.first_user_id)
+        if number_from > 1:
+            first.append(NumberFrom(number_from))
         if run.max_user_id:  # started again in the run, after people were numbered
-            run.numbered_from = first
+            run.numbered_from = number_from
+        chosen = run.operator_navigator()
+        if chosen is not None:
+            first.append(ResumeNavigator(*chosen))
         now = parts.current() if parts.current is not None else parts.chain
         if now.navigation != parts.chain.navigation:
-            put_latest(run.control_q, SetNavigation(now.navigation.mode, now.navigation.user_ids))
+            first.append(SetNavigation(now.navigation.mode, now.navigation.user_ids))
         if now.adaptation != parts.chain.adaptation:
-            put_latest(run.control_q, SetAdaptation(now.adaptation))
-        return run.control_q
+            first.append(SetAdaptation(now.adaptation))
+        return ControlChannel(run.control_q, tuple(first))
 
     return PerSpawn(make)
 

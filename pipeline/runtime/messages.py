@@ -139,7 +139,18 @@ class NumberFrom:
     first_user_id: int
 
 
-ControlMessage = SetNavigator | SetAdaptation | SetNavigation | SendPrompt | NumberFrom
+@dataclass(frozen=True, slots=True)
+class ResumeNavigator:
+    """Control message to a fusion worker started again in a run: the operator had chosen the
+    navigator ``user_id`` (of the worker before), last seen at ``xy_m``; the person tracked anew
+    there is the navigator again (the selector's re-acquisition), else the choice falls back to
+    the automatic one as for a navigator lost."""
+
+    user_id: int
+    xy_m: tuple[float, float]
+
+
+ControlMessage = SetNavigator | SetAdaptation | SetNavigation | SendPrompt | NumberFrom | ResumeNavigator
 """What the main process tells a running fusion worker (its control queue)."""
 
 
@@ -154,6 +165,17 @@ class BoundedQueue(Protocol[T]):
     def get(self, block: bool = True, timeout: float | None = None) -> T: ...
 
     def get_nowait(self) -> T: ...
+
+
+@dataclass(frozen=True, slots=True)
+class ControlChannel:
+    """A fusion worker's control: ``queue`` (the main process puts into it while the worker runs)
+    and ``first``, the messages the worker applies before its first frame. A worker started again
+    in a run gets the run's state that way: a message put into a new queue may still be in its
+    feeder thread when the worker reads it, and the first frames would go out without it."""
+
+    queue: BoundedQueue[ControlMessage]
+    first: tuple[ControlMessage, ...] = ()
 
 
 def put_latest(q: BoundedQueue[T], item: T, retries: int = 3) -> int:

@@ -81,7 +81,7 @@ class ResultRouter:
         run.metrics.frame(now, {k: v * 1000.0 for k, v in ms.items()}, 0)
         run.latest = fused
         run.last_result_s = now
-        run.note_people((person.user_id for person in result.people3d), now)
+        run.note_people(result.people3d, now)
         run.supervisor.note_progress()
         for sink in self._sinks:  # each returns at once (queues its own work)
             try:

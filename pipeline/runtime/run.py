@@ -4,6 +4,7 @@ and the status board)."""
 
 from __future__ import annotations
 
+import math
 import multiprocessing.queues as mpq
 import threading
 from collections.abc import Iterable
@@ -16,6 +17,7 @@ from pipeline.runtime.metrics import RuntimeMetrics
 from pipeline.runtime.shm import FrameRing
 from pipeline.runtime.supervisor import Supervisor
 from pipeline.takes.video import VideoControl
+from pipeline.triangulation.types import Person3D
 
 
 @dataclass
@@ -58,15 +60,30 @@ class Run:
     seen_s: dict[int, float] = field(default_factory=dict)  # user id -> time.monotonic() last fused
     max_user_id: int = 0  # the highest user id fused in this run (0: none yet)
     numbered_from: int | None = None  # the first user id of a fusion worker started again in the run
+    xy_m: dict[int, tuple[float, float]] = field(default_factory=dict)  # user id -> floor position last fused
 
-    def note_people(self, user_ids: Iterable[int], now_s: float) -> None:
-        """The people of a fused frame; those not seen for an hour are forgotten."""
-        for uid in user_ids:
+    def note_people(self, people: Iterable[Person3D], now_s: float) -> None:
+        """The people of a fused frame, and where they stand; those not seen for an hour are forgotten."""
+        for person in people:
+            uid = person.user_id
             self.seen_s[uid] = now_s
             self.max_user_id = max(self.max_user_id, uid)
+            x, y = float(person.position_m[0]), float(person.position_m[1])
+            if math.isfinite(x) and math.isfinite(y):
+                self.xy_m[uid] = (x, y)
         if len(self.seen_s) > 64:
             for uid in [u for u, t in self.seen_s.items() if now_s - t > 3600.0]:
                 del self.seen_s[uid]
+                self.xy_m.pop(uid, None)
+
+    def operator_navigator(self) -> tuple[int, tuple[float, float]] | None:
+        """The navigator the operator chose (the newest fused frame's, in manual mode) and where they
+        were last fused; None in the automatic choice or before they were ever placed."""
+        latest = self.latest
+        if latest is None or latest.navigator_mode != "manual" or latest.result.navigator is None:
+            return None
+        uid = latest.result.navigator
+        return (uid, self.xy_m[uid]) if uid in self.xy_m else None
 
     def tracked(self, now_s: float, within_s: float = TRACKED_WITHIN_S) -> list[int]:
         """The user ids fused within the last ``within_s`` seconds. A person the tracker misses

@@ -123,6 +123,8 @@ class Selector(Protocol):
 
     def set_auto(self) -> NavigatorChange | None: ...
 
+    def resume_manual(self, user_id: int, xy_m: tuple[float, float]) -> None: ...
+
 
 class Fusion:
     """Association/triangulation -> navigator -> recognition -> navigation, head pose, for one
@@ -160,6 +162,11 @@ class Fusion:
         if self.navigation is None:
             raise InputError("navigation modes need the 3D stage (a calibration)")
         self.navigation.set_mode(mode, user_ids)
+
+    def resume_navigator(self, user_id: int, xy_m: tuple[float, float]) -> None:
+        """The operator's navigator of the fusion worker before, re-acquired where last seen."""
+        if self.selector is not None:
+            self.selector.resume_manual(user_id, xy_m)
 
     def number_from(self, first_user_id: int) -> None:
         """New people get user ids from ``first_user_id`` on (a fusion worker started again)."""

@@ -35,10 +35,12 @@ from pipeline.runtime.chain import ChainConfig, build_detector, build_fusion, bu
 from pipeline.runtime.mailbox import Mailbox, MailboxSpec
 from pipeline.runtime.messages import (
     BoundedQueue,
+    ControlChannel,
     ControlMessage,
     DetectedFrame,
     FusedFrame,
     NumberFrom,
+    ResumeNavigator,
     SendPrompt,
     SetAdaptation,
     SetNavigation,
@@ -314,14 +316,16 @@ def detect_loop(ctx: _Ctx, spec: DetectSpec, ring_specs: tuple[RingSpec, ...], c
 
 # ------------------------------------------------------------------------------------- fusion
 def fuse_loop(ctx: _Ctx, chain: ChainConfig, in_box: MailboxSpec, out_box: MailboxSpec,
-              control_q: BoundedQueue[ControlMessage], stream: StreamSpec | None = None) -> None:
+              control: ControlChannel, stream: StreamSpec | None = None) -> None:
     """Triangulation, navigator and recognition (the chain's fusion) on the newest tracked frame;
     the result goes to the UDP stream at once (``stream``), then to the main process."""
     fusion = build_fusion(chain)
     inbox, out = Mailbox.attach(in_box), Mailbox.attach(out_box)
     sink = StreamSink.open(stream) if stream is not None else None
     try:
-        _fuse(ctx, fusion, inbox, out, control_q, sink)
+        for msg in control.first:
+            _apply(ctx, fusion, msg, sink)
+        _fuse(ctx, fusion, inbox, out, control.queue, sink)
     finally:
         if sink is not None:
             sink.close()
@@ -358,22 +362,28 @@ def _control(ctx: _Ctx, fusion: Fusion, control_q: BoundedQueue[ControlMessage],
             msg = control_q.get_nowait()
         except _queue.Empty:
             return
-        if isinstance(msg, SetNavigator):
-            try:
-                fusion.set_navigator(msg.user_id)
-            except CavewalkError as exc:  # the user left between the request and now
-                ctx.report("info", f"navigator not changed: {exc}")
-        elif isinstance(msg, SetNavigation):
-            try:
-                fusion.set_navigation(msg.mode, msg.user_ids)
-            except CavewalkError as exc:
-                ctx.report("info", f"navigation mode not changed: {exc}")
-        elif isinstance(msg, SendPrompt) and sink is not None:
-            sink.send_prompt(msg.text, msg.label, msg.remaining_s)
-        elif isinstance(msg, SetAdaptation):
-            fusion.set_adaptation(msg.adaptation)
-        elif isinstance(msg, NumberFrom):
-            fusion.number_from(msg.first_user_id)
+        _apply(ctx, fusion, msg, sink)
+
+
+def _apply(ctx: _Ctx, fusion: Fusion, msg: ControlMessage, sink: StreamSink | None) -> None:
+    if isinstance(msg, SetNavigator):
+        try:
+            fusion.set_navigator(msg.user_id)
+        except CavewalkError as exc:  # the user left between the request and now
+            ctx.report("info", f"navigator not changed: {exc}")
+    elif isinstance(msg, SetNavigation):
+        try:
+            fusion.set_navigation(msg.mode, msg.user_ids)
+        except CavewalkError as exc:
+            ctx.report("info", f"navigation mode not changed: {exc}")
+    elif isinstance(msg, SendPrompt) and sink is not None:
+        sink.send_prompt(msg.text, msg.label, msg.remaining_s)
+    elif isinstance(msg, SetAdaptation):
+        fusion.set_adaptation(msg.adaptation)
+    elif isinstance(msg, NumberFrom):
+        fusion.number_from(msg.first_user_id)
+    elif isinstance(msg, ResumeNavigator):
+        fusion.resume_navigator(msg.user_id, msg.xy_m)
 
 
 # ---------------------------------------------------------------------------------- simulator

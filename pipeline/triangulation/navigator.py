@@ -117,6 +117,14 @@ class NavigatorSelector:
         self._challenger_since.clear()
         return self._change(previous, previous_mode, "chosen by the operator")
 
+    def resume_manual(self, user_id: int, xy_m: tuple[float, float]) -> None:
+        """The operator's choice of ``user_id`` made before this selector existed (a fusion worker
+        started again), last seen at ``xy_m``: a person first tracked there from the next frame on
+        is re-acquired as the navigator; nobody there for ``hold_s + manual_grace_s``: automatic."""
+        self._mode, self._manual_id, self._current = "manual", None, None
+        self._manual_last = _LastSeen(int(user_id), math.nan, (float(xy_m[0]), float(xy_m[1])))
+        self._challenger_since.clear()
+
     def set_auto(self) -> NavigatorChange | None:
         """Return to automatic choice (the current navigator stays while tracked)."""
         previous, previous_mode = self._current, self._mode
@@ -191,6 +199,8 @@ class NavigatorSelector:
         """The manual branch of :meth:`update`: (the change, None) or (None, why it fell back to auto)."""
         cfg = self.config
         mid = self._manual_id
+        if self._manual_last is not None and math.isnan(self._manual_last.t_s):  # resumed: wait from now
+            self._manual_last = _LastSeen(self._manual_last.user_id, t, self._manual_last.xy_m)
         if mid is not None and mid in present:
             seen = self._seen[mid]
             self._manual_last = _LastSeen(mid, t, seen.xy_m)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 import signal
 
+import numpy as np
 import pytest
 
 from pipeline.errors import InputError, SourceError
@@ -123,6 +124,30 @@ def test_killing_a_worker_mid_run_recovers(sim_pipeline: Pipeline) -> None:
     events = sim_pipeline.drain_events()
     assert any(e.kind == "worker" and "died" in e.message for e in events), [e.message for e in events]
     assert any("restarted" in e.message for e in events)
+
+
+def test_a_navigator_chosen_by_hand_is_the_navigator_of_a_fusion_worker_started_again(
+    sim_pipeline: Pipeline,
+) -> None:
+    """The operator chose the bystander (not the one the automatic choice takes); after a crash
+    of the fusion worker the person tracked anew where the bystander stood is the navigator."""
+    sim_pipeline.start("simulator")
+    wait_for(lambda: both_found(sim_pipeline), 60, "the walker and the bystander")
+    st = sim_pipeline.status()
+    bystander = next(p for p in st.people if p.user_id != st.navigator)
+    sim_pipeline.set_navigator(bystander.user_id)
+    wait_for(lambda: sim_pipeline.status().navigator == bystander.user_id, 10, "the bystander chosen")
+    victim = sim_pipeline.workers()["fuse"]
+    os.kill(victim, signal.SIGKILL)
+    wait_for(lambda: sim_pipeline.workers().get("fuse") not in (None, victim), 60, "a new fusion worker")
+    wait_for(lambda: both_found(sim_pipeline) and sim_pipeline.status().navigator > bystander.user_id, 30,
+             "a navigator among the people numbered anew")
+    st = sim_pipeline.status()
+    now = next(p for p in st.people if p.user_id == st.navigator)
+    assert st.navigator_mode == "manual", st
+    assert now.position_m is not None and bystander.position_m is not None
+    moved = np.subtract(now.position_m[:2], bystander.position_m[:2])
+    assert np.hypot(*moved) < 0.5, (now, bystander)
 
 
 def test_bad_start_changes_nothing(sim_pipeline: Pipeline) -> None:

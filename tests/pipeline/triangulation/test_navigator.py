@@ -167,6 +167,29 @@ def test_a_lost_manual_navigator_is_reacquired_under_a_new_id_where_they_vanishe
     assert "re-acquired" in events[0].reason and "user 2" in events[0].reason
 
 
+def test_a_choice_resumed_by_a_new_selector_takes_the_person_tracked_where_the_navigator_was() -> None:
+    """A fusion worker started again: its selector is new, everyone gets a new id at once; the
+    operator's navigator of the worker before is the one first tracked where they were last seen."""
+    sel = NavigatorSelector(NavigatorConfig(dwell_s=0.3, hold_s=1.0, manual_grace_s=2.0))
+    sel.resume_manual(2, (1.0, 0.5))
+    assert sel.mode == "manual" and sel.current is None
+    t, events = run(sel, [[]] * 5, 100.0)  # the new worker tracks nobody for 0.5 s
+    assert sel.current is None and sel.mode == "manual"
+    t, events = run(sel, [[person(5, 0.0, 0.0), person(6, 1.1, 0.45)]] * 3, t)
+    assert sel.mode == "manual" and sel.current == 6, "not the person nearest the centre"
+    assert [(e.previous, e.current) for e in events] == [(None, 6)]
+    assert "re-acquired" in events[0].reason and "user 2" in events[0].reason
+
+
+def test_a_resumed_choice_with_nobody_where_the_navigator_was_falls_back_to_automatic() -> None:
+    sel = NavigatorSelector(NavigatorConfig(dwell_s=0.3, hold_s=1.0, manual_grace_s=2.0))
+    sel.resume_manual(2, (1.0, 0.5))
+    t, _ = run(sel, [[person(5, 0.0, 0.0), person(6, -1.0, -1.0)]] * 29, 50.0)
+    assert sel.mode == "manual" and sel.current is None, "waited for hold_s + manual_grace_s"
+    run(sel, [[person(5, 0.0, 0.0), person(6, -1.0, -1.0)]] * 3, t)
+    assert sel.mode == "auto" and sel.current == 5
+
+
 @pytest.mark.parametrize(
     ("config", "newcomer_xy"),
     [
