@@ -12,6 +12,7 @@ import pytest
 from app.core.config import Settings, load_settings, set_settings
 from pipeline.demo_data import DemoData, fetch_demo
 from pipeline.pose.prepare import prepare_pose_model
+from tests.disk import holding_the_disk
 
 ARTIFACTS = Path(__file__).resolve().parent.parent / "test-artifacts"
 
@@ -56,3 +57,10 @@ def isolated_settings(tmp_path: Path) -> Iterator[Settings]:
 def artifacts_dir() -> Path:
     ARTIFACTS.mkdir(exist_ok=True)
     return ARTIFACTS
+
+
+@pytest.fixture()
+def disk_alone() -> Iterator[None]:
+    """No other test that fills the disk runs meanwhile (``tests.disk.holding_the_disk``)."""
+    with holding_the_disk():
+        yield

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
 import subprocess
 import sys
 import time
@@ -24,6 +23,7 @@ from pipeline.demo_data import DemoData
 from pipeline.takes.files import check_files
 from tests.app.conftest import Served, make_settings
 from tests.app.test_cli_errors import run_cli
+from tests.disk import need_free_gb, take_space
 from tests.waiting import wait_until
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -110,12 +110,10 @@ def test_record_refuses_to_start_on_a_full_disk_and_writes_nothing(
 
 
 @pytest.mark.slow
-def test_record_stops_a_take_when_the_disk_fills_up_and_keeps_it(tmp_path: Path) -> None:
+def test_record_stops_a_take_when_the_disk_fills_up_and_keeps_it(tmp_path: Path, disk_alone: None) -> None:
     """A real file takes 3 GB away while ``cavewalk record`` records 120 s: the take stops within a
     few checks, is kept and indexed, and the command says why (exit 1)."""
-    free = shutil.disk_usage(tmp_path).free / 1e9
-    if free < 8:
-        pytest.fail(f"this test needs 8 GB free in {tmp_path}, there are {free:.1f}")
+    free = need_free_gb(tmp_path, 8)
     out, db, ballast = tmp_path / "take", tmp_path / "index.db", tmp_path / "ballast.bin"
     env = {
         **os.environ,
@@ -129,11 +127,7 @@ def test_record_stops_a_take_when_the_disk_fills_up_and_keeps_it(tmp_path: Path)
         wait_until(lambda: (out / "take.json").exists() or proc.poll() is not None, "the take to begin", 120)
         assert proc.poll() is None, proc.communicate()[1][-2000:]
         time.sleep(1.0)
-        fd = os.open(ballast, os.O_CREAT | os.O_WRONLY)
-        try:
-            os.posix_fallocate(fd, 0, 3 * 10**9)
-        finally:
-            os.close(fd)
+        take_space(ballast, 3 * 10**9)
         stdout, stderr = proc.communicate(timeout=60)
     finally:
         if proc.poll() is None:

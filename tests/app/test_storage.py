@@ -8,8 +8,6 @@ writing gigabytes)."""
 
 from __future__ import annotations
 
-import os
-import shutil
 import sqlite3
 import time
 from pathlib import Path
@@ -23,11 +21,8 @@ from app.db.errors import StateConflict
 from app.main import create_app
 from app.services.storage import StorageWatch
 from tests.app.conftest import Served, make_settings
+from tests.disk import free_gb, need_free_gb, take_space
 from tests.waiting import wait_until
-
-
-def _free_gb(path: Path) -> float:
-    return shutil.disk_usage(path).free / 1e9
 
 
 def _with_storage(settings: Settings, **storage: float) -> Settings:
@@ -35,7 +30,7 @@ def _with_storage(settings: Settings, **storage: float) -> Settings:
 
 
 def test_levels_follow_the_real_free_space_and_each_change_is_acted_on_once(tmp_path: Path) -> None:
-    free = _free_gb(tmp_path)
+    free = free_gb(tmp_path)
     calls: list[str] = []
     changes: list[int] = []
     watch = StorageWatch(
@@ -82,12 +77,10 @@ def test_a_full_disk_refuses_takes_and_backups_and_the_status_says_why(tmp_path:
 
 
 @pytest.mark.slow
-def test_a_take_stops_and_is_kept_when_the_disk_fills_up(tmp_path: Path) -> None:
+def test_a_take_stops_and_is_kept_when_the_disk_fills_up(tmp_path: Path, disk_alone: None) -> None:
     """A real file takes 3 GB away while a take records; the take stops within a few checks and is
     kept complete; the dashboard's status says the disk is full; freeing the space clears it."""
-    free = _free_gb(tmp_path)
-    if free < 8:
-        pytest.fail(f"this test needs 8 GB free in {tmp_path}, there are {free:.1f}")
+    free = need_free_gb(tmp_path, 8)
     settings = _with_storage(
         make_settings(tmp_path), warn_free_gb=free - 1.5, min_free_gb=free - 1.5, check_s=0.2
     )
@@ -99,11 +92,7 @@ def test_a_take_stops_and_is_kept_when_the_disk_fills_up(tmp_path: Path) -> None
         take = httpx.post(f"{base}/takes", json={"duration_s": 120, "participant_code": "P09"})
         assert take.status_code == 201, take.text
         time.sleep(1.0)
-        fd = os.open(ballast, os.O_CREAT | os.O_WRONLY)
-        try:
-            os.posix_fallocate(fd, 0, 3 * 10**9)
-        finally:
-            os.close(fd)
+        take_space(ballast, 3 * 10**9)
         url = f"{base}/takes/{take.json()['id']}"
 
         def stopped() -> dict | None:
