@@ -205,7 +205,8 @@ class Supervision:
         cam = run.cameras.get(cam_name) if ev.worker.startswith("capture-") else None
         if ev.kind == "started" and ev.worker == "fuse" and run.numbered_from is not None:
             self._board.event("navigator", f"the fusion worker started again: people are numbered from "
-                              f"{run.numbered_from} on; choose the navigators again",
+                              f"{run.numbered_from} on (a navigator chosen by hand is looked for where "
+                              "they stood; the people chosen for each or group mode must be chosen again)",
                               {"numbered_from": run.numbered_from})
         if ev.kind in ("started", "stopped"):
             log.debug("%s %s", ev.worker, ev.kind)
