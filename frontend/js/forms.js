@@ -166,6 +166,26 @@ export function collectAnswers(form, def) {
   return { answers, pairwise };
 }
 
+// Put answers back into a fresh sheet of the same instrument (a draft kept across a reload): radios
+// checked, sliders set and marked as moved; values the sheet does not offer are left out.
+export function restoreAnswers(form, def, { answers = {}, pairwise } = {}) {
+  const check = (name, value) => {
+    const radio = form.querySelector(`input[type="radio"][name="${CSS.escape(name)}"][value="${CSS.escape(String(value))}"]`);
+    if (radio) radio.checked = true;
+  };
+  for (const item of def.items) {
+    if (!(item.key in answers)) continue;
+    const slider = form.querySelector(`input[type="range"][name="${CSS.escape(item.key)}"]`);
+    if (slider) {
+      slider.value = String(answers[item.key]);
+      slider.dispatchEvent(new Event("input")); // marks it moved and shows its value
+    } else {
+      check(item.key, answers[item.key]);
+    }
+  }
+  for (const [key, value] of Object.entries(pairwise || {})) check(key, value);
+}
+
 // Mark every row the server named (its 422 lists them in "items"); scroll to the first.
 export function markItems(form, keys, { scroll = true } = {}) {
   form.querySelectorAll(".q-row.q-bad").forEach((r) => r.classList.remove("q-bad"));

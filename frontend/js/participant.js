@@ -2,9 +2,13 @@
 // wording), a progress indicator, the runs' waiting screens, and a "thank you" end screen.
 // It talks only to /api/v1/participant/*, with the credential from its link (#t=...), never with the
 // operator token; it never shows scores.
+// A lost connection (the tablet's Wi-Fi, a server restart) loses no answer: the sheet stays as it is,
+// a notice says the page keeps trying, and it goes on by itself once the server answers again; the
+// answers given so far are also kept in the tab's storage, so a reload brings them back. Only a
+// credential the server refuses (401: a newer link replaced it) ends the page.
 
 import { ApiError, el } from "./api.js";
-import { collectAnswers, markItems, renderSheet } from "./forms.js";
+import { collectAnswers, markItems, renderSheet, restoreAnswers } from "./forms.js";
 
 const fromLink = new URLSearchParams(location.hash.slice(1)).get("t");
 if (fromLink) {
@@ -18,12 +22,19 @@ async function call(method, path, body) {
   if (body !== undefined) headers["Content-Type"] = "application/json";
   const res = await fetch(`/api/v1/participant${path}`, { method, headers, body: body === undefined ? undefined : JSON.stringify(body) });
   const text = await res.text();
-  const data = text ? JSON.parse(text) : null;
+  let data = null;
+  try {
+    data = text ? JSON.parse(text) : null;
+  } catch {
+    data = null; // not ours (a proxy's error page): the status says what happened
+  }
   if (!res.ok) throw new ApiError(res.status, data && typeof data.detail === "string" ? data.detail : res.statusText, data);
   return data;
 }
 
 const $ = (id) => document.getElementById(id);
+const DRAFT = "cavewalk-participant-draft";
+const RETRY_MS = 2000;
 let defs = null;
 let shown = null; // the step on screen: {key, instrument, phase}
 let form = null;
@@ -85,6 +96,26 @@ function showWait(step, view) {
   progress(view);
 }
 
+// The answers of the sheet on screen, kept in the tab's storage (this session's, this step's).
+function saveDraft() {
+  if (!shown || !form) return;
+  const { answers, pairwise } = collectAnswers(form, defs[shown.instrument]);
+  sessionStorage.setItem(DRAFT, JSON.stringify({ credential, key: shown.key, answers, pairwise }));
+}
+
+function draftFor(step) {
+  try {
+    const draft = JSON.parse(sessionStorage.getItem(DRAFT) || "null");
+    return draft && draft.credential === credential && draft.key === step.key ? draft : null;
+  } catch {
+    return null;
+  }
+}
+
+function connection(lost) {
+  $("p-offline").hidden = !lost;
+}
+
 function showStep(step, view) {
   $("p-wait").hidden = true;
   progress(view);
@@ -95,6 +126,10 @@ function showStep(step, view) {
   $("p-instructions").textContent = def.instructions;
   $("p-problems").hidden = true;
   form = renderSheet(def);
+  const draft = draftFor(step);
+  if (draft) restoreAnswers(form, def, draft);
+  form.addEventListener("input", saveDraft);
+  form.addEventListener("change", saveDraft);
   $("p-sheet").replaceChildren(form);
   $("p-submit").hidden = false;
   window.scrollTo({ top: 0 });
@@ -111,11 +146,17 @@ function render(view) {
   else showStep(step, view);
 }
 
+// A refusal of the credential ends the page; anything else (no answer, a server error) may pass.
+const final = (err) => err instanceof ApiError && (err.status === 401 || err.status === 403);
+
 async function refresh() {
   try {
-    render(await call("GET", "/session"));
+    const view = await call("GET", "/session");
+    connection(false);
+    render(view);
   } catch (err) {
-    fail(err);
+    if (final(err)) fail(err);
+    else connection(true); // the sheet stays as it is; the next poll tries again
   }
 }
 
@@ -137,13 +178,18 @@ async function submit() {
   button.disabled = true;
   try {
     const view = await call("POST", "/questionnaires", body);
+    sessionStorage.removeItem(DRAFT);
     shown = null;
+    connection(false);
     render(view);
   } catch (err) {
     const items = err.body && Array.isArray(err.body.items) ? err.body.items : [];
     const box = $("p-problems");
     box.hidden = false;
-    if (err.status === 422 && items.length) {
+    if (!(err instanceof ApiError) || err.status >= 500) {
+      connection(true);
+      box.replaceChildren(el("b", {}, "Your answers could not be sent: the connection to the experimenter's computer is lost. They are kept here: please press Next again in a moment."));
+    } else if (err.status === 422 && items.length) {
       markItems(form, items, { scroll: false });
       const names = items.map((k) => {
         const row = form.querySelector(`.q-row[data-key="${k}"] .q-text`);
@@ -167,15 +213,22 @@ async function main() {
     fail(new ApiError(401, "This page opens from the experimenter's link or QR code."));
     return;
   }
-  try {
-    defs = await call("GET", "/instruments");
-  } catch (err) {
-    fail(err);
-    return;
+  for (;;) {
+    try {
+      defs = await call("GET", "/instruments");
+      break;
+    } catch (err) {
+      if (final(err)) {
+        fail(err);
+        return;
+      }
+      connection(true); // the page opened while the server is out of reach: it keeps trying
+      await new Promise((resolve) => setTimeout(resolve, RETRY_MS));
+    }
   }
   $("p-submit").addEventListener("click", submit);
   await refresh();
-  timer = setInterval(refresh, 2000);
+  timer = setInterval(refresh, RETRY_MS);
 }
 
 main();

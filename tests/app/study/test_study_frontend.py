@@ -201,6 +201,54 @@ def test_scripted_session_on_the_participant_page(server: str, artifacts_dir: Pa
     assert tlx["answers"] == TLX and tlx["scores"]["weighted_tlx"] == pytest.approx(670 / 15, abs=1e-3)
 
 
+def test_a_lost_connection_and_a_reload_lose_no_answer_on_the_tablet(
+    server: str, artifacts_dir: Path
+) -> None:
+    """The tablet goes offline (the browser's own network switch) half-way through a sheet: the answers
+    stay, a notice says so, a Next while offline is kept for later; back online the page goes on by
+    itself, a reload brings the answers back, and Next stores exactly them."""
+    from playwright.sync_api import expect, sync_playwright
+
+    api = f"{server}/api/v1"
+    pid = httpx.post(f"{api}/participants", json={"code": "W01"}).json()["id"]
+    sid = httpx.post(f"{api}/sessions", json={"participant_id": pid, "condition": "CC"}).json()["id"]
+    url = httpx.post(f"{api}/sessions/{sid}/participant-link").json()["url"]
+    items = [i.key for i in DEFINITIONS["mssq"].items]
+    given = {key: i % 4 for i, key in enumerate(items)}
+    with sync_playwright() as pw, chromium(pw) as browser:
+        errors: list[str] = []
+        tablet = watched_page(browser, errors, "tablet", viewport=TABLET, is_mobile=True, has_touch=True)
+        tablet.goto(url)
+        expect(tablet.locator("#p-title")).to_contain_text("MSSQ")
+        checked = tablet.locator('input[type="radio"]:checked')
+        fill_radios(tablet, {k: given[k] for k in items[:4]})
+        tablet.context.set_offline(True)
+        tablet.wait_for_timeout(4500)  # two polls (every 2 s) fail
+        expect(checked).to_have_count(4)
+        offline = tablet.locator("#p-offline")
+        expect(offline).to_be_visible()
+        fill_radios(tablet, {k: given[k] for k in items[4:]})
+        tablet.click("#p-submit")
+        expect(tablet.locator("#p-problems")).to_contain_text("could not be sent")
+        expect(checked).to_have_count(len(items))
+        tablet.screenshot(path=str(artifacts_dir / "participant-offline.png"))
+        tablet.context.set_offline(False)
+        expect(offline).to_be_hidden(timeout=10_000)
+        expect(tablet.locator("#p-title")).to_contain_text("MSSQ")
+        tablet.reload()
+        expect(tablet.locator("#p-title")).to_contain_text("MSSQ")
+        expect(checked).to_have_count(len(items))
+        tablet.click("#p-submit")
+        expect(tablet.locator("#p-title")).to_contain_text("Simulator Sickness")
+        expect(checked).to_have_count(0)  # the next sheet starts empty: the draft was this step's
+        tablet.reload()
+        expect(tablet.locator("#p-title")).to_contain_text("Simulator Sickness")
+        expect(checked).to_have_count(0)
+    assert not errors, errors
+    (stored,) = httpx.get(f"{api}/sessions/{sid}/questionnaires").json()
+    assert stored["instrument"] == "mssq" and stored["answers"] == given, stored
+
+
 def test_a_participant_code_is_corrected_on_the_dashboard_with_a_reason(server: str) -> None:
     """The rename button asks for the corrected code, then the reason; the audit trail keeps both."""
     from playwright.sync_api import expect, sync_playwright
