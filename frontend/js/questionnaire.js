@@ -2,13 +2,15 @@
 // participant.html). It is bound to the session it was opened for, which its header shows; it is
 // drawn empty for every instrument and phase; the phase must be chosen where there is a choice.
 // A duplicate (409) offers an explicit correction with a reason; a broken design rule (409) an
-// override with a reason; a 422 marks every unanswered item at once.
+// override with a reason; a 422 marks every unanswered item at once. The sheet being typed in is
+// kept in the tab's storage until it is stored, so a reload of the dashboard brings it back
+// (this session's form only).
 // DOM contract (tests rely on it): #q-session (the header), #q-instrument, #q-phase, the sheet of
 // forms.js, #q-submit, the scores in #q-scores ("total: 37.4"), the server's message in #q-error,
 // #q-correct-reason + #q-correct for a correction or an override.
 
 import { get, post, el } from "./api.js";
-import { INSTRUMENT_LABELS, collectAnswers, formatScore, markItems, renderSheet } from "./forms.js";
+import { INSTRUMENT_LABELS, collectAnswers, formatScore, markItems, renderSheet, restoreAnswers } from "./forms.js";
 
 let definitionsPromise = null;
 
@@ -66,6 +68,14 @@ export async function mountQuestionnaire(element, { session, onSubmitted = () =>
     ...Object.keys(defs).map((k) => el("option", { value: k }, INSTRUMENT_LABELS[k] || k)),
   );
   let form = null;
+  const draftKey = `cavewalk-operator-draft:${sessionId}`;
+
+  function saveDraft() {
+    const def = defs[instrument.value];
+    if (!def || !form) return;
+    const { answers, pairwise } = collectAnswers(form, def);
+    sessionStorage.setItem(draftKey, JSON.stringify({ instrument: instrument.value, phase: phase.value, answers, pairwise }));
+  }
 
   function clearMessages() {
     error.textContent = "";
@@ -98,7 +108,25 @@ export async function mountQuestionnaire(element, { session, onSubmitted = () =>
     title.textContent = `${def.title}${phase.value ? ` — ${phase.value}` : ""}`;
     instructions.textContent = def.instructions;
     form = renderSheet(def);
+    form.addEventListener("input", saveDraft);
+    form.addEventListener("change", saveDraft);
     sheet.replaceChildren(form);
+  }
+
+  function restoreDraft() {
+    // the sheet this form was typing into before a reload (the draft of the last instrument drawn)
+    let draft = null;
+    try {
+      draft = JSON.parse(sessionStorage.getItem(draftKey) || "null");
+    } catch {
+      draft = null;
+    }
+    if (!draft || !defs[draft.instrument]) return;
+    instrument.value = draft.instrument;
+    drawPhases();
+    if ([...phase.options].some((o) => o.value === draft.phase)) phase.value = draft.phase;
+    draw();
+    restoreAnswers(form, defs[draft.instrument], draft);
   }
 
   async function refreshDone() {
@@ -146,6 +174,7 @@ export async function mountQuestionnaire(element, { session, onSubmitted = () =>
     clearMessages();
     try {
       const res = await post(`/sessions/${sessionId}/questionnaires`, body);
+      sessionStorage.removeItem(draftKey);
       scores.textContent = Object.entries(res.scores)
         .map(([k, v]) => `${k}: ${formatScore(v)}`)
         .join(", ");
@@ -173,10 +202,15 @@ export async function mountQuestionnaire(element, { session, onSubmitted = () =>
   instrument.addEventListener("change", () => {
     drawPhases();
     draw();
+    saveDraft();
   });
-  phase.addEventListener("change", draw);
+  phase.addEventListener("change", () => {
+    draw();
+    saveDraft();
+  });
   submit.addEventListener("click", () => send());
   drawPhases();
   draw();
+  restoreDraft();
   await refreshDone();
 }

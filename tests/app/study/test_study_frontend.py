@@ -249,6 +249,60 @@ def test_a_lost_connection_and_a_reload_lose_no_answer_on_the_tablet(
     assert stored["instrument"] == "mssq" and stored["answers"] == given, stored
 
 
+def test_the_operator_s_sheet_survives_a_reload_of_the_dashboard(server: str) -> None:
+    """Half an NASA-TLX typed in on the operator's form (sliders and pairs), then the dashboard
+    reloads: the same session's form comes back with that instrument, phase and answers; another
+    session's form is empty; once stored, the draft is gone."""
+    from playwright.sync_api import expect, sync_playwright
+
+    api = f"{server}/api/v1"
+    pid = httpx.post(f"{api}/participants", json={"code": "D01"}).json()["id"]
+    sid = httpx.post(f"{api}/sessions", json={"participant_id": pid, "condition": "EC"}).json()["id"]
+    other = httpx.post(f"{api}/sessions", json={"participant_id": pid, "condition": "CC"}).json()["id"]
+    with sync_playwright() as pw, chromium(pw) as browser:
+        errors: list[str] = []
+        page = watched_page(browser, errors, "operator", viewport=OPERATOR)
+        form = page.locator("#questionnaire-mount")
+
+        def open_form(session_id: int) -> None:
+            row = page.locator(f'#session-table tbody tr[data-session-id="{session_id}"]')
+            row.locator("button.session-select").click()
+            expect(page.locator("#q-session")).to_contain_text(f"session {session_id}")
+
+        page.goto(server)
+        open_form(sid)
+        form.locator("#q-instrument").select_option("nasa_tlx")
+        expect(form.locator("#q-phase")).to_have_value("post")
+        for key, value in list(TLX.items())[:3]:
+            form.locator(f'input[type="range"][name="{key}"]').fill(str(value))
+        fill_radios(page, {f"{a}_vs_{b}": a for a, b in TLX_PAIRS[:5]})
+        page.reload()
+        open_form(other)
+        expect(form.locator("#q-instrument")).to_have_value("")  # another session: nothing carried over
+        open_form(sid)
+        expect(form.locator("#q-instrument")).to_have_value("nasa_tlx")
+        expect(form.locator("#q-phase")).to_have_value("post")
+        moved = form.locator('input[type="range"][data-touched="true"]')
+        expect(moved).to_have_count(3)
+        for key, value in list(TLX.items())[:3]:
+            expect(form.locator(f'input[type="range"][name="{key}"]')).to_have_value(str(value))
+        expect(form.locator('input[type="radio"]:checked')).to_have_count(5)
+        for key, value in list(TLX.items())[3:]:
+            form.locator(f'input[type="range"][name="{key}"]').fill(str(value))
+        fill_radios(page, {f"{a}_vs_{b}": a for a, b in TLX_PAIRS[5:]})
+        form.locator("#q-submit").click()
+        expect(form.locator("#q-error")).to_contain_text("has not started")  # a paper sheet entered early
+        form.locator("#q-correct-reason").fill("paper sheet typed in before the run")
+        form.locator("#q-correct").click()
+        expect(form.locator("#q-scores")).to_contain_text("weighted_tlx")
+        page.reload()
+        open_form(sid)
+        expect(form.locator("#q-instrument")).to_have_value("")  # stored: no draft any more
+    assert not errors, errors
+    (stored,) = httpx.get(f"{api}/sessions/{sid}/questionnaires").json()
+    assert stored["answers"] == TLX and stored["entered_by"] == "operator", stored
+
+
 def test_a_participant_code_is_corrected_on_the_dashboard_with_a_reason(server: str) -> None:
     """The rename button asks for the corrected code, then the reason; the audit trail keeps both."""
     from playwright.sync_api import expect, sync_playwright
