@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import shutil
 import signal
 import threading
 import time
@@ -71,8 +72,40 @@ def _check_out(out: Path) -> None:
 
 
 # ------------------------------------------------------------------------------ from a server
+class _Server:
+    """Requests to a server whose take records: a request that cannot reach it (the lab's network,
+    a restart) is tried again for ``reconnect_s``; then one error, which says the take goes on there."""
+
+    def __init__(self, client: Any, url: str, take: int, reconnect_s: float) -> None:
+        self.client, self.url, self.take, self.reconnect_s = client, url, take, reconnect_s
+
+    def call(self, method: str, path: str) -> Any:
+        import httpx
+
+        lost_at = None
+        while True:
+            try:
+                r = self.client.request(method, path)
+            except httpx.TransportError as exc:
+                now = time.monotonic()
+                if lost_at is None:
+                    lost_at = now
+                    typer.echo(f"  lost the server ({exc}); trying again for {self.reconnect_s:g} s",
+                               err=True)
+                if now - lost_at > self.reconnect_s:
+                    raise SourceError(
+                        f"the server at {self.url} could not be reached for {self.reconnect_s:g} s ({exc}); "
+                        f"take {self.take} goes on there and is kept: fetch it from the dashboard's takes"
+                    ) from None
+                time.sleep(0.5)
+                continue
+            if lost_at is not None:
+                typer.echo("  the server answers again", err=True)
+            return r
+
+
 def _record_remote(
-    url: str, token: str | None, body: dict[str, Any], out: Path, stop: threading.Event
+    url: str, token: str | None, body: dict[str, Any], out: Path, stop: threading.Event, reconnect_s: float
 ) -> dict:
     import httpx
 
@@ -86,31 +119,36 @@ def _record_remote(
         if r.status_code != 201:
             raise InputError(f"the server refused the take ({r.status_code}): {_detail(r)}")
         take = r.json()
+        server = _Server(client, url, take["id"], reconnect_s)
         typer.echo(f"recording take {take['id']} ({take['uid']}) on {url}", err=True)
         last_text = None
         while True:
-            row = client.get(f"{api}/takes/{take['id']}").json()
+            row = server.call("GET", f"{api}/takes/{take['id']}").json()
             if row["status"] != "recording":
                 break
             if stop.is_set():
-                client.post(f"{api}/takes/{take['id']}/stop")
+                server.call("POST", f"{api}/takes/{take['id']}/stop")
                 continue
-            cur = client.get(f"{api}/takes/current").json()
+            cur = server.call("GET", f"{api}/takes/current").json()
             prompt = cur.get("prompt") if cur.get("take_id") == take["id"] else None
             if prompt and prompt["text"] != last_text:
                 last_text = prompt["text"]
                 typer.echo(f"  [{prompt['index'] + 1}/{prompt['steps']}] {prompt['text']}", err=True)
             stop.wait(0.25)
         out.mkdir(parents=True)
-        for name in [*row["files"], MANIFEST]:
-            got = client.get(f"{api}/takes/{take['id']}/files/{name}")
-            if got.status_code != 200:
-                raise SourceError(f"could not fetch {name} of take {take['id']}: {_detail(got)}")
-            info = row["files"].get(name)
-            if info and hashlib.sha256(got.content).hexdigest() != info["sha256"]:
-                raise SourceError(f"{name} of take {take['id']} does not match its sha256")
-            (out / name).parent.mkdir(parents=True, exist_ok=True)
-            (out / name).write_bytes(got.content)
+        try:
+            for name in [*row["files"], MANIFEST]:
+                got = server.call("GET", f"{api}/takes/{take['id']}/files/{name}")
+                if got.status_code != 200:
+                    raise SourceError(f"could not fetch {name} of take {take['id']}: {_detail(got)}")
+                info = row["files"].get(name)
+                if info and hashlib.sha256(got.content).hexdigest() != info["sha256"]:
+                    raise SourceError(f"{name} of take {take['id']} does not match its sha256")
+                (out / name).parent.mkdir(parents=True, exist_ok=True)
+                (out / name).write_bytes(got.content)
+        except BaseException:
+            shutil.rmtree(out, ignore_errors=True)  # no half-fetched folder: the server keeps the take
+            raise
         return json.loads((out / MANIFEST).read_text())
 
 
@@ -273,6 +311,14 @@ def record_cmd(
     with_videos: Annotated[
         bool, typer.Option("--videos", help="Also one MP4 per camera (cameras or video files).")
     ] = False,
+    reconnect_s: Annotated[
+        float,
+        typer.Option(
+            "--reconnect-s",
+            help="With --url: how long a server that cannot be reached is tried again, s "
+            "(the take goes on there).",
+        ),
+    ] = 30.0,
     db: Annotated[
         Path | None,
         typer.Option(
@@ -306,7 +352,11 @@ def record_cmd(
             "margin_s": margin_s,
             "videos": with_videos or None,
         }
-        manifest = _record_remote(url, token, {k: v for k, v in body.items() if v is not None}, out, stop)
+        if not 0 < reconnect_s <= 3600:
+            raise InputError(f"--reconnect-s must be in (0, 3600] s, got {reconnect_s}")
+        manifest = _record_remote(
+            url, token, {k: v for k, v in body.items() if v is not None}, out, stop, reconnect_s
+        )
     else:
         if source not in ("simulator", "cameras", "videos"):
             raise InputError(f"--source must be simulator, cameras or videos, got {source!r}")

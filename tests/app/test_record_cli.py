@@ -3,16 +3,20 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
+import socket
 import subprocess
 import sys
+import threading
 import time
 import zipfile
 from collections.abc import Iterator
 from pathlib import Path
 
 import av
+import httpx
 import numpy as np
 import pytest
 
@@ -24,7 +28,7 @@ from pipeline.takes.files import check_files
 from tests.app.conftest import Served, make_settings
 from tests.app.test_cli_errors import run_cli
 from tests.disk import need_free_gb, take_space
-from tests.waiting import wait_until
+from tests.waiting import free_port, wait_until
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -248,6 +252,135 @@ def test_record_on_a_running_server_fetches_the_take(served: Served, tmp_path: P
     assert manifest["status"] == "complete" and manifest["participant_code"] == "R1"
     assert check_files(out) == [], "every file came with a matching sha256"
     assert manifest["take_id"] == 1 and (out / "labels.csv").read_text().startswith("t_start,t_end,label")
+
+
+class Relay:
+    """The lab's network between ``cavewalk record --url`` and the server: a TCP relay on a port of
+    its own that can be cut (its listener closed, every open connection dropped) and restored."""
+
+    def __init__(self, target_port: int) -> None:
+        self.port, self.target = free_port(), target_port
+        self._lock = threading.Lock()
+        self._socks: list[socket.socket] = []
+        self._listener: socket.socket | None = None
+        self.restore()
+
+    def restore(self) -> None:
+        listener = socket.socket()
+        listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        listener.bind(("127.0.0.1", self.port))
+        listener.listen(16)
+        self._listener = listener
+        threading.Thread(target=self._accept, args=(listener,), daemon=True).start()
+
+    def _accept(self, listener: socket.socket) -> None:
+        while True:
+            try:
+                client, _ = listener.accept()
+                upstream = socket.create_connection(("127.0.0.1", self.target))
+            except OSError:
+                return  # cut
+            with self._lock:
+                self._socks += [client, upstream]
+            for a, b in ((client, upstream), (upstream, client)):
+                threading.Thread(target=self._pump, args=(a, b), daemon=True).start()
+
+    @staticmethod
+    def _pump(src: socket.socket, dst: socket.socket) -> None:
+        try:
+            while data := src.recv(65536):
+                dst.sendall(data)
+        except OSError:
+            pass
+        finally:
+            for sock in (src, dst):
+                with contextlib.suppress(OSError):
+                    sock.shutdown(socket.SHUT_RDWR)
+
+    def cut(self) -> None:
+        if self._listener is not None:
+            with contextlib.suppress(OSError):
+                self._listener.shutdown(socket.SHUT_RDWR)  # wakes its accept(): close alone does not
+            self._listener.close()
+            self._listener = None
+        with self._lock:
+            socks, self._socks = self._socks, []
+        for sock in socks:
+            with contextlib.suppress(OSError):
+                sock.shutdown(socket.SHUT_RDWR)
+            sock.close()
+
+
+class Recording:
+    """``cavewalk record --url`` through ``relay``, its stderr lines gathered as they come."""
+
+    def __init__(self, relay: Relay, out: Path, *extra: str) -> None:
+        cmd = [sys.executable, "-m", "app.cli", "record", "--out", str(out), "--url",
+               f"http://127.0.0.1:{relay.port}", "--duration", "6", *extra]
+        self.proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        self.lines: list[str] = []
+        self._reader = threading.Thread(target=self._read, daemon=True)
+        self._reader.start()
+        wait_until(lambda: any("recording take" in ln for ln in self.lines) or self.proc.poll() is not None,
+                   "the take")
+        assert self.proc.poll() is None, "".join(self.lines)[-2000:]
+
+    def _read(self) -> None:
+        assert self.proc.stderr is not None
+        self.lines.extend(iter(self.proc.stderr.readline, ""))
+
+    def finish(self) -> tuple[int, str, str]:
+        """Exit status, stdout, stderr (all of it)."""
+        code = self.proc.wait(timeout=120)
+        self._reader.join(timeout=10)
+        assert self.proc.stdout is not None
+        return code, self.proc.stdout.read(), "".join(self.lines)
+
+
+@pytest.mark.slow
+def test_record_on_a_server_rides_out_a_lost_connection_and_fetches_the_take(
+    served: Served, tmp_path: Path
+) -> None:
+    relay = Relay(int(served.base.rsplit(":", 1)[1]))
+    out = tmp_path / "fetched"
+    try:
+        rec = Recording(relay, out)
+        time.sleep(1.0)
+        relay.cut()  # 2 s without a network while the take records
+        time.sleep(2.0)
+        relay.restore()
+        code, stdout, err = rec.finish()
+    finally:
+        relay.cut()
+    assert code == 0, err[-2000:]
+    assert "lost the server" in err and "the server answers again" in err, err
+    assert json.loads(stdout.strip().splitlines()[-1])["status"] == "complete"
+    assert check_files(out) == [], "every file came with a matching sha256"
+
+
+@pytest.mark.slow
+def test_record_on_a_server_lost_for_good_ends_with_one_error_and_the_take_goes_on_there(
+    served: Served, tmp_path: Path
+) -> None:
+    relay = Relay(int(served.base.rsplit(":", 1)[1]))
+    out = tmp_path / "fetched"
+    try:
+        rec = Recording(relay, out, "--reconnect-s", "2")
+        relay.cut()
+        code, _, text = rec.finish()
+    finally:
+        relay.cut()
+    err = text.rstrip().splitlines()
+    assert code == 2, err
+    assert err[-1].startswith("error: the server at http://127.0.0.1:"), err
+    assert "take 1 goes on there and is kept" in err[-1], err
+    assert "Traceback" not in text
+    assert not out.exists(), "nothing half-fetched"
+    take = wait_until(
+        lambda: (t := httpx.get(f"{served.base}/api/v1/takes/1").json())["status"] != "recording" and t,
+        "the take to end on the server",
+    )
+    assert take["status"] == "complete", take
 
 
 @pytest.mark.slow
