@@ -46,6 +46,7 @@ ROOT = Path(__file__).resolve().parents[2]
         (["--duration", "2", "--source", "videos"], "needs --video"),
         (["--duration", "2", "--protocol", "PROTO"], "unknown label 'hop'"),
         (["--duration", "2", "--url", "http://127.0.0.1:9"], "cannot reach the server"),
+        (["--duration", "2", "--url", "http://127.0.0.1:9", "--reconnect-s", "0"], "--reconnect-s must be"),
         (
             ["--duration", "2", "--url", "http://127.0.0.1:9", "--db", "x.db"],
             "--db is for a take recorded here",
