@@ -338,21 +338,25 @@ class Recording:
         return code, self.proc.stdout.read(), "".join(self.lines)
 
 
+@pytest.fixture()
+def relay(served: Served) -> Iterator[Relay]:
+    """A relay to the running server, cut at the end."""
+    r = Relay(int(served.base.rsplit(":", 1)[1]))
+    yield r
+    r.cut()
+
+
 @pytest.mark.slow
 def test_record_on_a_server_rides_out_a_lost_connection_and_fetches_the_take(
-    served: Served, tmp_path: Path
+    relay: Relay, tmp_path: Path
 ) -> None:
-    relay = Relay(int(served.base.rsplit(":", 1)[1]))
     out = tmp_path / "fetched"
-    try:
-        rec = Recording(relay, out)
-        time.sleep(1.0)
-        relay.cut()  # 2 s without a network while the take records
-        time.sleep(2.0)
-        relay.restore()
-        code, stdout, err = rec.finish()
-    finally:
-        relay.cut()
+    rec = Recording(relay, out)
+    time.sleep(1.0)
+    relay.cut()  # 2 s without a network while the take records
+    time.sleep(2.0)
+    relay.restore()
+    code, stdout, err = rec.finish()
     assert code == 0, err[-2000:]
     assert "lost the server" in err and "the server answers again" in err, err
     assert json.loads(stdout.strip().splitlines()[-1])["status"] == "complete"
@@ -361,16 +365,12 @@ def test_record_on_a_server_rides_out_a_lost_connection_and_fetches_the_take(
 
 @pytest.mark.slow
 def test_record_on_a_server_lost_for_good_ends_with_one_error_and_the_take_goes_on_there(
-    served: Served, tmp_path: Path
+    served: Served, relay: Relay, tmp_path: Path
 ) -> None:
-    relay = Relay(int(served.base.rsplit(":", 1)[1]))
     out = tmp_path / "fetched"
-    try:
-        rec = Recording(relay, out, "--reconnect-s", "2")
-        relay.cut()
-        code, _, text = rec.finish()
-    finally:
-        relay.cut()
+    rec = Recording(relay, out, "--reconnect-s", "2")
+    relay.cut()
+    code, _, text = rec.finish()
     err = text.rstrip().splitlines()
     assert code == 2, err
     assert err[-1].startswith("error: the server at http://127.0.0.1:"), err
