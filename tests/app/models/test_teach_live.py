@@ -6,25 +6,16 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import pytest
 
-from pipeline.takes.teach import OutputAdaptation
+from tests.adaptation import FIXED, shows_fixed
 from tests.app.conftest import Served, make_settings
 
 pytestmark = pytest.mark.slow
 
-#: the network's output replaced by fixed probabilities (W = 0): forward : left : right = 2 : 3 : 4 in the
-#: live probabilities whatever the gate decides (it scales still, or the three movements, together)
-FIXED = OutputAdaptation.from_arrays(
-    np.zeros((4, 4)), np.log([0.1, 0.2, 0.3, 0.4]), adaptation_id=99, participant_code="P9"
-)
-
 
 def _fixed(s: dict[str, Any]) -> bool:
-    p = (s.get("action") or {}).get("probs") or {}
-    f = p.get("forward", 0.0)
-    return f > 0 and abs(p["left"] / f - 1.5) < 0.01 and abs(p["right"] / f - 2.0) < 0.01
+    return shows_fixed((s.get("action") or {}).get("probs"))
 
 
 def test_the_adaptation_is_applied_in_the_running_fuse_worker_and_cleared(tmp_path: Path) -> None:

@@ -15,7 +15,6 @@ import threading
 import time
 from typing import Any
 
-import numpy as np
 import pytest
 
 from pipeline.emitter import udp
@@ -25,7 +24,7 @@ from pipeline.recognition.recognizer import DEFAULT_MODEL_PATH
 from pipeline.results import FrameResult
 from pipeline.runtime.pipeline import Pipeline
 from pipeline.runtime.stream import MAX_ENDPOINTS, StreamBook
-from pipeline.takes.teach import OutputAdaptation
+from tests.adaptation import FIXED, shows_fixed
 from tests.datagrams import DatagramRecorder
 from tests.waiting import wait_until
 
@@ -157,16 +156,8 @@ class Results:
         self.got.append(result)
 
 
-#: the network's output replaced by fixed probabilities: forward : left : right = 2 : 3 : 4 whatever
-#: the gate decides (it scales still, or the three movements, together)
-FIXED = OutputAdaptation.from_arrays(np.zeros((4, 4)), np.log([0.1, 0.2, 0.3, 0.4]), adaptation_id=7,
-                                     participant_code="P7")
-
-
 def _adapted(result: FrameResult) -> bool:
-    p = result.action.probs if result.action is not None else {}
-    f = p.get("forward", 0.0)
-    return f > 0 and abs(p["left"] / f - 1.5) < 0.01 and abs(p["right"] / f - 2.0) < 0.01
+    return shows_fixed(result.action.probs if result.action is not None else None)
 
 
 @pytest.mark.slow
