@@ -65,7 +65,7 @@ class ChainParts:
     simulator: SimWorldFactory | None
     #: the pipeline's chain now: its navigation mode and teach adaptation, changed while the run goes
     #: on, reach a fusion worker started later in the run (``chain`` holds those of the start)
-    current: Callable[[], ChainConfig] | None = None
+    current: Callable[[], ChainConfig]
     #: the first user id of the run: past those of the pipeline's earlier runs, so that a choice of
     #: people kept from an earlier run (the navigation mode's) is nobody in this one
     first_user_id: int = 1
@@ -273,7 +273,7 @@ def _control(ctx: BaseContext, run: Run, parts: ChainParts) -> PerSpawn:
         chosen = run.operator_navigator()
         if chosen is not None:
             first.append(ResumeNavigator(*chosen))
-        now = parts.current() if parts.current is not None else parts.chain
+        now = parts.current()
         if now.navigation != parts.chain.navigation:
             first.append(SetNavigation(now.navigation.mode, now.navigation.user_ids))
         if now.adaptation != parts.chain.adaptation:

@@ -114,8 +114,7 @@ class Pipeline:
             self._router.begin()
             self._snapshots.clear()
             parts = ChainParts(self.chain, self._stream_spec(), inputs.cameras_calibrated, self.pose,
-                               self.simulator, current=lambda: self.chain,
-                               first_user_id=self._numbered_past + 1)
+                               self.simulator, lambda: self.chain, first_user_id=self._numbered_past + 1)
             try:
                 run = self._launcher.launch(source, plan, parts)
             except BaseException:
