@@ -166,6 +166,21 @@ export function collectAnswers(form, def) {
   return { answers, pairwise };
 }
 
+// A sheet's answers kept in the tab's storage under ``key`` until it is stored (a reload brings them
+// back), with ``extra`` fields saying whose they are; readDraft gives them back (null: none).
+export function writeDraft(key, form, def, extra) {
+  const { answers, pairwise } = collectAnswers(form, def);
+  sessionStorage.setItem(key, JSON.stringify({ ...extra, answers, pairwise }));
+}
+
+export function readDraft(key) {
+  try {
+    return JSON.parse(sessionStorage.getItem(key) || "null");
+  } catch {
+    return null;
+  }
+}
+
 // Put answers back into a fresh sheet of the same instrument (a draft kept across a reload): radios
 // checked, sliders set and marked as moved; values the sheet does not offer are left out.
 export function restoreAnswers(form, def, { answers = {}, pairwise } = {}) {

@@ -8,7 +8,7 @@
 // credential the server refuses (401: a newer link replaced it) ends the page.
 
 import { ApiError, el } from "./api.js";
-import { collectAnswers, markItems, renderSheet, restoreAnswers } from "./forms.js";
+import { collectAnswers, markItems, readDraft, renderSheet, restoreAnswers, writeDraft } from "./forms.js";
 
 const fromLink = new URLSearchParams(location.hash.slice(1)).get("t");
 if (fromLink) {
@@ -98,18 +98,12 @@ function showWait(step, view) {
 
 // The answers of the sheet on screen, kept in the tab's storage (this session's, this step's).
 function saveDraft() {
-  if (!shown || !form) return;
-  const { answers, pairwise } = collectAnswers(form, defs[shown.instrument]);
-  sessionStorage.setItem(DRAFT, JSON.stringify({ credential, key: shown.key, answers, pairwise }));
+  if (shown && form) writeDraft(DRAFT, form, defs[shown.instrument], { credential, key: shown.key });
 }
 
 function draftFor(step) {
-  try {
-    const draft = JSON.parse(sessionStorage.getItem(DRAFT) || "null");
-    return draft && draft.credential === credential && draft.key === step.key ? draft : null;
-  } catch {
-    return null;
-  }
+  const draft = readDraft(DRAFT);
+  return draft && draft.credential === credential && draft.key === step.key ? draft : null;
 }
 
 function connection(lost) {

@@ -10,7 +10,16 @@
 // #q-correct-reason + #q-correct for a correction or an override.
 
 import { get, post, el } from "./api.js";
-import { INSTRUMENT_LABELS, collectAnswers, formatScore, markItems, renderSheet, restoreAnswers } from "./forms.js";
+import {
+  INSTRUMENT_LABELS,
+  collectAnswers,
+  formatScore,
+  markItems,
+  readDraft,
+  renderSheet,
+  restoreAnswers,
+  writeDraft,
+} from "./forms.js";
 
 let definitionsPromise = null;
 
@@ -72,9 +81,7 @@ export async function mountQuestionnaire(element, { session, onSubmitted = () =>
 
   function saveDraft() {
     const def = defs[instrument.value];
-    if (!def || !form) return;
-    const { answers, pairwise } = collectAnswers(form, def);
-    sessionStorage.setItem(draftKey, JSON.stringify({ instrument: instrument.value, phase: phase.value, answers, pairwise }));
+    if (def && form) writeDraft(draftKey, form, def, { instrument: instrument.value, phase: phase.value });
   }
 
   function clearMessages() {
@@ -115,12 +122,7 @@ export async function mountQuestionnaire(element, { session, onSubmitted = () =>
 
   function restoreDraft() {
     // the sheet this form was typing into before a reload (the draft of the last instrument drawn)
-    let draft = null;
-    try {
-      draft = JSON.parse(sessionStorage.getItem(draftKey) || "null");
-    } catch {
-      draft = null;
-    }
+    const draft = readDraft(draftKey);
     if (!draft || !defs[draft.instrument]) return;
     instrument.value = draft.instrument;
     drawPhases();
