@@ -31,6 +31,7 @@ import numpy as np
 from app.services.event_log import EventWriter
 from pipeline.errors import InputError
 from pipeline.navigation.config import NavigationConfig
+from pipeline.runtime.pipeline import Handover
 from pipeline.runtime.plan import SourceName
 from pipeline.runtime.publisher import StatusSink
 from pipeline.runtime.sinks import ResultSink
@@ -66,6 +67,8 @@ class PipelineFacade(Protocol):
     def snapshot_jpeg(self, camera: str) -> bytes | None: ...
     def send_prompt(self, text: str, label: str, remaining_s: float) -> None: ...
     def video_controls(self) -> dict[str, tuple[VideoControl, float]]: ...
+    def handover(self) -> Handover: ...
+    def take_over(self, handover: Handover) -> None: ...
 
 
 class LiveSink(Protocol):
@@ -315,24 +318,30 @@ class PipelineService:
         with self._lock:
             if self._factory is None:
                 raise PipelineUnavailable(self.unavailable_reason)
+            carried = None
             if self._pipeline is not None and self._rebuild:
-                self._close_pipeline()
+                carried = self._close_pipeline()
             self._rebuild = False
             if self._pipeline is None:
-                self._pipeline = self._build(self._factory)
+                self._pipeline = self._build(self._factory, carried)
             # (re)start: the pipeline validates first, so a bad request leaves the running one as it was;
             # it reports its own state changes as events, and publishes the status it starts with
             self._pipeline.start(source, videos)
 
-    def _build(self, factory: Callable[[], PipelineFacade]) -> PipelineFacade:
+    def _build(self, factory: Callable[[], PipelineFacade], carried: Handover | None) -> PipelineFacade:
+        """A new pipeline; ``carried``: what the pipeline it replaces hands on (the operator's
+        navigation mode and chosen people, the ids given out: a kept choice is nobody, never
+        somebody the operator did not choose)."""
         try:
             pipeline = factory()
         except ImportError as exc:
             raise PipelineUnavailable(f"the pipeline cannot be built: {exc}") from exc
         for sink in self._result_sinks:
             pipeline.add_sink(sink)
-        if self._navigation is not None:
-            pipeline.set_navigation(self._navigation, [])  # the chosen ids belong to the last run
+        if carried is not None:
+            pipeline.take_over(carried)
+        elif self._navigation is not None:  # chosen before any pipeline was built: nobody yet
+            pipeline.set_navigation(self._navigation, [])
         if self._adaptation is not None:
             pipeline.set_adaptation(self._adaptation)
         pipeline.subscribe(_Subscription(self, pipeline))
@@ -392,17 +401,20 @@ class PipelineService:
         pipeline = self._pipeline  # one reference read: no need to wait for a start or stop
         return None if pipeline is None else pipeline.snapshot_jpeg(camera)
 
-    def _close_pipeline(self) -> None:
+    def _close_pipeline(self) -> Handover | None:
+        """Stop and close the pipeline; what a pipeline that replaces it carries on."""
         if self._pipeline is None:
-            return
+            return None
         try:
             self._pipeline.stop()
             self._pipeline.close()
         except Exception:
             log.exception("pipeline stop failed")
+        carried = self._pipeline.handover()  # after the stop: with the last run's ids
         self._pipeline = None
         if self.feed is not None:
             self.feed.own_clock(True)  # no pipeline publishes: the feed keeps the rate
+        return carried
 
     def close(self) -> None:
         """Stop the pipeline (the app's shutdown)."""

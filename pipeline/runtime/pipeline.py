@@ -29,7 +29,7 @@ import gc
 import threading
 import time
 from collections.abc import Sequence
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from pipeline.camera import Camera
@@ -55,7 +55,19 @@ from pipeline.runtime.tracker import guard_resource_tracker
 from pipeline.takes.teach import OutputAdaptation
 from pipeline.takes.video import VideoControl
 
-__all__ = ["SOURCES", "Pipeline", "SourceName"]
+__all__ = ["SOURCES", "Handover", "Pipeline", "SourceName"]
+
+
+@dataclass(frozen=True)
+class Handover:
+    """What a pipeline built to replace another carries on (the app rebuilds it for a new calibration
+    or a newly active model): the operator's navigation mode with its chosen people, and the highest
+    user id given out so far, so that the new pipeline numbers people past it. A kept choice is then
+    nobody until the operator ticks the people again, as after a new run of the same pipeline: an id
+    given out afresh never falls on somebody the operator did not choose."""
+
+    navigation: NavigationConfig
+    numbered_past: int
 
 
 class Pipeline:
@@ -129,6 +141,29 @@ class Pipeline:
             for t in run.threads:
                 t.start()
         self._publisher.publish_now()
+
+    def handover(self) -> Handover:
+        """What a pipeline that replaces this one carries on (:class:`Handover`)."""
+        with self._lock:
+            run = self._run
+            past = max(self._numbered_past, run.max_user_id if run is not None else 0)
+            return Handover(self.chain.navigation, past)
+
+    def take_over(self, handover: Handover) -> None:
+        """Carry on from the pipeline this one replaces, before this one's first start: its navigation
+        mode and chosen people (this pipeline's own ``max_navigators``), and people numbered past its
+        ids."""
+        with self._lock:
+            if self._run is not None:
+                raise RuntimeError("take_over is for a pipeline that has not started")
+            self._numbered_past = max(self._numbered_past, handover.numbered_past)
+            navigation = replace(handover.navigation, max_navigators=self.chain.navigation.max_navigators)
+            self.chain = replace(self.chain, navigation=navigation)
+            chosen = list(navigation.user_ids) or "everyone"
+            self._board.event("navigator", f"a new pipeline keeps navigation mode {navigation.mode} "
+                              f"{chosen}; people are numbered from {self._numbered_past + 1} on",
+                              {"mode": navigation.mode, "user_ids": list(navigation.user_ids),
+                               "numbered_from": self._numbered_past + 1})
 
     def _stream_spec(self) -> StreamSpec:
         return StreamSpec(self._emitter_config, self.chain.head, self._book.spec, self._sock,

@@ -17,6 +17,7 @@ import httpx
 import pytest
 import websockets
 
+from app.db.repositories import list_events
 from tests.app.conftest import Served, make_settings
 from tests.waiting import GENEROUS_S, HTTP_TIMEOUT_S, wait_until
 
@@ -174,3 +175,43 @@ def test_status_reads_do_not_wait_for_a_slow_stop(served: Served) -> None:
     served.wait_status(lambda s: s["state"] == "stopped")
     assert http.post(f"{base}/pipeline/start", json={"source": "simulator"}).status_code == 200
     served.wait_status(lambda s: s["state"] == "running")
+
+
+def test_a_pipeline_rebuilt_for_a_new_model_keeps_the_choice_and_moves_nobody_else(tmp_path: Path) -> None:
+    """A newly active model (as a new calibration) rebuilds the pipeline at its next start. The
+    operator's group of chosen people is kept and the new pipeline numbers people past the old ids,
+    so the kept choice is nobody until the operator chooses again. (The rebuilt pipeline took the
+    mode with "everyone" as its chosen people: a person the operator never chose navigated.)"""
+    with Served(make_settings(tmp_path)) as served:
+        base = f"{served.base}/api/v1"
+
+        def choose() -> int | None:  # the person seen may be lost before the request lands
+            status = served.wait_status(lambda s: s["state"] == "running" and len(s["people"]) >= 2)
+            one = min(p["user_id"] for p in status["people"])
+            r = http.put(f"{base}/navigator", json={"mode": "group", "user_ids": [one]})
+            if r.status_code == 404:
+                return None
+            assert r.status_code == 200, r.text
+            return one
+
+        chosen = wait_until(choose, "one tracked person chosen for group mode")
+        before = served.wait_status(
+            lambda s: [p["user_id"] for p in s["people"] if p["navigating"]] == [chosen])
+        last_id = max(p["user_id"] for p in before["people"])
+        active = http.get(f"{base}/models/active").json()
+        r = http.post(f"{base}/models/{active['id']}/activate")
+        assert r.status_code == 200, r.text
+        r = http.post(f"{base}/pipeline/start", json={"source": "simulator"})
+        assert r.status_code == 200, r.text
+        found = served.wait_status(lambda s: s["state"] == "running" and len(s["people"]) >= 2)
+        after = served.wait_status(lambda s: s["ts"] > found["ts"] + 2 and len(s["people"]) >= 2)
+        assert after["navigation"]["mode"] == "group", after["navigation"]
+        assert after["navigation"]["chosen"] == [chosen], after["navigation"]
+        assert min(p["user_id"] for p in after["people"]) > last_id, after["people"]
+        assert not any(p["navigating"] for p in after["people"]), after["people"]
+        served.app.state.events.flush()
+        with served.app.state.session_factory() as db:
+            kept = [e.payload for e in list_events(db, kind="navigator")
+                    if "a new pipeline keeps" in e.payload["message"]]
+        assert len(kept) == 1 and kept[0]["mode"] == "group" and kept[0]["user_ids"] == [chosen], kept
+        assert last_id < kept[0]["numbered_from"] <= min(p["user_id"] for p in after["people"]), kept
