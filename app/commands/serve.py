@@ -17,6 +17,7 @@ from app.db.engine import DatabaseLock
 from app.db.migrate import prepare_database
 from app.main import create_app, operator_token
 from pipeline.errors import ConfigError, InputError
+from pipeline.runtime.logfile import log_to_file
 
 app = typer.Typer()
 
@@ -80,6 +81,10 @@ def run_server(
                                            user_ids=())
         except ValueError as exc:
             raise InputError(f"--navigation: {exc}") from None
+    log = settings.runtime.log
+    if log.enabled and log.path is None:  # default: beside the database
+        log = replace(log, path=paths.db.expanduser().parent / "logs" / "cavewalk.log")
+        update["runtime"] = replace(settings.runtime, log=log)
     settings = settings.model_copy(update=update)
     set_settings(settings)
     if paths.db.exists() and paths.db.is_dir():
@@ -91,6 +96,11 @@ def run_server(
     lock = DatabaseLock.acquire(paths.db)  # held until the process ends: a second server stops here
     try:
         prepare_database(paths.db)  # a database that cannot be used ends here with one message
+        try:
+            log_file = log_to_file(log, rotate=True)  # this process's log, and the workers' (runtime.log)
+        except OSError as exc:
+            raise ConfigError(f"the log file {log.path} cannot be written: {exc.strerror or exc} "
+                              "(set runtime.log.path, or runtime.log.enabled = false)") from None
     except BaseException:
         lock.release()
         raise
@@ -101,12 +111,14 @@ def run_server(
     if server.viser:
         typer.echo(f"3D view:            http://{shown}:{server.port}/viewer/")  # proxied, behind the token
     typer.echo(f"database:           {paths.db}")
+    typer.echo(f"log file:           {log_file or '(none: runtime.log.enabled = false)'}")
     if token is not None:
         source = "from the settings" if settings.server.token else "generated for this run"
         typer.echo(f"operator token ({source}): {token}")
         typer.echo(f"  open http://{shown}:{server.port}/?token={token}")
     uvicorn.run(
-        app, host=server.host.strip("[]"), port=server.port, log_level="warning", ws="websockets-sansio"
+        app, host=server.host.strip("[]"), port=server.port, log_level="warning", ws="websockets-sansio",
+        log_config=None,  # uvicorn's records go through the root logger: stderr and the log file
     )
 
 

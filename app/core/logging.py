@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import logging
 
-LOG_FORMAT = "%(asctime)s %(levelname)-7s %(processName)s %(name)s: %(message)s"
+from pipeline.runtime.logfile import LOG_FORMAT
+
+__all__ = ["LOG_FORMAT", "configure_logging"]
 
 
 def configure_logging(level: int = logging.INFO) -> None:

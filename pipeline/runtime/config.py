@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Literal
 
+from pipeline.runtime.logfile import LogFileConfig
 from pipeline.sources.grouper import GrouperConfig
 
 
@@ -27,6 +28,8 @@ class RuntimeConfig:
     start_method: multiprocessing start method of the workers.
     latency_window: latency samples kept per stage for the percentiles.
     stall_after_s: a running pipeline that fused no frame for this long reports ``stalled``.
+    log: the server's log file, which the workers append to as well (``[runtime.log]``,
+        :mod:`pipeline.runtime.logfile`).
     """
 
     target_fps: float = 30.0
@@ -42,6 +45,7 @@ class RuntimeConfig:
     start_method: Literal["forkserver", "spawn", "fork"] = "forkserver"
     latency_window: int = 600
     stall_after_s: float = 0.5
+    log: LogFileConfig = field(default_factory=LogFileConfig)
 
     def __post_init__(self) -> None:
         if self.target_fps <= 0:

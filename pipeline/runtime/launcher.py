@@ -83,7 +83,8 @@ class Launcher:
         if self.config.start_method == "forkserver":
             ctx.set_forkserver_preload(FORKSERVER_PRELOAD)
         events_q = ctx.Queue(maxsize=1000)
-        run = Run(source=source, cameras={}, events_q=events_q, supervisor=Supervisor(ctx, events_q),
+        run = Run(source=source, cameras={}, events_q=events_q,
+                  supervisor=Supervisor(ctx, events_q, log=self.config.log),
                   metrics=RuntimeMetrics(self.config.latency_window))
         try:
             if source == "simulator":

@@ -45,6 +45,7 @@ from typing import Any
 
 import psutil
 
+from pipeline.runtime.logfile import LogFileConfig
 from pipeline.runtime.messages import BoundedQueue, T, WorkerEvent
 from pipeline.runtime.workers import SIGTERM_EXIT, worker_main
 
@@ -157,10 +158,11 @@ class Supervisor:
     """Starts, watches and restarts worker groups; thread-safe."""
 
     def __init__(self, mp_context: Any, events: BoundedQueue[WorkerEvent],
-                 config: SupervisorConfig | None = None) -> None:
+                 config: SupervisorConfig | None = None, log: LogFileConfig | None = None) -> None:
         self._mp = mp_context
         self.events = events
         self.config = config or SupervisorConfig()
+        self.log = log  # the server's log file, which each worker appends to
         self._groups: dict[str, WorkerGroup] = {}
         self._lock = threading.RLock()
         self._stopping = False
@@ -196,7 +198,8 @@ class Supervisor:
         args = tuple(a.make() if isinstance(a, PerSpawn) else a for a in args)
         proc = self._mp.Process(
             target=worker_main, name=f"cavewalk-{wname}",
-            args=(wname, body, self.events, group.stop, os.getpid(), *args), daemon=True,
+            args=(wname, body, self.events, group.stop, os.getpid(), *args), kwargs={"log": self.log},
+            daemon=True,
         )
         with without_main_module():
             proc.start()

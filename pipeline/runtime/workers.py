@@ -32,6 +32,7 @@ from numpy.typing import NDArray
 
 from pipeline.errors import CavewalkError, SourceError
 from pipeline.runtime.chain import ChainConfig, build_detector, build_fusion, build_pose_stage
+from pipeline.runtime.logfile import LOG_FORMAT, LogFileConfig, log_to_file
 from pipeline.runtime.mailbox import Mailbox, MailboxSpec
 from pipeline.runtime.messages import (
     BoundedQueue,
@@ -137,14 +138,19 @@ def _pid_alive(pid: int) -> bool:
 
 
 def worker_main(name: str, body: Callable[..., None], events: BoundedQueue[WorkerEvent], stop: StopFlag,
-                parent_pid: int, *args: object) -> None:
-    """Process entry point: run ``body(ctx, *args)`` with the error/end-marker discipline."""
+                parent_pid: int, *args: object, log: LogFileConfig | None = None) -> None:
+    """Process entry point: run ``body(ctx, *args)`` with the error/end-marker discipline; the log
+    goes to stderr and to the server's log file (``log``, when it names one)."""
     ctx = _Ctx(name, events, stop, parent_pid)
     set_process_name(f"cw-{name}")
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, lambda *_: setattr(ctx, "terminated", True))
-    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)-7s %(processName)s %(name)s: "
-                        "%(message)s", datefmt="%H:%M:%S")
+    logging.basicConfig(level=logging.INFO, format=LOG_FORMAT, datefmt="%H:%M:%S")
+    if log is not None:
+        try:
+            log_to_file(log, rotate=False)
+        except OSError as exc:  # the app's process opened it; a worker goes on without it
+            logging.getLogger(__name__).warning("cannot write the log file %s: %s", log.path, exc)
     ctx.report("started")
     code = 0
     try:

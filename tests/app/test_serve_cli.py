@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import os
+import re
 import shutil
+import signal
 import socket
 import subprocess
 import sys
@@ -15,7 +17,7 @@ from typer.testing import CliRunner
 
 from app.cli import cli
 from pipeline.errors import CavewalkError
-from tests.waiting import free_port
+from tests.waiting import free_port, wait_until
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -199,3 +201,63 @@ def test_a_read_only_database_is_one_message(where: str) -> None:
     finally:
         folder.chmod(0o755)
         shutil.rmtree(top)
+
+
+def _demo(tmp_path: Path, **env: str) -> subprocess.Popen[str]:
+    cmd = [sys.executable, "-m", "app.cli", "demo", "--db", str(tmp_path / "study.db"), "--port",
+           str(free_port()), "--viser-port", str(free_port())]
+    return subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            env={**os.environ, **env})
+
+
+@pytest.mark.slow
+def test_the_server_s_log_file_holds_the_app_s_and_the_workers_records(tmp_path: Path) -> None:
+    """`cavewalk demo` writes its log beside the database (logs/cavewalk.log), with the records of
+    its worker processes and of its shutdown, as well as to stderr."""
+    log = tmp_path / "logs" / "cavewalk.log"
+    server = _demo(tmp_path)
+    try:
+        assert server.stdout is not None
+        lines = []
+        for line in server.stdout:
+            lines.append(line)
+            if line.startswith("log file:"):
+                break
+        assert lines[-1].split(":", 1)[1].strip() == str(log), lines
+
+        def worker_line() -> str | None:  # the simulator's people found by the fusion worker
+            text = log.read_text(encoding="utf-8") if log.exists() else ""
+            return next((x for x in text.splitlines() if " cavewalk-fuse " in x and "appears" in x), None)
+
+        found = wait_until(worker_line, "a fusion worker's record in the log file")
+        assert re.match(r"\d{4}-\d\d-\d\d \d\d:\d\d:\d\d INFO    cavewalk-fuse ", found), found
+    finally:
+        server.send_signal(signal.SIGINT)
+        _out, err = server.communicate(timeout=60)
+    text = log.read_text(encoding="utf-8")
+    assert "MainProcess app.services.backup: database backed up (start)" in text
+    assert "database backed up (stop)" in text.splitlines()[-1], text.splitlines()[-3:]
+    assert "database backed up (stop)" in err, "stderr has it too"
+
+
+@pytest.mark.slow
+def test_no_log_file_when_switched_off_and_a_log_file_that_cannot_be_written_is_one_message(
+    tmp_path: Path,
+) -> None:
+    off = _demo(tmp_path, CAVEWALK_RUNTIME__LOG__ENABLED="false")
+    try:
+        assert off.stdout is not None
+        line = next(x for x in off.stdout if x.startswith("log file:"))
+        assert "(none: runtime.log.enabled = false)" in line
+    finally:
+        off.send_signal(signal.SIGINT)
+        off.communicate(timeout=60)
+    assert not (tmp_path / "logs").exists()
+    (tmp_path / "plain").write_text("a file where a folder should be\n")
+    bad = tmp_path / "plain" / "cavewalk.log"
+    proc = _demo(tmp_path, CAVEWALK_RUNTIME__LOG__PATH=str(bad))
+    out, err = proc.communicate(timeout=120)
+    assert proc.returncode == 2, err
+    assert err.strip().splitlines()[-1] == (f"error: the log file {bad} cannot be written: File exists "
+                                           "(set runtime.log.path, or runtime.log.enabled = false)"), err
+    assert "Traceback" not in err and "cavewalk dashboard" not in out
