@@ -143,6 +143,7 @@ def create_app(
             message = pipeline.snapshot()
             message["running_session_id"] = events.session_id
             message["active_calibration_id"] = calibration.active_id
+            message["restart_for"] = pipeline.waiting_for_restart()
             message["alarm"] = watch.current()
             message["storage"] = storage.current()
             return message
@@ -163,7 +164,7 @@ def create_app(
         events.on_session_change(feed.publish)  # a session started or stopped: the dashboard shows it
         if built is None:
             pipeline.unavailable_reason = reason
-        models.on_change(pipeline.calibration_changed)  # a newly active model: rebuilt at the next start
+        models.on_change(pipeline.model_changed)  # a newly active model: rebuilt at the next start
         models.on_adaptation(pipeline.set_adaptation)  # teach: while the participant's session runs
         app.state.training = training = TrainingService(settings, factory, models)
         calibration = CalibrationService(settings, factory, events, pipeline, viewer)

@@ -129,6 +129,10 @@ class StatusPublic(BaseModel):
     action: ActionPublic | None = None
     running_session_id: int | None = None
     active_calibration_id: int | None = None
+    restart_for: list[Literal["calibration", "model"]] = Field(
+        default_factory=list,
+        description="What the running pipeline does not use until it starts again (POST "
+        "/pipeline/restart): a calibration or action model made active since it started.")
     alarm: AlarmPublic | None = None
     storage: StoragePublic = Field(default_factory=StoragePublic)
     ts: float = 0.0

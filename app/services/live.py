@@ -28,6 +28,7 @@ from typing import Any, Literal, Protocol
 
 import numpy as np
 
+from app.db.errors import StateConflict
 from app.services.event_log import EventWriter
 from pipeline.errors import InputError
 from pipeline.navigation.config import NavigationConfig
@@ -235,7 +236,10 @@ class PipelineService:
         self._status = PipelineStatus("stopped" if factory else "unavailable")
         self._snapshot: dict[str, Any] = self._status.to_json()
         self.unavailable_reason = "" if factory else "the pipeline runtime is not available"
-        self._rebuild = False
+        # what the next start rebuilds the pipeline for ("calibration", "model"), while the running
+        # one goes on without it; the last start's source and videos (a restart repeats them)
+        self._rebuild_for: set[str] = set()
+        self._last_start: tuple[SourceName, dict[str, Path] | None] | None = None
         self._result_sinks: tuple[ResultSink, ...] = ()
         self._navigation: str | None = None  # the operator's navigation mode, kept over rebuilds
         self._adaptation: OutputAdaptation | None = None  # the running session's teach adaptation
@@ -273,9 +277,36 @@ class PipelineService:
     def calibration_changed(self) -> None:
         """A new calibration is active: the next start builds the pipeline with its cameras (and the
         live status shows the active calibration's id)."""
+        self._rebuild_at_next_start("calibration")
+
+    def model_changed(self) -> None:
+        """Another action model is active: the next start builds the pipeline with it."""
+        self._rebuild_at_next_start("model")
+
+    def _rebuild_at_next_start(self, what: str) -> None:
         with self._lock:
-            self._rebuild = True
+            self._rebuild_for.add(what)
         self.refresh()
+
+    def waiting_for_restart(self) -> list[str]:
+        """What the running pipeline does not use yet, until it is started again: ``calibration``
+        (image sources only: the simulator has its own cameras) and ``model``; [] when stopped."""
+        now = self.status()
+        if now.state in ("stopped", "unavailable", "failed"):
+            return []
+        pending = set(self._rebuild_for)
+        if now.source == "simulator":
+            pending.discard("calibration")
+        return sorted(pending)
+
+    def restart(self) -> None:
+        """Start again with the last start's source and videos (to take a new calibration or model).
+        StateConflict when the pipeline was never started."""
+        with self._lock:
+            if self._last_start is None:
+                raise StateConflict("the pipeline has not been started yet: choose a source and start it")
+            source, videos = self._last_start
+            self.start(source, videos)
 
     @property
     def available(self) -> bool:
@@ -319,14 +350,15 @@ class PipelineService:
             if self._factory is None:
                 raise PipelineUnavailable(self.unavailable_reason)
             carried = None
-            if self._pipeline is not None and self._rebuild:
+            if self._pipeline is not None and self._rebuild_for:
                 carried = self._close_pipeline()
-            self._rebuild = False
+            self._rebuild_for.clear()
             if self._pipeline is None:
                 self._pipeline = self._build(self._factory, carried)
             # (re)start: the pipeline validates first, so a bad request leaves the running one as it was;
             # it reports its own state changes as events, and publishes the status it starts with
             self._pipeline.start(source, videos)
+            self._last_start = (source, dict(videos) if videos else None)
 
     def _build(self, factory: Callable[[], PipelineFacade], carried: Handover | None) -> PipelineFacade:
         """A new pipeline; ``carried``: what the pipeline it replaces hands on (the operator's

@@ -178,7 +178,7 @@ def test_status_reads_do_not_wait_for_a_slow_stop(served: Served) -> None:
 
 
 def test_a_pipeline_rebuilt_for_a_new_model_keeps_the_choice_and_moves_nobody_else(tmp_path: Path) -> None:
-    """A newly active model (as a new calibration) rebuilds the pipeline at its next start. The
+    """A newly active model (as a new calibration) rebuilds the pipeline when it starts again. The
     operator's group of chosen people is kept and the new pipeline numbers people past the old ids,
     so the kept choice is nobody until the operator chooses again. (The rebuilt pipeline took the
     mode with "everyone" as its chosen people: a person the operator never chose navigated.)"""
@@ -201,8 +201,10 @@ def test_a_pipeline_rebuilt_for_a_new_model_keeps_the_choice_and_moves_nobody_el
         active = http.get(f"{base}/models/active").json()
         r = http.post(f"{base}/models/{active['id']}/activate")
         assert r.status_code == 200, r.text
-        r = http.post(f"{base}/pipeline/start", json={"source": "simulator"})
+        assert http.get(f"{base}/status").json()["restart_for"] == ["model"]
+        r = http.post(f"{base}/pipeline/restart")  # the last start's source: the simulator
         assert r.status_code == 200, r.text
+        assert r.json()["restart_for"] == [] and r.json()["source"] == "simulator", r.json()
         found = served.wait_status(lambda s: s["state"] == "running" and len(s["people"]) >= 2)
         after = served.wait_status(lambda s: s["ts"] > found["ts"] + 2 and len(s["people"]) >= 2)
         assert after["navigation"]["mode"] == "group", after["navigation"]

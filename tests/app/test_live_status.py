@@ -13,6 +13,7 @@ from typing import Any
 import httpx
 import pytest
 import websockets
+from fastapi.testclient import TestClient
 
 from app.schemas.live import (
     ActionPublic,
@@ -42,7 +43,7 @@ from pipeline.sim.world import SimConfig
 from tests.app.conftest import Served, make_settings
 from tests.waiting import HTTP_TIMEOUT_S
 
-APP_FIELDS = {"running_session_id", "active_calibration_id", "alarm", "storage"}
+APP_FIELDS = {"running_session_id", "active_calibration_id", "restart_for", "alarm", "storage"}
 
 
 def group_status() -> PipelineStatus:
@@ -155,3 +156,10 @@ def test_a_socket_gets_the_current_status_at_once_then_the_app_s_changes_pushed(
         assert httpx.post(f"{base}/sessions/{sid}/start", timeout=HTTP_TIMEOUT_S).status_code == 200
         reader.join(HTTP_TIMEOUT_S)
         assert not reader.is_alive() and received[-1]["running_session_id"] == sid
+
+
+def test_a_restart_before_any_start_is_refused(client: TestClient) -> None:
+    """``POST /pipeline/restart`` repeats the last start: with none yet, one 409 that says so."""
+    r = client.post("/api/v1/pipeline/restart")
+    assert r.status_code == 409 and "has not been started yet" in r.json()["detail"], r.text
+    assert client.get("/api/v1/status").json()["restart_for"] == []

@@ -126,3 +126,45 @@ def test_the_teach_button_adapts_to_a_participant_and_can_be_switched_off(
             row.locator("button.adaptation-toggle").click()
             expect(row).to_have_attribute("data-enabled", "false" if was_on else "true", timeout=10_000)
         assert not errors, f"page errors: {errors}"
+
+
+def test_a_model_activated_while_the_pipeline_runs_is_used_after_restart_now(
+    tmp_path: Path, artifacts_dir: Path
+) -> None:
+    """The simulator runs; a model activated in the panel is not used by the running pipeline: the
+    top bar says so until "Restart now" starts the pipeline again, with that model."""
+    import base64
+
+    import httpx
+    from playwright.sync_api import expect, sync_playwright
+
+    from tests.waiting import HTTP_TIMEOUT_S
+
+    if not Path(CHROMIUM).exists():
+        pytest.fail(f"{CHROMIUM} missing: apt-get install -y chromium chromium-driver")
+    good = with_metadata(tmp_path / "lab-model.onnx", note="for the restart")
+    with Served(make_settings(tmp_path)) as served, sync_playwright() as pw:
+        r = httpx.post(f"{served.base}/api/v1/models", timeout=HTTP_TIMEOUT_S,
+                       json={"name": good.name, "onnx_base64": base64.b64encode(good.read_bytes()).decode()})
+        assert r.status_code == 201, r.text
+        served.wait_status(lambda s: s["state"] == "running")
+        with chromium(pw) as browser:
+            errors: list[str] = []
+            page = watched_page(browser, errors, viewport={"width": 1400, "height": 1000})
+            page.goto(served.base)
+            notice = page.locator("#restart-notice")
+            expect(page.locator("#state")).to_have_text("running", timeout=30_000)
+            expect(notice).to_be_hidden()
+            page.locator("#models-panel #model-table tr[data-model-id='2'] button.model-activate").click()
+            expect(page.locator("#toast")).to_contain_text("from its next start", timeout=10_000)
+            expect(notice).to_be_visible(timeout=10_000)
+            expect(notice).to_contain_text("does not use the activated action model until it starts again")
+            assert served.app.state.models.running["id"] == 1, "the running pipeline keeps its model"
+            page.locator("header.topbar").screenshot(path=str(artifacts_dir / "restart-notice.png"))
+            notice.locator("#pipeline-restart").click()
+            expect(notice).to_be_hidden(timeout=60_000)
+            expect(page.locator("#state")).to_have_text("running", timeout=60_000)
+            assert served.app.state.models.running["id"] == 2, "started again with the activated model"
+            status = httpx.get(f"{served.base}/api/v1/status", timeout=HTTP_TIMEOUT_S).json()
+            assert status["restart_for"] == [] and status["source"] == "simulator", status
+        assert not errors, f"page errors: {errors}"

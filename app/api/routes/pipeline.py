@@ -44,7 +44,7 @@ def unusable_videos(videos: dict[str, Path]) -> list[str]:
 def start(body: PipelineStart, pipeline: PipelineDep, request: Request) -> StatusPublic:
     models = getattr(request.app.state, "models", None)
     if models is not None and models.stale():  # a model activated elsewhere (the command line)
-        pipeline.calibration_changed()
+        pipeline.model_changed()
     videos = None
     if body.videos:
         videos = {name: Path(p) for name, p in body.videos.items()}
@@ -60,6 +60,22 @@ def start(body: PipelineStart, pipeline: PipelineDep, request: Request) -> Statu
         raise HTTPException(status.HTTP_503_SERVICE_UNAVAILABLE, str(exc)) from exc
     except CavewalkError as exc:
         raise HTTPException(status.HTTP_422_UNPROCESSABLE_CONTENT, str(exc)) from exc
+    return StatusPublic.model_validate(pipeline.snapshot())
+
+
+@router.post(
+    "/restart",
+    response_model=StatusPublic,
+    responses={409: {"description": "The pipeline was never started"},
+               503: {"description": "No pipeline can run in this server (the reason is given)"}},
+)
+def restart(pipeline: PipelineDep) -> StatusPublic:
+    """Start again on the last start's source and videos: a calibration or action model made active
+    since the last start is used from now on (the status's ``restart_for`` lists them)."""
+    try:
+        pipeline.restart()
+    except PipelineUnavailable as exc:
+        raise HTTPException(status.HTTP_503_SERVICE_UNAVAILABLE, str(exc)) from exc
     return StatusPublic.model_validate(pipeline.snapshot())
 
 

@@ -137,7 +137,7 @@ export function mountCalibration(info) {
     try {
       await post(`/calibration/runs/${id}/activate`);
       dismiss();
-      toast(`calibration run ${id} is in use`, "ok");
+      toast(`calibration run ${id} is accepted: the cameras use it from the pipeline's next start`, "ok");
       await refresh();
     } catch (err) {
       toast(`activate: ${err.message}`);

@@ -1,5 +1,5 @@
 // Top bar and latency panel: pipeline state, fps, dropped frames, free disk space, per-stage latency, camera health;
-// start/stop of the pipeline.
+// start/stop of the pipeline, and its restart when it does not use an accepted calibration or activated model yet.
 
 import { post, toast, el } from "../api.js";
 import { onStatus } from "../live.js";
@@ -10,7 +10,13 @@ export function mountStatus() {
   const state = document.getElementById("state");
   const tbody = document.querySelector("#latency-table tbody");
   const health = document.getElementById("camera-health");
+  const notice = document.getElementById("restart-notice");
+  const NEW = { calibration: "the accepted calibration", model: "the activated action model" };
   onStatus((s) => {
+    const waiting = (s.restart_for || []).map((w) => NEW[w] || w);
+    notice.hidden = waiting.length === 0;
+    document.getElementById("restart-what").textContent = waiting.length
+      ? `The running pipeline does not use ${waiting.join(" or ")} until it starts again.` : "";
     state.textContent = s.state;
     state.dataset.state = s.state;
     document.getElementById("source").textContent = s.source || "–";
@@ -39,6 +45,14 @@ export function mountStatus() {
       await post("/pipeline/start", { source });
     } catch (err) {
       toast(`start failed: ${err.message}`);
+    }
+  });
+  document.getElementById("pipeline-restart").addEventListener("click", async () => {
+    try {
+      await post("/pipeline/restart");
+      toast("the pipeline started again", "ok");
+    } catch (err) {
+      toast(`restart failed: ${err.message}`);
     }
   });
   document.getElementById("pipeline-stop").addEventListener("click", async () => {
