@@ -6,6 +6,7 @@ import time
 from typing import Any
 
 import cv2
+import httpx
 import numpy as np
 import pytest
 from fastapi.testclient import TestClient
@@ -19,8 +20,8 @@ from tests.waiting import wait_until
 RUN_CPU_BUDGET_S = 120.0
 
 
-def wait_run(c: TestClient, run_id: int) -> dict[str, Any]:
-    """The run once it is done or failed.
+def wait_run(c: httpx.Client, run_id: int) -> dict[str, Any]:
+    """The run once it is done or failed (``c``: a TestClient, or an httpx client of a served app).
 
     Rendering the four cameras' wall images and solving is CPU work: seconds on an idle machine,
     many minutes of wall time at load 20-30 on two cores (issue 15 S3: a 60 s deadline saw it

@@ -10,6 +10,7 @@ import json
 import threading
 import time
 from collections.abc import Iterator
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -18,7 +19,9 @@ import pytest
 import websockets
 
 from app.db.repositories import list_events
+from pipeline.demo_data import DemoData
 from tests.app.conftest import Served, make_settings
+from tests.app.test_calibration_api import wait_run
 from tests.waiting import GENEROUS_S, HTTP_TIMEOUT_S, wait_until
 
 pytestmark = pytest.mark.slow
@@ -217,3 +220,32 @@ def test_a_pipeline_rebuilt_for_a_new_model_keeps_the_choice_and_moves_nobody_el
                     if "a new pipeline keeps" in e.payload["message"]]
         assert len(kept) == 1 and kept[0]["mode"] == "group" and kept[0]["user_ids"] == [chosen], kept
         assert last_id < kept[0]["numbered_from"] <= min(p["user_id"] for p in after["people"]), kept
+
+
+def test_a_calibration_accepted_while_the_videos_run_waits_for_a_restart(
+    tmp_path: Path, demo_data: DemoData
+) -> None:
+    """A pipeline on camera images goes on with the calibration it started with: the status says the
+    accepted one waits for a restart, and ``POST /pipeline/restart`` starts again on the same videos."""
+    cams = {c: str(demo_data.videos[c]) for c in ("cam01", "cam02")}
+    settings = make_settings(tmp_path)
+    settings = settings.model_copy(update={"runtime": replace(settings.runtime, video_pace_fps=5.0)})
+    with Served(settings, autostart=None) as served:
+        base = f"{served.base}/api/v1"
+        with httpx.Client(base_url=served.base, timeout=HTTP_TIMEOUT_S) as client:
+            run = client.post("/api/v1/calibration/runs").json()["id"]  # the simulator's wall images
+            done = wait_run(client, run)
+            assert done["status"] == "done", done
+        r = http.post(f"{base}/pipeline/start", json={"source": "videos", "videos": cams})
+        assert r.status_code == 200, r.text
+        served.wait_status(lambda s: s["state"] == "running")
+        assert http.get(f"{base}/status").json()["restart_for"] == [], "not used before it is accepted"
+        r = http.post(f"{base}/calibration/runs/{run}/activate")
+        assert r.status_code == 200, r.text
+        status = http.get(f"{base}/status").json()
+        assert status["restart_for"] == ["calibration"] and status["active_calibration_id"] == run, status
+        r = http.post(f"{base}/pipeline/restart")
+        assert r.status_code == 200, r.text
+        assert r.json()["source"] == "videos" and r.json()["restart_for"] == [], r.json()
+        running = served.wait_status(lambda s: s["state"] == "running" and len(s["cameras"]) == 2)
+        assert sorted(c["name"] for c in running["cameras"]) == sorted(cams), running["cameras"]
