@@ -249,3 +249,28 @@ def test_a_calibration_accepted_while_the_videos_run_waits_for_a_restart(
         assert r.json()["source"] == "videos" and r.json()["restart_for"] == [], r.json()
         running = served.wait_status(lambda s: s["state"] == "running" and len(s["cameras"]) == 2)
         assert sorted(c["name"] for c in running["cameras"]) == sorted(cams), running["cameras"]
+
+
+def test_restart_now_takes_a_model_activated_on_the_command_line(tmp_path: Path) -> None:
+    """`cavewalk models register --activate` on the server's database while the simulator runs: the
+    server learns of it only when the pipeline starts again, and ``POST /pipeline/restart`` builds
+    the pipeline with it (as ``/pipeline/start`` does)."""
+    import subprocess
+    import sys
+
+    from tests.app.models.onnx_files import with_metadata
+
+    settings = make_settings(tmp_path)
+    with Served(settings) as served:
+        served.wait_status(lambda s: s["state"] == "running")
+        models = served.app.state.models
+        assert models.running is not None and models.running["id"] == 1
+        good = with_metadata(tmp_path / "cli-model.onnx", note="from the command line")
+        proc = subprocess.run([sys.executable, "-m", "app.cli", "models", "register", str(good), "--activate",
+                               "--db", str(settings.paths.db)], capture_output=True, text=True, timeout=120)
+        assert proc.returncode == 0, proc.stderr
+        assert models.running["id"] == 1, "the running pipeline keeps its model"
+        r = http.post(f"{served.base}/api/v1/pipeline/restart")
+        assert r.status_code == 200, r.text
+        assert models.running["id"] == 2, models.running
+        served.wait_status(lambda s: s["state"] == "running")

@@ -8,7 +8,7 @@ from fastapi import APIRouter, HTTPException, Request, status
 
 from app.api.deps import PipelineDep
 from app.schemas.live import PipelineStart, StatusPublic
-from app.services.live import PipelineUnavailable
+from app.services.live import PipelineService, PipelineUnavailable
 from pipeline.errors import CavewalkError, SourceError
 from pipeline.sources.opencv import probe_video
 
@@ -36,15 +36,20 @@ def unusable_videos(videos: dict[str, Path]) -> list[str]:
     return bad
 
 
+def _take_a_model_activated_elsewhere(request: Request, pipeline: PipelineService) -> None:
+    """A model activated elsewhere (the command line, on the same database): the start builds with it."""
+    models = getattr(request.app.state, "models", None)
+    if models is not None and models.stale():
+        pipeline.model_changed()
+
+
 @router.post(
     "/start",
     response_model=StatusPublic,
     responses={503: {"description": "No pipeline can run in this server (the reason is given)"}},
 )
 def start(body: PipelineStart, pipeline: PipelineDep, request: Request) -> StatusPublic:
-    models = getattr(request.app.state, "models", None)
-    if models is not None and models.stale():  # a model activated elsewhere (the command line)
-        pipeline.model_changed()
+    _take_a_model_activated_elsewhere(request, pipeline)
     videos = None
     if body.videos:
         videos = {name: Path(p) for name, p in body.videos.items()}
@@ -69,9 +74,10 @@ def start(body: PipelineStart, pipeline: PipelineDep, request: Request) -> Statu
     responses={409: {"description": "The pipeline was never started"},
                503: {"description": "No pipeline can run in this server (the reason is given)"}},
 )
-def restart(pipeline: PipelineDep) -> StatusPublic:
+def restart(pipeline: PipelineDep, request: Request) -> StatusPublic:
     """Start again on the last start's source and videos: a calibration or action model made active
     since the last start is used from now on (the status's ``restart_for`` lists them)."""
+    _take_a_model_activated_elsewhere(request, pipeline)
     try:
         pipeline.restart()
     except PipelineUnavailable as exc:
