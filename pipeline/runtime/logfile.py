@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import logging
 import logging.handlers
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -52,6 +53,43 @@ class LogFileConfig:
         return self.enabled and self.path is not None
 
 
+class _SaysOnce(logging.FileHandler):
+    """A record it cannot write (a full disk) is one line on stderr, not a traceback per record;
+    another when it writes again."""
+
+    _failing = False
+    _failed_now = False
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self._failed_now = False
+        super().emit(record)
+        if self._failing and not self._failed_now:
+            self._failing = False
+            sys.stderr.write(f"cavewalk: the log file {self.baseFilename} is written again\n")
+
+    def handleError(self, record: logging.LogRecord) -> None:
+        self._failed_now = True
+        if not self._failing:
+            self._failing = True
+            sys.stderr.write(f"cavewalk: cannot write the log file {self.baseFilename}: {sys.exc_info()[1]} "
+                             "(the log goes to the terminal only until it can)\n")
+
+
+    def close(self) -> None:
+        try:
+            super().close()
+        except OSError:  # records it could not write are lost with the file that could not take them
+            self.stream = None  # type: ignore[assignment]
+
+
+class _Rotating(_SaysOnce, logging.handlers.RotatingFileHandler):
+    pass
+
+
+class _Watched(_SaysOnce, logging.handlers.WatchedFileHandler):
+    pass
+
+
 def log_to_file(config: LogFileConfig, *, rotate: bool) -> Path | None:
     """Add the log file to the root logger of this process (once; again for another path).
 
@@ -72,10 +110,10 @@ def log_to_file(config: LogFileConfig, *, rotate: bool) -> Path | None:
     path.parent.mkdir(parents=True, exist_ok=True)
     handler: logging.FileHandler
     if rotate:
-        handler = logging.handlers.RotatingFileHandler(
-            path, maxBytes=int(config.max_mb * 1_000_000), backupCount=config.keep, encoding="utf-8")
+        handler = _Rotating(path, maxBytes=int(config.max_mb * 1_000_000), backupCount=config.keep,
+                            encoding="utf-8")
     else:
-        handler = logging.handlers.WatchedFileHandler(path, encoding="utf-8")
+        handler = _Watched(path, encoding="utf-8")
     handler.setFormatter(logging.Formatter(LOG_FORMAT, datefmt=_FILE_DATEFMT))
     setattr(handler, "_cavewalk_file", path)  # noqa: B010 (found again above)
     root.addHandler(handler)

@@ -105,3 +105,19 @@ def test_a_log_file_that_cannot_be_opened_is_an_os_error(tmp_path: Path, root_ha
 def test_bad_log_settings_are_refused(kw: dict[str, float], match: str) -> None:
     with pytest.raises(ValueError, match=match):
         LogFileConfig(**kw)  # type: ignore[arg-type]
+
+
+@pytest.mark.skipif(not Path("/dev/full").exists(), reason="needs /dev/full (Linux)")
+def test_a_log_file_that_cannot_be_written_is_one_line_on_stderr(
+    root_handlers: None, capfd: pytest.CaptureFixture[str]
+) -> None:
+    """/dev/full answers every write with ENOSPC, as a full disk does: one line says so, not a
+    traceback per record."""
+    logging.getLogger().setLevel(logging.INFO)
+    log_to_file(LogFileConfig(path=Path("/dev/full")), rotate=False)
+    for i in range(3):
+        logging.getLogger("cw.test").info("record %d", i)
+    err = capfd.readouterr().err
+    said = [line for line in err.splitlines() if line.startswith("cavewalk: cannot write the log file")]
+    assert len(said) == 1 and "No space left on device" in said[0], err
+    assert "Logging error" not in err and "Traceback" not in err, err
