@@ -68,7 +68,7 @@ class PipelineFacade(Protocol):
     def snapshot_jpeg(self, camera: str) -> bytes | None: ...
     def send_prompt(self, text: str, label: str, remaining_s: float) -> None: ...
     def video_controls(self) -> dict[str, tuple[VideoControl, float]]: ...
-    def handover(self) -> Handover: ...
+    def hand_over(self) -> Handover: ...
     def take_over(self, handover: Handover) -> None: ...
 
 
@@ -437,12 +437,12 @@ class PipelineService:
         """Stop and close the pipeline; what a pipeline that replaces it carries on."""
         if self._pipeline is None:
             return None
+        carried = None
         try:
-            self._pipeline.stop()
+            carried = self._pipeline.hand_over()  # stops it; with the run's ids and hand-chosen navigator
             self._pipeline.close()
         except Exception:
             log.exception("pipeline stop failed")
-        carried = self._pipeline.handover()  # after the stop: with the last run's ids
         self._pipeline = None
         if self.feed is not None:
             self.feed.own_clock(True)  # no pipeline publishes: the feed keeps the rate

@@ -69,6 +69,9 @@ class ChainParts:
     #: the first user id of the run: past those of the pipeline's earlier runs, so that a choice of
     #: people kept from an earlier run (the navigation mode's) is nobody in this one
     first_user_id: int = 1
+    #: the navigator the operator chose by hand in the run this one replaces (a restart), and where
+    #: they stood: looked for there by the run's first fusion worker (None: the automatic choice)
+    resume_navigator: tuple[int, tuple[float, float]] | None = None
 
 
 class Launcher:
@@ -272,6 +275,8 @@ def _control(ctx: BaseContext, run: Run, parts: ChainParts) -> PerSpawn:
         if run.max_user_id:  # started again in the run, after people were numbered
             run.numbered_from = number_from
         chosen = run.operator_navigator()
+        if chosen is None and run.latest is None:  # nothing fused in this run yet
+            chosen = parts.resume_navigator
         if chosen is not None:
             first.append(ResumeNavigator(*chosen))
         now = parts.current()

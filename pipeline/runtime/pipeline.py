@@ -68,6 +68,9 @@ class Handover:
 
     navigation: NavigationConfig
     numbered_past: int
+    #: the navigator the operator chose by hand in the run that was stopped, and where they were last
+    #: fused: looked for there in the new pipeline's first run (None: the automatic choice)
+    navigator: tuple[int, tuple[float, float]] | None = None
 
 
 class Pipeline:
@@ -107,6 +110,7 @@ class Pipeline:
         self._router = ResultRouter(self._board)
         self._launcher = Launcher(config)
         self._numbered_past = 0  # the highest user id of the runs so far: the next run numbers past it
+        self._resume_navigator: tuple[int, tuple[float, float]] | None = None  # from take_over
         self._supervision = Supervision(config, self._board)
         self._snapshots = SnapshotCache(config.snapshot_interval_s, config.snapshot_long_side)
         self.emitter.start()
@@ -119,19 +123,26 @@ class Pipeline:
                             self.pose is not None, self.simulator is not None)
         with self._lock:
             plan = plan_run(source, videos, inputs)  # validates before anything is stopped
-            if self._run is not None:
-                self._stop_locked()
+            resume, self._resume_navigator = self._resume_navigator, None
+            if self._run is not None:  # a restart: the navigator chosen by hand goes on being it
+                resume = self._stop_locked()
                 gc.collect()
             self._board.starting(source)
             self._router.begin()
             self._snapshots.clear()
             parts = ChainParts(self.chain, self._stream_spec(), inputs.cameras_calibrated, self.pose,
-                               self.simulator, lambda: self.chain, first_user_id=self._numbered_past + 1)
+                               self.simulator, lambda: self.chain, first_user_id=self._numbered_past + 1,
+                               resume_navigator=resume)
             try:
                 run = self._launcher.launch(source, plan, parts)
             except BaseException:
                 self._board.failed()
                 raise
+            if resume is not None:
+                uid, (x, y) = resume
+                self._board.event("navigator", f"the navigator chosen by hand (user {uid}) is looked for "
+                                  f"where they stood, ({x:.2f}, {y:.2f}) m, among the people of the new run",
+                                  {"resumed": uid, "xy_m": [x, y]})
             for target, name in ((self._router.collect, "collector"),
                                  (self._supervision.watch, "supervision")):
                 run.threads.append(threading.Thread(target=target, args=(run,), name=f"cavewalk-{name}",
@@ -142,21 +153,22 @@ class Pipeline:
                 t.start()
         self._publisher.publish_now()
 
-    def handover(self) -> Handover:
-        """What a pipeline that replaces this one carries on (:class:`Handover`)."""
+    def hand_over(self) -> Handover:
+        """Stop; what a pipeline that replaces this one carries on (:class:`Handover`; the navigator
+        chosen by hand only when the pipeline was running)."""
+        navigator = self._stop()
         with self._lock:
-            run = self._run
-            past = max(self._numbered_past, run.max_user_id if run is not None else 0)
-            return Handover(self.chain.navigation, past)
+            return Handover(self.chain.navigation, self._numbered_past, navigator)
 
     def take_over(self, handover: Handover) -> None:
         """Carry on from the pipeline this one replaces, before this one's first start: its navigation
-        mode and chosen people (this pipeline's own ``max_navigators``), and people numbered past its
-        ids."""
+        mode and chosen people (this pipeline's own ``max_navigators``), people numbered past its
+        ids, and its navigator chosen by hand, looked for where they stood."""
         with self._lock:
             if self._run is not None:
                 raise RuntimeError("take_over is for a pipeline that has not started")
             self._numbered_past = max(self._numbered_past, handover.numbered_past)
+            self._resume_navigator = handover.navigator
             navigation = replace(handover.navigation, max_navigators=self.chain.navigation.max_navigators)
             self.chain = replace(self.chain, navigation=navigation)
             chosen = list(navigation.user_ids) or "everyone"
@@ -171,22 +183,30 @@ class Pipeline:
 
     def stop(self) -> None:
         """Stop every worker, free the shared memory; the heartbeat goes on with state ``stopped``."""
+        self._stop()
+
+    def _stop(self) -> tuple[int, tuple[float, float]] | None:
+        """:meth:`stop`; the navigator the operator had chosen by hand in the run, and where."""
         with self._lock:
             if self._run is None:
-                return
-            self._stop_locked()
+                return None
+            chosen = self._stop_locked()
             self._board.stopped()
         self._publisher.publish_now()
         gc.collect()  # frees the run's named semaphores now, not at some later collection
+        return chosen
 
-    def _stop_locked(self) -> None:
+    def _stop_locked(self) -> tuple[int, tuple[float, float]] | None:
+        """Tear the run down; its navigator chosen by hand and where they were (None: automatic)."""
         run = self._run
         self._run = None
         if run is None:
-            return
+            return None
+        chosen = run.operator_navigator()
         self._launcher.teardown(run)
         self._numbered_past = max(self._numbered_past, run.max_user_id)
         self._book.release()  # no fusion worker sends now: the standby emitter does
+        return chosen
 
     def close(self) -> None:
         """Stop the pipeline, its status publisher (after the ``stopped`` status) and the emitter

@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 import httpx
+import numpy as np
 import pytest
 import websockets
 
@@ -274,3 +275,28 @@ def test_restart_now_takes_a_model_activated_on_the_command_line(tmp_path: Path)
         assert r.status_code == 200, r.text
         assert models.running["id"] == 2, models.running
         served.wait_status(lambda s: s["state"] == "running")
+
+
+def test_a_navigator_chosen_by_hand_is_the_navigator_of_the_rebuilt_pipeline(tmp_path: Path) -> None:
+    """The operator chose the bystander by hand; Restart now for a new model builds a new pipeline,
+    whose people get new ids: the person where the bystander stood is its navigator, by hand."""
+    with Served(make_settings(tmp_path)) as served:
+        base = f"{served.base}/api/v1"
+
+        def choose() -> dict[str, Any] | None:  # the person seen may be lost before the request lands
+            status = served.wait_status(lambda s: s["state"] == "running" and len(s["people"]) >= 2)
+            other = next(p for p in status["people"] if p["user_id"] != status["navigator"])
+            r = http.put(f"{base}/navigator", json={"user_id": other["user_id"]})
+            return other if r.status_code == 200 else None
+
+        bystander = wait_until(choose, "the bystander chosen by hand")
+        before = served.wait_status(lambda s: s["navigator"] == bystander["user_id"])
+        last_id = max(p["user_id"] for p in before["people"])
+        active = http.get(f"{base}/models/active").json()
+        assert http.post(f"{base}/models/{active['id']}/activate").status_code == 200
+        assert http.post(f"{base}/pipeline/restart").status_code == 200
+        after = served.wait_status(lambda s: (s["navigator"] or 0) > last_id)
+        assert after["navigator_mode"] == "manual", after
+        now = next(p for p in after["people"] if p["user_id"] == after["navigator"])
+        gap = np.hypot(*np.subtract(now["position_m"][:2], bystander["position_m"][:2]))
+        assert gap < 0.5, (now, bystander)

@@ -150,6 +150,37 @@ def test_a_navigator_chosen_by_hand_is_the_navigator_of_a_fusion_worker_started_
     assert np.hypot(*moved) < 0.5, (now, bystander)
 
 
+def test_a_navigator_chosen_by_hand_goes_on_being_the_navigator_after_a_restart(
+    sim_pipeline: Pipeline,
+) -> None:
+    """A start while the pipeline runs (the dashboard's Start, or Restart now for a new calibration)
+    is a new run, whose people get new ids; the bystander the operator chose by hand is the
+    navigator again, found where they stood (the automatic choice takes the walker)."""
+    sim_pipeline.start("simulator")
+    wait_for(lambda: both_found(sim_pipeline), 60, "the walker and the bystander")
+    st = sim_pipeline.status()
+    bystander = next(p for p in st.people if p.user_id != st.navigator)
+    sim_pipeline.set_navigator(bystander.user_id)
+    wait_for(lambda: sim_pipeline.status().navigator == bystander.user_id, 10, "the bystander chosen")
+    last_id = max(p.user_id for p in sim_pipeline.status().people)
+    sim_pipeline.start("simulator")
+    wait_for(lambda: both_found(sim_pipeline) and (sim_pipeline.status().navigator or 0) > last_id, 30,
+             "a navigator among the people of the new run")
+    st = sim_pipeline.status()
+    now = next(p for p in st.people if p.user_id == st.navigator)
+    assert st.navigator_mode == "manual", st
+    assert now.position_m is not None and bystander.position_m is not None
+    assert np.hypot(*np.subtract(now.position_m[:2], bystander.position_m[:2])) < 0.5, (now, bystander)
+    events = [e.message for e in sim_pipeline.drain_events() if e.kind == "navigator"]
+    said = f"the navigator chosen by hand (user {bystander.user_id}) is looked for"
+    assert any(said in m for m in events), events
+    sim_pipeline.stop()  # an explicit stop ends the choice: the next start chooses automatically
+    sim_pipeline.start("simulator")
+    wait_for(lambda: both_found(sim_pipeline) and sim_pipeline.status().navigator is not None, 30,
+             "a navigator")
+    assert sim_pipeline.status().navigator_mode == "auto"
+
+
 def test_bad_start_changes_nothing(sim_pipeline: Pipeline) -> None:
     with pytest.raises(InputError, match="source must be one of"):
         sim_pipeline.start("webcam")  # type: ignore[arg-type]
