@@ -183,6 +183,13 @@ async function submit() {
     if (!(err instanceof ApiError) || err.status >= 500) {
       connection(true);
       box.replaceChildren(el("b", {}, "Your answers could not be sent: the connection to the experimenter's computer is lost. They are kept here: please press Next again in a moment."));
+    } else if (err.status === 409) {
+      // A Next whose answer was stored but whose reply was lost (the tablet's Wi-Fi) is refused
+      // when pressed again: the step it answered is no longer due. Show what is due now instead.
+      const before = shown && shown.key;
+      await refresh();
+      if (shown && shown.key === before) box.replaceChildren(el("b", {}, err.message));
+      else box.hidden = true;
     } else if (err.status === 422 && items.length) {
       markItems(form, items, { scroll: false });
       const names = items.map((k) => {
@@ -196,7 +203,7 @@ async function submit() {
     } else {
       box.replaceChildren(el("b", {}, err.message));
     }
-    box.scrollIntoView({ block: "start" });
+    if (!box.hidden) box.scrollIntoView({ block: "start" });
   } finally {
     button.disabled = false;
   }

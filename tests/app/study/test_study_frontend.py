@@ -249,6 +249,55 @@ def test_a_lost_connection_and_a_reload_lose_no_answer_on_the_tablet(
     assert stored["instrument"] == "mssq" and stored["answers"] == given, stored
 
 
+def test_a_next_whose_reply_was_lost_goes_on_to_the_next_sheet_when_pressed_again(server: str) -> None:
+    """The tablet's Next reaches the server (the answers are stored) but its reply is lost, and the
+    page's polls fail for a moment: pressing Next again is refused by the server (that sheet is no
+    longer due), and the page shows the sheet that is due instead of the refusal. Stored once."""
+    from playwright.sync_api import expect, sync_playwright
+
+    api = f"{server}/api/v1"
+    pid = httpx.post(f"{api}/participants", json={"code": "W02"}).json()["id"]
+    sid = httpx.post(f"{api}/sessions", json={"participant_id": pid, "condition": "CC"}).json()["id"]
+    url = httpx.post(f"{api}/sessions/{sid}/participant-link").json()["url"]
+    items = [i.key for i in DEFINITIONS["mssq"].items]
+    given = {key: (i + 1) % 4 for i, key in enumerate(items)}
+    with sync_playwright() as pw, chromium(pw) as browser:
+        errors: list[str] = []
+        tablet = watched_page(browser, errors, "tablet", viewport=TABLET, is_mobile=True, has_touch=True)
+        tablet.goto(url)
+        expect(tablet.locator("#p-title")).to_contain_text("MSSQ")
+        tablet.evaluate("""() => {  // every text the problems box ever shows
+            window.problemTexts = [];
+            const box = document.getElementById("p-problems");
+            new MutationObserver(() => window.problemTexts.push(box.textContent))
+                .observe(box, {childList: true, subtree: true, characterData: true});
+        }""")
+        fill_radios(tablet, {k: given[k] for k in items})
+
+        def stored_then_lost(route: Any) -> None:
+            route.fetch()  # the server stores the answers ...
+            route.abort("connectionreset")  # ... and the tablet never gets the reply
+
+        def poll_lost(route: Any) -> None:
+            route.abort("connectionreset")
+
+        tablet.route("**/participant/questionnaires", stored_then_lost)
+        tablet.route("**/participant/session", poll_lost)
+        tablet.click("#p-submit")
+        expect(tablet.locator("#p-problems")).to_contain_text("could not be sent")
+        assert len(httpx.get(f"{api}/sessions/{sid}/questionnaires").json()) == 1, "stored"
+        tablet.unroute("**/participant/questionnaires")
+        tablet.unroute("**/participant/session")
+        tablet.click("#p-submit")  # before the next poll: the server says this sheet is not due
+        expect(tablet.locator("#p-title")).to_contain_text("Simulator Sickness", timeout=10_000)
+        expect(tablet.locator("#p-problems")).to_be_hidden()
+        shown = tablet.evaluate("() => window.problemTexts")
+        assert not any("not the questionnaire" in text for text in shown), shown
+    assert not errors, errors
+    (stored,) = httpx.get(f"{api}/sessions/{sid}/questionnaires").json()
+    assert stored["instrument"] == "mssq" and stored["answers"] == given, stored
+
+
 def test_the_operator_s_sheet_survives_a_reload_of_the_dashboard(server: str) -> None:
     """Half an NASA-TLX typed in on the operator's form (sliders and pairs), then the dashboard
     reloads: the same session's form comes back with that instrument, phase and answers; another
