@@ -23,4 +23,5 @@ class BackupsPublic(BaseModel):
     interval_min: float
     last: BackupPublic | None  # the newest this server made (or found unchanged at start)
     last_error: str | None  # the last backup's failure, until one succeeds
+    same_disk: bool | None  # the folder is on the database's own disk (None: unknown)
     backups: list[BackupPublic]  # the database's backups in the folder, newest first

@@ -167,6 +167,7 @@ class BackupService:
             "interval_min": self.settings.interval_min,
             "last": self.last.to_json() if self.last else None,
             "last_error": self.last_error,
+            "same_disk": same_disk(self.folder, self.db_path.parent),
             "backups": [b.to_json() for b in list_backups(self.folder, self.db_path)],
         }
 
@@ -221,3 +222,15 @@ class BackupService:
                 f"; {len(removed)} older removed" if removed else "",
             )
             return info
+
+
+def same_disk(folder: Path, other: Path) -> bool | None:
+    """True when ``folder`` (or, before it exists, its nearest existing parent) is on the same file
+    system as ``other``: a backup there does not survive that disk. None when either cannot be read."""
+    try:
+        here = folder
+        while not here.exists() and here != here.parent:
+            here = here.parent
+        return here.stat().st_dev == other.stat().st_dev
+    except OSError:
+        return None

@@ -389,3 +389,25 @@ def test_no_migration_without_its_backup(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match="needs a migration and could not be backed up"), TestClient(app):
         pass
     assert _sha(settings.paths.db) == before and inspect_database(settings.paths.db)[0] == "0001_initial"
+
+
+def test_the_backups_say_whether_they_share_the_database_s_disk(tmp_path: Path) -> None:
+    """Beside the database (the default) they do; on another file system (here the RAM disk
+    /dev/shm, when it is one) they do not; a folder not made yet is judged by its parent."""
+    from app.services.backup import same_disk
+
+    with TestClient(create_app(make_settings(tmp_path), pipeline_factory=None)) as c:
+        assert c.get("/api/v1/backups").json()["same_disk"] is True
+    assert same_disk(tmp_path / "not" / "made" / "yet", tmp_path) is True
+    shm = Path("/dev/shm")
+    if not shm.is_dir() or shm.stat().st_dev == tmp_path.stat().st_dev:
+        pytest.skip("no second file system at /dev/shm")
+    folder = shm / f"cavewalk-test-{tmp_path.name}"
+    settings = _with_backups(make_settings(tmp_path), folder=folder)
+    try:
+        with TestClient(create_app(settings, pipeline_factory=None)) as c:
+            assert c.get("/api/v1/backups").json()["same_disk"] is False
+    finally:
+        import shutil
+
+        shutil.rmtree(folder, ignore_errors=True)

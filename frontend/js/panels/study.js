@@ -88,6 +88,11 @@ export function mountStudy({ onSelectSession }) {
         ? `Last backup ${fmtTime(newest.created)} (${reasons[newest.reason] ?? newest.reason}); ${kept}`
         : `No backup yet; ${kept}`;
     }
+    if (b.same_disk) {
+      backupState.append(document.createTextNode(" — on the database's own disk: they do not survive it; "
+        + "copy the folder off this computer after the study day (or set backup.folder to another disk)"));
+    }
+    backupState.dataset.sameDisk = b.same_disk ? "true" : "false";
     backupState.classList.toggle("failed", Boolean(b.last_error));
   }
 

@@ -384,6 +384,8 @@ def test_back_up_now_on_the_dashboard(server: str) -> None:
         page = watched_page(browser, errors, "operator", viewport=OPERATOR)
         page.goto(server)
         expect(page.locator("#backup-state")).to_contain_text("kept in")
+        # beside the database (the default folder): the panel says a disk failure takes both
+        expect(page.locator("#backup-state")).to_contain_text("on the database's own disk")
         page.locator("#backup-now").click()
         expect(page.locator("#toast")).to_contain_text("backed up:")
         expect(page.locator("#backup-state")).to_contain_text("(manual)")
