@@ -184,7 +184,8 @@ def create_app(
         recorder = RecorderService(settings, factory, events, source=lambda: _recording_source(pipeline),
                                    sim_calibration=lambda: _sim_calibration(settings),
                                    send_prompt=pipeline.send_prompt, video_controls=pipeline.video_controls,
-                                   model=lambda: models.running or models.active(), storage=storage)
+                                   model=lambda: models.running or models.active(), storage=storage,
+                                   waiting=pipeline.waiting_for_restart)
         recorder.recover()  # a take the last server left recording is kept as incomplete
         storage.on_full(recorder.stop_for)  # a full disk ends the take being recorded (it is kept)
         storage.start()

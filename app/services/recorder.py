@@ -99,11 +99,15 @@ class RecorderService:
         video_controls: Callable[[], dict[str, tuple[VideoControl, float]]] = dict,
         model: Callable[[], dict[str, Any] | None] = lambda: None,
         storage: StorageWatch | None = None,
+        waiting: Callable[[], list[str]] = list,
     ) -> None:
         """``model()``: the action model the pipeline runs, as the model registry knows it (its
         ``id``, ``uid``, ``file``...); None = the settings' ``recognition.model_path``. ``storage``:
-        no take starts while the disk is full (409)."""
+        no take starts while the disk is full (409). ``waiting()``: what the running pipeline does
+        not use yet (``calibration``, ``model``: PipelineService.waiting_for_restart); no take
+        starts then (409), since its take.json names the active calibration and model."""
         self.settings = settings
+        self._waiting = waiting
         self._storage = storage
         self._model = model
         self.config = settings.takes
@@ -188,6 +192,12 @@ class RecorderService:
         source = self._source()
         if source is None:
             raise StateConflict("the pipeline is not running: start it (simulator, cameras or videos) first")
+        waiting = self._waiting()
+        if waiting:
+            new = {"calibration": "the accepted calibration", "model": "the activated action model"}
+            what = " and ".join(new.get(w, w) for w in waiting)
+            raise StateConflict(f"the running pipeline does not use {what} yet: restart it (Restart now) "
+                                "before the take, so that the take holds what it was made with")
         controls = self._video_controls() if req.videos else {}
         if req.videos and not controls:
             raise StateConflict(f"the {source} source has no camera images to record videos of; "

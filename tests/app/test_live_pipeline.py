@@ -300,3 +300,31 @@ def test_a_navigator_chosen_by_hand_is_the_navigator_of_the_rebuilt_pipeline(tmp
         now = next(p for p in after["people"] if p["user_id"] == after["navigator"])
         gap = np.hypot(*np.subtract(now["position_m"][:2], bystander["position_m"][:2]))
         assert gap < 0.5, (now, bystander)
+
+
+def test_a_take_holds_one_run_made_with_the_calibration_and_model_it_names(tmp_path: Path) -> None:
+    """No take starts while the running pipeline does not use the activated model yet (its take.json
+    would name that model); no new start of the running pipeline while a take records (two runs,
+    people numbered anew, in one take); Stop is never refused. A refusal stores nothing."""
+    with Served(make_settings(tmp_path)) as served:
+        base = f"{served.base}/api/v1"
+        served.wait_status(lambda s: s["state"] == "running")
+        active = http.get(f"{base}/models/active").json()
+        assert http.post(f"{base}/models/{active['id']}/activate").status_code == 200
+        r = http.post(f"{base}/takes", json={"duration_s": 30, "participant_code": "T1"})
+        assert r.status_code == 409, r.text
+        assert "does not use the activated action model yet: restart it" in r.json()["detail"]
+        assert http.get(f"{base}/takes").json() == [], "a refused take stores nothing"
+        assert http.post(f"{base}/pipeline/restart").status_code == 200
+        served.wait_status(lambda s: s["state"] == "running")
+        take = http.post(f"{base}/takes", json={"duration_s": 30, "participant_code": "T1"})
+        assert take.status_code == 201, take.text
+        recording = f"take {take.json()['id']} is recording"
+        for path, body in (("restart", None), ("start", {"source": "simulator"})):
+            r = http.post(f"{base}/pipeline/{path}", json=body)
+            assert r.status_code == 409 and recording in r.json()["detail"], r.text
+        assert http.get(f"{base}/takes/current").json()["recording"], "the take goes on"
+        assert http.post(f"{base}/pipeline/stop").status_code == 200, "stopping is never refused"
+        r = http.post(f"{base}/takes/{take.json()['id']}/stop")
+        assert r.status_code == 200, r.text
+        assert http.post(f"{base}/pipeline/start", json={"source": "simulator"}).status_code == 200

@@ -7,6 +7,7 @@ from pathlib import Path
 from fastapi import APIRouter, HTTPException, Request, status
 
 from app.api.deps import PipelineDep
+from app.db.errors import StateConflict
 from app.schemas.live import PipelineStart, StatusPublic
 from app.services.live import PipelineService, PipelineUnavailable
 from pipeline.errors import CavewalkError, SourceError
@@ -36,6 +37,16 @@ def unusable_videos(videos: dict[str, Path]) -> list[str]:
     return bad
 
 
+def _no_take_recording(request: Request, pipeline: PipelineService) -> None:
+    """A start while a take records would put two runs (people numbered anew, maybe another
+    calibration or model) in one take: refused until the take stops (stopping is never refused)."""
+    recorder = getattr(request.app.state, "recorder", None)
+    now = recorder.current() if recorder is not None else None
+    if now is not None and pipeline.status().state not in ("stopped", "unavailable"):
+        raise StateConflict(f"take {now['take_id']} is recording: stop it first (a new start of the running "
+                            "pipeline would put two runs in one take)")
+
+
 def _take_a_model_activated_elsewhere(request: Request, pipeline: PipelineService) -> None:
     """A model activated elsewhere (the command line, on the same database): the start builds with it."""
     models = getattr(request.app.state, "models", None)
@@ -46,9 +57,11 @@ def _take_a_model_activated_elsewhere(request: Request, pipeline: PipelineServic
 @router.post(
     "/start",
     response_model=StatusPublic,
-    responses={503: {"description": "No pipeline can run in this server (the reason is given)"}},
+    responses={409: {"description": "A take is recording"},
+               503: {"description": "No pipeline can run in this server (the reason is given)"}},
 )
 def start(body: PipelineStart, pipeline: PipelineDep, request: Request) -> StatusPublic:
+    _no_take_recording(request, pipeline)
     _take_a_model_activated_elsewhere(request, pipeline)
     videos = None
     if body.videos:
@@ -71,12 +84,13 @@ def start(body: PipelineStart, pipeline: PipelineDep, request: Request) -> Statu
 @router.post(
     "/restart",
     response_model=StatusPublic,
-    responses={409: {"description": "The pipeline was never started"},
+    responses={409: {"description": "The pipeline was never started, or a take is recording"},
                503: {"description": "No pipeline can run in this server (the reason is given)"}},
 )
 def restart(pipeline: PipelineDep, request: Request) -> StatusPublic:
     """Start again on the last start's source and videos: a calibration or action model made active
     since the last start is used from now on (the status's ``restart_for`` lists them)."""
+    _no_take_recording(request, pipeline)
     _take_a_model_activated_elsewhere(request, pipeline)
     try:
         pipeline.restart()
