@@ -292,7 +292,7 @@ class PipelineService:
         """What the running pipeline does not use yet, until it is started again: ``calibration``
         (image sources only: the simulator has its own cameras) and ``model``; [] when stopped."""
         now = self.status()
-        if now.state in ("stopped", "unavailable", "failed"):
+        if now.state in ("stopped", "unavailable"):
             return []
         pending = set(self._rebuild_for)
         if now.source == "simulator":

@@ -58,13 +58,14 @@ from pipeline.takes.video import VideoControl
 __all__ = ["SOURCES", "Handover", "Pipeline", "SourceName"]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Handover:
     """What a pipeline built to replace another carries on (the app rebuilds it for a new calibration
-    or a newly active model): the operator's navigation mode with its chosen people, and the highest
-    user id given out so far, so that the new pipeline numbers people past it. A kept choice is then
-    nobody until the operator ticks the people again, as after a new run of the same pipeline: an id
-    given out afresh never falls on somebody the operator did not choose."""
+    or a newly active model): the operator's navigation mode with its chosen people, the highest
+    user id given out so far, so that the new pipeline numbers people past it, and the navigator the
+    operator chose by hand. A kept choice of people is then nobody until the operator ticks them
+    again, as after a new run of the same pipeline: an id given out afresh never falls on somebody
+    the operator did not choose; the navigator chosen by hand is looked for where they stood."""
 
     navigation: NavigationConfig
     numbered_past: int
