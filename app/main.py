@@ -168,6 +168,7 @@ def create_app(
         models.on_adaptation(pipeline.set_adaptation)  # teach: while the participant's session runs
         app.state.training = training = TrainingService(settings, factory, models)
         calibration = CalibrationService(settings, factory, events, pipeline, viewer)
+        pipeline.track_calibration(lambda: calibration.active_id)
         active = calibration.active_cameras()
         if viewer is not None and active:
             viewer.show_cameras(active)  # the frusta of the active calibration, not the simulator's

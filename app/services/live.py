@@ -239,6 +239,9 @@ class PipelineService:
         # what the next start rebuilds the pipeline for ("calibration", "model"), while the running
         # one goes on without it; the last start's source and videos (a restart repeats them)
         self._rebuild_for: set[str] = set()
+        # the active calibration run (the app's; None: none) and the one the pipeline was built with
+        self._active_calibration: Callable[[], int | None] = lambda: None
+        self._built_calibration: int | None = None
         self._last_start: tuple[SourceName, dict[str, Path] | None] | None = None
         self._result_sinks: tuple[ResultSink, ...] = ()
         self._navigation: str | None = None  # the operator's navigation mode, kept over rebuilds
@@ -274,10 +277,21 @@ class PipelineService:
             if self._pipeline is not None:
                 self._pipeline.add_sink(sink)
 
+    def track_calibration(self, active_id: Callable[[], int | None]) -> None:
+        """``active_id()``: the app's active calibration run now; the pipeline is built with it."""
+        self._active_calibration = active_id
+        self._built_calibration = active_id()
+
     def calibration_changed(self) -> None:
         """A new calibration is active: the next start builds the pipeline with its cameras (and the
-        live status shows the active calibration's id)."""
-        self._rebuild_at_next_start("calibration")
+        live status shows the active calibration's id); back to the one the pipeline was built
+        with, nothing waits for a restart."""
+        with self._lock:
+            if self._active_calibration() == self._built_calibration:
+                self._rebuild_for.discard("calibration")
+            else:
+                self._rebuild_for.add("calibration")
+        self.refresh()
 
     def model_changed(self) -> None:
         """Another action model is active: the next start builds the pipeline with it."""
@@ -354,6 +368,7 @@ class PipelineService:
                 carried = self._close_pipeline()
             self._rebuild_for.clear()
             if self._pipeline is None:
+                self._built_calibration = self._active_calibration()
                 self._pipeline = self._build(self._factory, carried)
             # (re)start: the pipeline validates first, so a bad request leaves the running one as it was;
             # it reports its own state changes as events, and publishes the status it starts with

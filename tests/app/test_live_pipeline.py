@@ -227,16 +227,19 @@ def test_a_calibration_accepted_while_the_videos_run_waits_for_a_restart(
     tmp_path: Path, demo_data: DemoData
 ) -> None:
     """A pipeline on camera images goes on with the calibration it started with: the status says the
-    accepted one waits for a restart, and ``POST /pipeline/restart`` starts again on the same videos."""
+    accepted one waits for a restart, and ``POST /pipeline/restart`` starts again on the same videos.
+    Rolled back to the calibration the pipeline runs, nothing waits."""
     cams = {c: str(demo_data.videos[c]) for c in ("cam01", "cam02")}
     settings = make_settings(tmp_path)
     settings = settings.model_copy(update={"runtime": replace(settings.runtime, video_pace_fps=5.0)})
     with Served(settings, autostart=None) as served:
         base = f"{served.base}/api/v1"
         with httpx.Client(base_url=served.base, timeout=HTTP_TIMEOUT_S) as client:
-            run = client.post("/api/v1/calibration/runs").json()["id"]  # the simulator's wall images
-            done = wait_run(client, run)
-            assert done["status"] == "done", done
+            run, other = 0, 0
+            for _ in range(2):  # two runs on the simulator's wall images (the videos show no markers)
+                run, other = client.post("/api/v1/calibration/runs").json()["id"], run
+                done = wait_run(client, run)
+                assert done["status"] == "done", done
         r = http.post(f"{base}/pipeline/start", json={"source": "videos", "videos": cams})
         assert r.status_code == 200, r.text
         served.wait_status(lambda s: s["state"] == "running")
@@ -250,6 +253,11 @@ def test_a_calibration_accepted_while_the_videos_run_waits_for_a_restart(
         assert r.json()["source"] == "videos" and r.json()["restart_for"] == [], r.json()
         running = served.wait_status(lambda s: s["state"] == "running" and len(s["cameras"]) == 2)
         assert sorted(c["name"] for c in running["cameras"]) == sorted(cams), running["cameras"]
+        # another run accepted, then the one the pipeline runs again (a roll back): nothing waits
+        assert http.post(f"{base}/calibration/runs/{other}/activate").status_code == 200
+        assert http.get(f"{base}/status").json()["restart_for"] == ["calibration"]
+        assert http.post(f"{base}/calibration/runs/{run}/activate").status_code == 200
+        assert http.get(f"{base}/status").json()["restart_for"] == [], "the one it runs is active again"
 
 
 def test_restart_now_takes_a_model_activated_on_the_command_line(tmp_path: Path) -> None:
