@@ -12,6 +12,7 @@ from pipeline.errors import InputError, SourceError
 from pipeline.recognition.recognizer import DEFAULT_MODEL_PATH
 from pipeline.runtime.config import RuntimeConfig
 from pipeline.runtime.pipeline import Pipeline
+from pipeline.runtime.status import PersonStatus
 
 from .live import CreatedRings, Listener, children_alive, wait_for
 
@@ -126,28 +127,38 @@ def test_killing_a_worker_mid_run_recovers(sim_pipeline: Pipeline) -> None:
     assert any("restarted" in e.message for e in events)
 
 
+def choose_the_bystander(pipeline: Pipeline) -> PersonStatus:
+    """Start the simulator and choose by hand the person the automatic choice did not take."""
+    pipeline.start("simulator")
+    wait_for(lambda: both_found(pipeline), 60, "the walker and the bystander")
+    st = pipeline.status()
+    bystander = next(p for p in st.people if p.user_id != st.navigator)
+    pipeline.set_navigator(bystander.user_id)
+    wait_for(lambda: pipeline.status().navigator == bystander.user_id, 10, "the bystander chosen")
+    return bystander
+
+
+def navigator_by_hand_where(pipeline: Pipeline, chosen: PersonStatus, past_id: int) -> None:
+    """The navigator is somebody numbered past ``past_id``, chosen by hand, where ``chosen`` stood."""
+    wait_for(lambda: both_found(pipeline) and (pipeline.status().navigator or 0) > past_id, 30,
+             "a navigator among the people numbered anew")
+    st = pipeline.status()
+    now = next(p for p in st.people if p.user_id == st.navigator)
+    assert st.navigator_mode == "manual", st
+    assert now.position_m is not None and chosen.position_m is not None
+    assert np.hypot(*np.subtract(now.position_m[:2], chosen.position_m[:2])) < 0.5, (now, chosen)
+
+
 def test_a_navigator_chosen_by_hand_is_the_navigator_of_a_fusion_worker_started_again(
     sim_pipeline: Pipeline,
 ) -> None:
     """The operator chose the bystander (not the one the automatic choice takes); after a crash
     of the fusion worker the person tracked anew where the bystander stood is the navigator."""
-    sim_pipeline.start("simulator")
-    wait_for(lambda: both_found(sim_pipeline), 60, "the walker and the bystander")
-    st = sim_pipeline.status()
-    bystander = next(p for p in st.people if p.user_id != st.navigator)
-    sim_pipeline.set_navigator(bystander.user_id)
-    wait_for(lambda: sim_pipeline.status().navigator == bystander.user_id, 10, "the bystander chosen")
+    bystander = choose_the_bystander(sim_pipeline)
     victim = sim_pipeline.workers()["fuse"]
     os.kill(victim, signal.SIGKILL)
     wait_for(lambda: sim_pipeline.workers().get("fuse") not in (None, victim), 60, "a new fusion worker")
-    wait_for(lambda: both_found(sim_pipeline) and sim_pipeline.status().navigator > bystander.user_id, 30,
-             "a navigator among the people numbered anew")
-    st = sim_pipeline.status()
-    now = next(p for p in st.people if p.user_id == st.navigator)
-    assert st.navigator_mode == "manual", st
-    assert now.position_m is not None and bystander.position_m is not None
-    moved = np.subtract(now.position_m[:2], bystander.position_m[:2])
-    assert np.hypot(*moved) < 0.5, (now, bystander)
+    navigator_by_hand_where(sim_pipeline, bystander, past_id=bystander.user_id)
 
 
 def test_a_navigator_chosen_by_hand_goes_on_being_the_navigator_after_a_restart(
@@ -156,21 +167,10 @@ def test_a_navigator_chosen_by_hand_goes_on_being_the_navigator_after_a_restart(
     """A start while the pipeline runs (the dashboard's Start, or Restart now for a new calibration)
     is a new run, whose people get new ids; the bystander the operator chose by hand is the
     navigator again, found where they stood (the automatic choice takes the walker)."""
-    sim_pipeline.start("simulator")
-    wait_for(lambda: both_found(sim_pipeline), 60, "the walker and the bystander")
-    st = sim_pipeline.status()
-    bystander = next(p for p in st.people if p.user_id != st.navigator)
-    sim_pipeline.set_navigator(bystander.user_id)
-    wait_for(lambda: sim_pipeline.status().navigator == bystander.user_id, 10, "the bystander chosen")
+    bystander = choose_the_bystander(sim_pipeline)
     last_id = max(p.user_id for p in sim_pipeline.status().people)
     sim_pipeline.start("simulator")
-    wait_for(lambda: both_found(sim_pipeline) and (sim_pipeline.status().navigator or 0) > last_id, 30,
-             "a navigator among the people of the new run")
-    st = sim_pipeline.status()
-    now = next(p for p in st.people if p.user_id == st.navigator)
-    assert st.navigator_mode == "manual", st
-    assert now.position_m is not None and bystander.position_m is not None
-    assert np.hypot(*np.subtract(now.position_m[:2], bystander.position_m[:2])) < 0.5, (now, bystander)
+    navigator_by_hand_where(sim_pipeline, bystander, past_id=last_id)
     events = [e.message for e in sim_pipeline.drain_events() if e.kind == "navigator"]
     said = f"the navigator chosen by hand (user {bystander.user_id}) is looked for"
     assert any(said in m for m in events), events
