@@ -166,16 +166,17 @@ export function collectAnswers(form, def) {
   return { answers, pairwise };
 }
 
-// A sheet's answers kept in the tab's storage under ``key`` until it is stored (a reload brings them
-// back), with ``extra`` fields saying whose they are; readDraft gives them back (null: none).
-export function writeDraft(key, form, def, extra) {
+// A sheet's answers kept in ``store`` under ``key`` until it is stored, with ``extra`` fields saying
+// whose they are; readDraft gives them back (null: none). The tab's own storage (sessionStorage, the
+// default) survives a reload; the browser's (localStorage) also closing the tab.
+export function writeDraft(key, form, def, extra, store = sessionStorage) {
   const { answers, pairwise } = collectAnswers(form, def);
-  sessionStorage.setItem(key, JSON.stringify({ ...extra, answers, pairwise }));
+  store.setItem(key, JSON.stringify({ ...extra, answers, pairwise }));
 }
 
-export function readDraft(key) {
+export function readDraft(key, store = sessionStorage) {
   try {
-    return JSON.parse(sessionStorage.getItem(key) || "null");
+    return JSON.parse(store.getItem(key) || "null");
   } catch {
     return null;
   }

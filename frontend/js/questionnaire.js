@@ -77,11 +77,15 @@ export async function mountQuestionnaire(element, { session, onSubmitted = () =>
     ...Object.keys(defs).map((k) => el("option", { value: k }, INSTRUMENT_LABELS[k] || k)),
   );
   let form = null;
+  // the operator's own computer: the draft survives a reload and a closed tab (localStorage), until
+  // it is stored (the participant's tablet keeps its drafts only as long as its tab)
   const draftKey = `cavewalk-operator-draft:${sessionId}`;
 
   function saveDraft() {
     const def = defs[instrument.value];
-    if (def && form) writeDraft(draftKey, form, def, { instrument: instrument.value, phase: phase.value });
+    if (def && form) {
+      writeDraft(draftKey, form, def, { instrument: instrument.value, phase: phase.value }, localStorage);
+    }
   }
 
   function clearMessages() {
@@ -121,8 +125,8 @@ export async function mountQuestionnaire(element, { session, onSubmitted = () =>
   }
 
   function restoreDraft() {
-    // the sheet this form was typing into before a reload (the draft of the last instrument drawn)
-    const draft = readDraft(draftKey);
+    // the sheet this form was typing into before a reload or a closed tab (the last instrument drawn)
+    const draft = readDraft(draftKey, localStorage);
     if (!draft || !defs[draft.instrument]) return;
     instrument.value = draft.instrument;
     drawPhases();
@@ -176,7 +180,7 @@ export async function mountQuestionnaire(element, { session, onSubmitted = () =>
     clearMessages();
     try {
       const res = await post(`/sessions/${sessionId}/questionnaires`, body);
-      sessionStorage.removeItem(draftKey);
+      localStorage.removeItem(draftKey);
       scores.textContent = Object.entries(res.scores)
         .map(([k, v]) => `${k}: ${formatScore(v)}`)
         .join(", ");

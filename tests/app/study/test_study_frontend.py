@@ -298,10 +298,10 @@ def test_a_next_whose_reply_was_lost_goes_on_to_the_next_sheet_when_pressed_agai
     assert stored["instrument"] == "mssq" and stored["answers"] == given, stored
 
 
-def test_the_operator_s_sheet_survives_a_reload_of_the_dashboard(server: str) -> None:
-    """Half an NASA-TLX typed in on the operator's form (sliders and pairs), then the dashboard
-    reloads: the same session's form comes back with that instrument, phase and answers; another
-    session's form is empty; once stored, the draft is gone."""
+def test_the_operator_s_sheet_survives_closing_the_dashboard_s_tab(server: str) -> None:
+    """Half an NASA-TLX typed in on the operator's form (sliders and pairs), then the dashboard's
+    tab is closed and the dashboard opened again: the same session's form comes back with that
+    instrument, phase and answers; another session's form is empty; once stored, the draft is gone."""
     from playwright.sync_api import expect, sync_playwright
 
     api = f"{server}/api/v1"
@@ -310,7 +310,14 @@ def test_the_operator_s_sheet_survives_a_reload_of_the_dashboard(server: str) ->
     other = httpx.post(f"{api}/sessions", json={"participant_id": pid, "condition": "CC"}).json()["id"]
     with sync_playwright() as pw, chromium(pw) as browser:
         errors: list[str] = []
-        page = watched_page(browser, errors, "operator", viewport=OPERATOR)
+        context = browser.new_context(viewport=OPERATOR)  # one browser profile, its tabs closed and opened
+
+        def new_tab() -> Any:
+            tab = context.new_page()
+            tab.on("pageerror", lambda exc: errors.append(f"operator: {exc}"))
+            return tab
+
+        page = new_tab()
         form = page.locator("#questionnaire-mount")
 
         def open_form(session_id: int) -> None:
@@ -325,7 +332,10 @@ def test_the_operator_s_sheet_survives_a_reload_of_the_dashboard(server: str) ->
         for key, value in list(TLX.items())[:3]:
             form.locator(f'input[type="range"][name="{key}"]').fill(str(value))
         fill_radios(page, {f"{a}_vs_{b}": a for a, b in TLX_PAIRS[:5]})
-        page.reload()
+        page.close()  # the dashboard's tab is closed ...
+        page = new_tab()  # ... and the dashboard opened again in a new one
+        form = page.locator("#questionnaire-mount")
+        page.goto(server)
         open_form(other)
         expect(form.locator("#q-instrument")).to_have_value("")  # another session: nothing carried over
         open_form(sid)
