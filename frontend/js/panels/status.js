@@ -47,12 +47,18 @@ export function mountStatus() {
       toast(`start failed: ${err.message}`);
     }
   });
-  document.getElementById("pipeline-restart").addEventListener("click", async () => {
+  const restart = document.getElementById("pipeline-restart");
+  restart.addEventListener("click", async () => {
+    restart.disabled = true; // a second or two: the workers stop and start again
+    restart.textContent = "Restarting…";
     try {
       await post("/pipeline/restart");
       toast("the pipeline started again", "ok");
     } catch (err) {
       toast(`restart failed: ${err.message}`);
+    } finally {
+      restart.disabled = false;
+      restart.textContent = "Restart now";
     }
   });
   document.getElementById("pipeline-stop").addEventListener("click", async () => {
