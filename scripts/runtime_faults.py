@@ -13,7 +13,9 @@ kills (SIGKILL) each victim in turn and measures, from the datagrams' receive ti
 Victims: ``simulator`` and ``fuse`` (worker processes) and ``forkserver`` (multiprocessing's
 fork server). Workers are found by their process name (``cw-<worker>`` in /proc/PID/comm);
 a checkout whose workers do not name themselves falls back to creation order (simulator,
-then fuse).
+then fuse). Two more are no kills but the operator's *Restart now*: ``restart`` (``POST
+/api/v1/pipeline/restart``: a new run of the same pipeline) and ``rebuild`` (the active model
+activated again first: a new pipeline, as for a new calibration or model).
 
     python scripts/runtime_faults.py --repo /tmp/rt-before --out before.json
     python scripts/runtime_faults.py --out after.json
@@ -38,7 +40,8 @@ from typing import Any
 import psutil
 
 ROOT = Path(__file__).resolve().parents[1]
-VICTIMS = ("simulator", "fuse", "forkserver")
+VICTIMS = ("simulator", "fuse", "forkserver", "restart", "rebuild")
+RESTARTS = ("restart", "rebuild")  # the operator's Restart now, not a kill
 FLOWING_GAP_S = 1.0  # results are flowing (again) when none is further apart than this
 TAG = f"{os.getpid()}-{time.time_ns()}"  # in the server's environment: finds its workers, orphans too
 
@@ -130,16 +133,31 @@ def longest_gap(times: list[float]) -> float:
     return max((b - a for a, b in itertools.pairwise(times)), default=float("inf"))
 
 
+def restart(api: str, rebuild: bool) -> None:
+    """The dashboard's Restart now; ``rebuild``: after activating the active model again."""
+    import httpx
+
+    if rebuild:
+        active = httpx.get(f"{api}/models/active", timeout=30).json()
+        httpx.post(f"{api}/models/{active['id']}/activate", timeout=30).raise_for_status()
+    httpx.post(f"{api}/pipeline/restart", timeout=60).raise_for_status()
+
+
 def kill_and_measure(
-    rx: Receiver, server: psutil.Process, victim: str, settle_s: float, timeout_s: float
+    rx: Receiver, server: psutil.Process, victim: str, settle_s: float, timeout_s: float, api: str
 ) -> dict[str, Any]:
-    pids = workers(server)
-    if victim not in pids:
-        return {"victim": victim, "error": f"not found among {pids}"}
-    pid = pids[victim]
+    pid = None
     before = time.monotonic() - 1.0
-    os.kill(pid, signal.SIGKILL)
-    t_kill = time.monotonic()
+    if victim in RESTARTS:
+        t_kill = time.monotonic()
+        restart(api, victim == "rebuild")
+    else:
+        pids = workers(server)
+        if victim not in pids:
+            return {"victim": victim, "error": f"not found among {pids}"}
+        pid = pids[victim]
+        os.kill(pid, signal.SIGKILL)
+        t_kill = time.monotonic()
     recovered = None
     deadline = t_kill + timeout_s
     while time.monotonic() < deadline:  # back when new results have flowed for settle_s
@@ -200,13 +218,14 @@ def main() -> None:
     rx = Receiver()
     tmp = Path(tempfile.mkdtemp(prefix="cw-faults-"))
     env = dict(os.environ, PYTHONPATH=str(repo), CAVEWALK_SERVER__VISER="false", CAVEWALK_FAULTS_TAG=TAG)
+    port = free_port()
     cmd = [
         sys.executable,
         "-m",
         "app.cli",
         "demo",
         "--port",
-        str(free_port()),
+        str(port),
         "--db",
         str(tmp / "f.db"),
         "--emit",
@@ -236,7 +255,8 @@ def main() -> None:
         time.sleep(args.settle)
         for _ in range(args.rounds):
             for victim in args.victims.split(","):
-                res = kill_and_measure(rx, server, victim, args.settle, args.timeout)
+                res = kill_and_measure(rx, server, victim, args.settle, args.timeout,
+                                       f"http://127.0.0.1:{port}/api/v1")
                 print(json.dumps(res), flush=True)
                 results["kills"].append(res)
     finally:

@@ -16,14 +16,16 @@ from pipeline.runtime.logfile import LogFileConfig, log_to_file
 
 @pytest.fixture()
 def root_handlers() -> Iterator[None]:
-    """The test adds file handlers to this process's root logger: they go again afterwards."""
+    """The root logger holds only the handlers the test adds (a handler an earlier test in this
+    process left, on a stream since closed, would print its own logging errors); afterwards they
+    are closed and the earlier ones are back."""
     root = logging.getLogger()
     before, level = list(root.handlers), root.level
+    root.handlers = []
     yield
     for h in root.handlers:
-        if h not in before:
-            root.removeHandler(h)
-            h.close()
+        h.close()
+    root.handlers = before
     root.setLevel(level)
 
 
