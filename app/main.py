@@ -13,7 +13,7 @@ import asyncio
 import ipaddress
 import logging
 import secrets
-from collections.abc import AsyncIterator, Callable
+from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from pathlib import Path
 from typing import Any
@@ -37,7 +37,7 @@ from app.db.repositories import fail_unfinished_calibration_runs, running_sessio
 from app.services.backup import BackupService
 from app.services.calibration import CalibrationService
 from app.services.event_log import EventWriter
-from app.services.live import LiveFeed, PipelineFacade, PipelineService, SourceName
+from app.services.live import LiveFeed, PipelineFactory, PipelineService, SourceName
 from app.services.locomotion_watch import LocomotionWatch
 from app.services.models import ModelService
 from app.services.pipeline_factory import runtime_factory, simulator_factory
@@ -93,7 +93,7 @@ def create_app(
     settings: Settings | None = None,
     *,
     autostart: SourceName | None = None,
-    pipeline_factory: Callable[[], PipelineFacade] | bool | None = True,
+    pipeline_factory: PipelineFactory | bool | None = True,
     token: str | None = None,
 ) -> FastAPI:
     """Build the application.

@@ -42,7 +42,8 @@ from pipeline.takes.video import VideoControl
 
 log = logging.getLogger(__name__)
 
-__all__ = ["LiveFeed", "LiveSink", "PipelineService", "PipelineUnavailable", "SourceName", "UnknownUser"]
+__all__ = ["LiveFeed", "LiveSink", "PipelineFactory", "PipelineService", "PipelineUnavailable", "SourceName",
+           "UnknownUser"]
 
 
 class PipelineUnavailable(RuntimeError):
@@ -69,7 +70,10 @@ class PipelineFacade(Protocol):
     def send_prompt(self, text: str, label: str, remaining_s: float) -> None: ...
     def video_controls(self) -> dict[str, tuple[VideoControl, float]]: ...
     def hand_over(self) -> Handover: ...
-    def take_over(self, handover: Handover) -> None: ...
+
+
+#: Builds a pipeline; given a :class:`Handover`, one that carries on from the pipeline it replaces.
+PipelineFactory = Callable[[Handover | None], PipelineFacade]
 
 
 class LiveSink(Protocol):
@@ -217,7 +221,7 @@ class PipelineService:
 
     def __init__(
         self,
-        factory: Callable[[], PipelineFacade] | None,
+        factory: PipelineFactory | None,
         events: EventWriter,
         sinks: tuple[LiveSink, ...] = (),
         feed: LiveFeed | None = None,
@@ -375,19 +379,17 @@ class PipelineService:
             self._pipeline.start(source, videos)
             self._last_start = (source, dict(videos) if videos else None)
 
-    def _build(self, factory: Callable[[], PipelineFacade], carried: Handover | None) -> PipelineFacade:
+    def _build(self, factory: PipelineFactory, carried: Handover | None) -> PipelineFacade:
         """A new pipeline; ``carried``: what the pipeline it replaces hands on (the operator's
         navigation mode and chosen people, the ids given out: a kept choice is nobody, never
-        somebody the operator did not choose)."""
+        somebody the operator did not choose; the navigator chosen by hand; the stream's seq)."""
         try:
-            pipeline = factory()
+            pipeline = factory(carried)
         except ImportError as exc:
             raise PipelineUnavailable(f"the pipeline cannot be built: {exc}") from exc
         for sink in self._result_sinks:
             pipeline.add_sink(sink)
-        if carried is not None:
-            pipeline.take_over(carried)
-        elif self._navigation is not None:  # chosen before any pipeline was built: nobody yet
+        if carried is None and self._navigation is not None:  # chosen before any pipeline was built
             pipeline.set_navigation(self._navigation, [])
         if self._adaptation is not None:
             pipeline.set_adaptation(self._adaptation)

@@ -14,12 +14,12 @@ from sqlalchemy.orm import Session
 from app.core.config import Settings
 from app.db.repositories import active_calibration_run
 from app.services.calibration import cameras_from_result
-from app.services.live import PipelineFacade
+from app.services.live import PipelineFacade, PipelineFactory
 from pipeline.camera import Camera
 from pipeline.recognition.recognizer import RecognizerConfig
 from pipeline.runtime.chain import ChainConfig, PoseModel, SimWorldFactory
 from pipeline.runtime.config import RuntimeConfig
-from pipeline.runtime.pipeline import Pipeline
+from pipeline.runtime.pipeline import Handover, Pipeline
 from pipeline.sim.world import SimConfig
 from pipeline.triangulation.config import ReconstructionConfig
 
@@ -49,21 +49,22 @@ def chain_config(settings: Settings, recognition: RecognizerConfig | None = None
 
 def build_pipeline(settings: Settings, cameras: list[Camera] | None = None,
                    sim: SimWorldFactory | None = None, runtime: RuntimeConfig | None = None,
-                   recognition: RecognizerConfig | None = None) -> Pipeline:
-    """The live pipeline of the settings; ``runtime`` replaces ``settings.runtime`` (benchmarks)."""
+                   recognition: RecognizerConfig | None = None, handover: Handover | None = None) -> Pipeline:
+    """The live pipeline of the settings; ``runtime`` replaces ``settings.runtime`` (benchmarks);
+    ``handover``: what the pipeline it replaces carries on (``Pipeline.hand_over``)."""
     return Pipeline(
         runtime or settings.runtime, cameras,
         camera_sources={c.name: c.source for c in settings.cameras},
         chain=chain_config(settings, recognition), pose=pose_model(settings), simulator=sim,
         workstations=settings.endpoints, emitter=settings.emitter,
-        status_rate_hz=settings.server.live_rate_hz,
+        status_rate_hz=settings.server.live_rate_hz, handover=handover,
     )
 
 
 def runtime_factory(
     settings: Settings, session_factory: Callable[[], Session],
     recognition: Callable[[], RecognizerConfig] | None = None,
-) -> tuple[Callable[[], PipelineFacade] | None, str]:
+) -> tuple[PipelineFactory | None, str]:
     """(a function that builds the pipeline, "") or (None, why it cannot be built).
 
     The pipeline gets the active calibration's cameras (for the real cameras and videos)
@@ -71,11 +72,12 @@ def runtime_factory(
     recognition section at each build (the model registry's active model).
     """
 
-    def build() -> PipelineFacade:
+    def build(handover: Handover | None = None) -> PipelineFacade:
         with session_factory() as db:
             run = active_calibration_run(db)
             cameras = cameras_from_result(run.result) if run is not None and run.result else None
         rec = recognition() if recognition is not None else None
-        return build_pipeline(settings, cameras, simulator_factory(settings), recognition=rec)
+        return build_pipeline(settings, cameras, simulator_factory(settings), recognition=rec,
+                              handover=handover)
 
     return build, ""

@@ -62,16 +62,19 @@ __all__ = ["SOURCES", "Handover", "Pipeline", "SourceName"]
 class Handover:
     """What a pipeline built to replace another carries on (the app rebuilds it for a new calibration
     or a newly active model): the operator's navigation mode with its chosen people, the highest
-    user id given out so far, so that the new pipeline numbers people past it, and the navigator the
-    operator chose by hand. A kept choice of people is then nobody until the operator ticks them
-    again, as after a new run of the same pipeline: an id given out afresh never falls on somebody
-    the operator did not choose; the navigator chosen by hand is looked for where they stood."""
+    user id given out so far, so that the new pipeline numbers people past it, the navigator the
+    operator chose by hand, and the stream's next ``seq``. A kept choice of people is then nobody
+    until the operator ticks them again, as after a new run of the same pipeline: an id given out
+    afresh never falls on somebody the operator did not choose; the navigator chosen by hand is
+    looked for where they stood; the workstations see one ``seq`` sequence (SPEC: it increases by
+    one per datagram; a receiver may drop a datagram whose ``seq`` went back)."""
 
     navigation: NavigationConfig
     numbered_past: int
     #: the navigator the operator chose by hand in the run that was stopped, and where they were last
     #: fused: looked for there in the new pipeline's first run (None: the automatic choice)
     navigator: tuple[int, tuple[float, float]] | None = None
+    next_seq: int = 0
 
 
 class Pipeline:
@@ -89,7 +92,8 @@ class Pipeline:
                  simulator: SimWorldFactory | None = None,
                  workstations: Sequence[tuple[str, int]] = (),
                  emitter: EmitterConfig | None = None,
-                 status_rate_hz: float = 10.0) -> None:
+                 status_rate_hz: float = 10.0,
+                 handover: Handover | None = None) -> None:
         guard_resource_tracker()
         sweep_stale_segments()  # what a crashed run left in /dev/shm
         self.config = config
@@ -102,7 +106,9 @@ class Pipeline:
         self._run: Run | None = None
         emitter = emitter or EmitterConfig()
         self._emitter_config = emitter
-        self._book = StreamBook.create()  # seq, endpoints: shared with the fusion worker's stream
+        # seq, endpoints: shared with the fusion worker's stream; a pipeline replacing another goes on
+        # with its seq
+        self._book = StreamBook.create(handover.next_seq if handover is not None else 0)
         self._sock = stream_socket(emitter)
         self.emitter = UdpEmitter(emitter, list(workstations), emitter.osc_endpoints or None,
                                   head=self.chain.head, shared=self._book, role="standby", sock=self._sock)
@@ -114,6 +120,8 @@ class Pipeline:
         self._resume_navigator: tuple[int, tuple[float, float]] | None = None  # from take_over
         self._supervision = Supervision(config, self._board)
         self._snapshots = SnapshotCache(config.snapshot_interval_s, config.snapshot_long_side)
+        if handover is not None:
+            self._take_over(handover)
         self.emitter.start()
 
     # ---------------------------------------------------------------------------- lifecycle
@@ -155,19 +163,19 @@ class Pipeline:
         self._publisher.publish_now()
 
     def hand_over(self) -> Handover:
-        """Stop; what a pipeline that replaces this one carries on (:class:`Handover`; the navigator
-        chosen by hand only when the pipeline was running)."""
+        """Stop, and stop sending; what a pipeline that replaces this one carries on
+        (``Pipeline(..., handover=...)``, :class:`Handover`; the navigator chosen by hand only when
+        the pipeline was running). Only :meth:`close` is left to call."""
         navigator = self._stop()
+        self.emitter.stop()  # its last heartbeat (stopped) is sent: the next seq is the successor's
         with self._lock:
-            return Handover(self.chain.navigation, self._numbered_past, navigator)
+            return Handover(self.chain.navigation, self._numbered_past, navigator, self._book.peek_seq())
 
-    def take_over(self, handover: Handover) -> None:
-        """Carry on from the pipeline this one replaces, before this one's first start: its navigation
-        mode and chosen people (this pipeline's own ``max_navigators``), people numbered past its
-        ids, and its navigator chosen by hand, looked for where they stood."""
+    def _take_over(self, handover: Handover) -> None:
+        """Carry on from the pipeline this one replaces (at construction): its navigation mode and
+        chosen people (this pipeline's own ``max_navigators``), people numbered past its ids, and
+        its navigator chosen by hand, looked for where they stood."""
         with self._lock:
-            if self._run is not None:
-                raise RuntimeError("take_over is for a pipeline that has not started")
             self._numbered_past = max(self._numbered_past, handover.numbered_past)
             self._resume_navigator = handover.navigator
             navigation = replace(handover.navigation, max_navigators=self.chain.navigation.max_navigators)

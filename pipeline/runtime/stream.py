@@ -62,11 +62,14 @@ class StreamBook:
         self._floats: NDArray[np.float64] = self._words.view(np.float64)
 
     @classmethod
-    def create(cls) -> StreamBook:
+    def create(cls, first_seq: int = 0) -> StreamBook:
+        """A new book whose first datagram takes ``first_seq`` (a pipeline that replaces another goes
+        on with its ``seq``: a receiver sees one sequence)."""
         name = f"{STREAM_PREFIX}{secrets.token_hex(4)}"
         shm = shared_memory.SharedMemory(name=name, create=True, size=8 * _WORDS)
         book = cls(StreamBookSpec(name), shm, owner=True)
         book._words[:] = 0
+        book._words[0] = first_seq
         return book
 
     @classmethod

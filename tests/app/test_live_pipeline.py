@@ -6,6 +6,7 @@ A real WebSocket client (``websockets``) reads the live status; httpx drives the
 from __future__ import annotations
 
 import asyncio
+import itertools
 import json
 import threading
 import time
@@ -336,3 +337,45 @@ def test_a_take_holds_one_run_made_with_the_calibration_and_model_it_names(tmp_p
         r = http.post(f"{base}/takes/{take.json()['id']}/stop")
         assert r.status_code == 200, r.text
         assert http.post(f"{base}/pipeline/start", json={"source": "simulator"}).status_code == 200
+
+
+def test_a_workstation_sees_one_seq_sequence_across_a_rebuilt_pipeline(tmp_path: Path) -> None:
+    """A real UDP socket as the workstation: Restart now for a new model builds a new pipeline,
+    and its datagrams go on with the old one's ``seq`` (SPEC: it increases by one per datagram; it
+    started from 0 again, so a receiver that drops datagrams whose seq went back dropped them all)."""
+    import json
+    import socket
+
+    rx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    rx.bind(("127.0.0.1", 0))
+    rx.settimeout(0.2)
+    settings = make_settings(tmp_path)
+    settings = settings.model_copy(update={"workstations": [f"127.0.0.1:{rx.getsockname()[1]}"]})
+    seqs: list[int] = []
+    done = threading.Event()
+
+    def receive() -> None:
+        while not done.is_set():
+            try:
+                seqs.append(int(json.loads(rx.recv(65536))["seq"]))
+            except TimeoutError:
+                continue
+
+    reader = threading.Thread(target=receive, daemon=True)
+    reader.start()
+    try:
+        with Served(settings) as served:
+            base = f"{served.base}/api/v1"
+            wait_until(lambda: len(seqs) > 60 or None, "the stream")
+            active = http.get(f"{base}/models/active").json()
+            assert http.post(f"{base}/models/{active['id']}/activate").status_code == 200
+            before = len(seqs)
+            assert http.post(f"{base}/pipeline/restart").status_code == 200
+            wait_until(lambda: len(seqs) > before + 60 or None, "the new pipeline's stream")
+    finally:
+        done.set()
+        reader.join(timeout=5)
+        rx.close()
+    steps = {b - a for a, b in itertools.pairwise(seqs)}
+    # never back nor repeated (a loopback socket may still lose a datagram under load: a step of 2)
+    assert min(steps) == 1 and max(steps) <= 3, f"seq steps {sorted(steps)}: {seqs[before - 3:before + 10]}"

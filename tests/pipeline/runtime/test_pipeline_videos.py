@@ -110,7 +110,11 @@ def test_a_video_that_ends_and_a_camera_that_vanishes_do_not_stop_the_others(
         assert cams["cam01"]["ok"], cams
         assert not cams["cam03"]["ok"] and not cams["cam04"]["ok"]
         latest = pipeline._run.latest  # type: ignore[union-attr]
-        assert latest is not None and set(latest.detected.missing) >= {"cam03", "cam04"}
+        assert latest is not None
+        # neither gave an image to the newest frame: listed as missing, or (a detect group rebuilt
+        # without them on a loaded machine) not among its views at all
+        delivered = {v.camera for v in latest.detected.views} - set(latest.detected.missing)
+        assert not delivered & {"cam03", "cam04"}, (delivered, latest.detected.missing)
         events = pipeline.drain_events()
         assert any(e.kind == "camera" and "cam04" in e.message and "camera_lost" in e.message for e in events)
         assert not any(e.kind == "worker" and "chain died" in e.message for e in events), "the chain goes on"
