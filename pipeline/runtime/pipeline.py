@@ -117,7 +117,7 @@ class Pipeline:
         self._router = ResultRouter(self._board)
         self._launcher = Launcher(config)
         self._numbered_past = 0  # the highest user id of the runs so far: the next run numbers past it
-        self._resume_navigator: tuple[int, tuple[float, float]] | None = None  # from take_over
+        self._resume_navigator: tuple[int, tuple[float, float]] | None = None  # from a handover
         self._supervision = Supervision(config, self._board)
         self._snapshots = SnapshotCache(config.snapshot_interval_s, config.snapshot_long_side)
         if handover is not None:
