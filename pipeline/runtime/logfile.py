@@ -74,7 +74,6 @@ class _SaysOnce(logging.FileHandler):
             sys.stderr.write(f"cavewalk: cannot write the log file {self.baseFilename}: {sys.exc_info()[1]} "
                              "(the log goes to the terminal only until it can)\n")
 
-
     def close(self) -> None:
         try:
             super().close()
