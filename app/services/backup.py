@@ -37,7 +37,7 @@ from app.db.backup import (
 from app.db.errors import StateConflict
 from app.db.migrate import head_revision
 from app.services.event_log import EventWriter
-from app.services.storage import StorageWatch
+from app.services.storage import StorageWatch, existing_folder
 from pipeline.errors import ConfigError
 
 log = logging.getLogger(__name__)
@@ -228,9 +228,6 @@ def same_disk(folder: Path, other: Path) -> bool | None:
     """True when ``folder`` (or, before it exists, its nearest existing parent) is on the same file
     system as ``other``: a backup there does not survive that disk. None when either cannot be read."""
     try:
-        here = folder
-        while not here.exists() and here != here.parent:
-            here = here.parent
-        return here.stat().st_dev == other.stat().st_dev
+        return existing_folder(folder).stat().st_dev == other.stat().st_dev
     except OSError:
         return None

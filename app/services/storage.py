@@ -38,7 +38,7 @@ class DiskFull(CavewalkError):
     """A command refused, or stopped, because the disk is ``full`` (the message says how full)."""
 
 
-def _existing(path: Path) -> Path:
+def existing_folder(path: Path) -> Path:
     """``path`` or its nearest folder that exists (where its files will go)."""
     path = path.expanduser().absolute()
     while not path.exists() and path != path.parent:
@@ -81,7 +81,7 @@ class StorageWatch:
         recorded and shown; ``full`` calls the ``on_full`` callbacks."""
         free: dict[int, tuple[int, str, Path]] = {}  # one entry per file system (its first label)
         for label, path in self.paths.items():
-            where = _existing(path)
+            where = existing_folder(path)
             try:
                 dev = where.stat().st_dev
                 left = shutil.disk_usage(where).free
