@@ -299,11 +299,8 @@ class PipelineService:
 
     def model_changed(self) -> None:
         """Another action model is active: the next start builds the pipeline with it."""
-        self._rebuild_at_next_start("model")
-
-    def _rebuild_at_next_start(self, what: str) -> None:
         with self._lock:
-            self._rebuild_for.add(what)
+            self._rebuild_for.add("model")
         self.refresh()
 
     def waiting_for_restart(self) -> list[str]:

@@ -3,8 +3,8 @@
 // drawn empty for every instrument and phase; the phase must be chosen where there is a choice.
 // A duplicate (409) offers an explicit correction with a reason; a broken design rule (409) an
 // override with a reason; a 422 marks every unanswered item at once. The sheet being typed in is
-// kept in the tab's storage until it is stored, so a reload of the dashboard brings it back
-// (this session's form only).
+// kept in the browser's storage (localStorage) until it is stored, so a reload of the dashboard or
+// a closed tab brings it back (this session's form only).
 // DOM contract (tests rely on it): #q-session (the header), #q-instrument, #q-phase, the sheet of
 // forms.js, #q-submit, the scores in #q-scores ("total: 37.4"), the server's message in #q-error,
 // #q-correct-reason + #q-correct for a correction or an override.

@@ -141,10 +141,11 @@ class NumberFrom:
 
 @dataclass(frozen=True, slots=True)
 class ResumeNavigator:
-    """Control message to a fusion worker started again in a run: the operator had chosen the
-    navigator ``user_id`` (of the worker before), last seen at ``xy_m``; the person tracked anew
-    there is the navigator again (the selector's re-acquisition), else the choice falls back to
-    the automatic one as for a navigator lost."""
+    """Control message to a fusion worker started again in a run, or to a new run's first one (a
+    restart, a rebuilt pipeline): the operator had chosen the navigator ``user_id`` (of the worker
+    or run before), last seen at ``xy_m``; the person tracked anew there is the navigator again
+    (the selector's re-acquisition), else the choice falls back to the automatic one as for a
+    navigator lost."""
 
     user_id: int
     xy_m: tuple[float, float]
