@@ -97,7 +97,9 @@ def resample(joints: NDArray[np.float32], t: NDArray[np.float64], rate_hz: float
     t, joints = t[finite], joints[finite]
     if len(t) == 0:
         return np.zeros(0), np.zeros((0, *joints.shape[1:]))
-    n = int(float(t[-1] - t[0]) * rate_hz + 1e-6) + 1  # t is sorted: the span is >= 0
+    # t is sorted: the span is >= 0; the slack is for float rounding only (a span a hair under a
+    # whole number of samples), so no grid time lies past the last frame by more than rounding
+    n = int(float(t[-1] - t[0]) * rate_hz + 1e-9) + 1
     grid = t[0] + np.arange(n) / rate_hz
     i = np.clip(np.searchsorted(t, grid, side="right") - 1, 0, len(t) - 1)
     j = np.minimum(i + 1, len(t) - 1)
