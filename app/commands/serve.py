@@ -18,6 +18,7 @@ from app.db.migrate import prepare_database
 from app.main import create_app, operator_token
 from pipeline.errors import ConfigError, InputError
 from pipeline.runtime.logfile import log_to_file
+from pipeline.runtime.stream import check_seq_file
 
 app = typer.Typer()
 
@@ -85,6 +86,9 @@ def run_server(
     if log.enabled and log.path is None:  # default: beside the database
         log = replace(log, path=paths.db.expanduser().parent / "logs" / "cavewalk.log")
         update["runtime"] = replace(settings.runtime, log=log)
+    # seq goes on across server processes (default: beside the database)
+    seq_file = settings.emitter.seq_file or paths.db.expanduser().parent / "stream-seq"
+    update["emitter"] = replace(settings.emitter, seq_file=seq_file)
     settings = settings.model_copy(update=update)
     set_settings(settings)
     if paths.db.exists() and paths.db.is_dir():
@@ -95,6 +99,11 @@ def run_server(
         raise ConfigError(f"port {server.viser_port} is in use (choose another with --viser-port)")
     lock = DatabaseLock.acquire(paths.db)  # held until the process ends: a second server stops here
     try:
+        try:
+            check_seq_file(seq_file)  # a file that holds no seq number: InputError
+        except OSError as exc:
+            raise ConfigError(f"the stream's seq file {seq_file} cannot be written: "
+                              f"{exc.strerror or exc} (set emitter.seq_file)") from None
         prepare_database(paths.db)  # a database that cannot be used ends here with one message
         try:
             log_file = log_to_file(log, rotate=True)  # this process's log, and the workers' (runtime.log)

@@ -31,6 +31,7 @@ import threading
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Literal, Protocol
 
 from pipeline.emitter.protocol import (
@@ -113,6 +114,9 @@ class EmitterConfig:
     multicast_ttl: hops of multicast datagrams.
     stale_after_s: a command not renewed for this long is no longer repeated.
     osc: ``HOST:PORT`` destinations that also get ``/cave/locomotion`` as OSC.
+    seq_file: where ``seq`` is kept across server processes, so that a restarted server goes on
+        above every number the last one sent (``pipeline.runtime.stream``); None: ``stream-seq``
+        beside the database for ``cavewalk serve`` and ``demo`` (other commands: from 0).
     """
 
     rate_hz: float = 60.0
@@ -120,6 +124,7 @@ class EmitterConfig:
     multicast_ttl: int = 1
     stale_after_s: float = 1.0
     osc: tuple[str, ...] = ()
+    seq_file: Path | None = None
 
     def __post_init__(self) -> None:
         if self.rate_hz <= 0 or self.heartbeat_s <= 0 or self.stale_after_s <= 0:

@@ -34,7 +34,7 @@ from pathlib import Path
 
 from pipeline.camera import Camera
 from pipeline.emitter.udp import EmitterConfig, UdpEmitter, stream_socket
-from pipeline.errors import InputError
+from pipeline.errors import ConfigError, InputError
 from pipeline.navigation.config import NavigationConfig
 from pipeline.runtime.board import StatusBoard
 from pipeline.runtime.chain import ChainConfig, PoseModel, SimWorldFactory
@@ -107,8 +107,13 @@ class Pipeline:
         emitter = emitter or EmitterConfig()
         self._emitter_config = emitter
         # seq, endpoints: shared with the fusion worker's stream; a pipeline replacing another goes on
-        # with its seq
-        self._book = StreamBook.create(handover.next_seq if handover is not None else 0)
+        # with its seq, a new one from the seq file's (where the last server process left off)
+        try:
+            self._book = StreamBook.create(handover.next_seq if handover is not None else None,
+                                           seq_file=emitter.seq_file)
+        except OSError as exc:
+            raise ConfigError(f"the stream's seq file {emitter.seq_file} cannot be written: "
+                              f"{exc.strerror or exc} (set emitter.seq_file)") from None
         self._sock = stream_socket(emitter)
         self.emitter = UdpEmitter(emitter, list(workstations), emitter.osc_endpoints or None,
                                   head=self.chain.head, shared=self._book, role="standby", sock=self._sock)
@@ -223,6 +228,7 @@ class Pipeline:
         self.stop()
         self._publisher.close()
         self.emitter.close()
+        self._book.release_lease()  # a clean end: the next server process goes on from here
         self._book.unlink()
 
     # --------------------------------------------------------------------------------- queries

@@ -9,6 +9,7 @@ import signal
 import socket
 import subprocess
 import sys
+import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -17,6 +18,7 @@ from typer.testing import CliRunner
 
 from app.cli import cli
 from pipeline.errors import CavewalkError
+from tests.datagrams import DatagramRecorder
 from tests.waiting import free_port, wait_until
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -42,6 +44,7 @@ def busy_port() -> Iterator[int]:
         (["--config", "missing.toml"], "config file not found"),
         (["--db", "NOTADB"], "cannot be used: file is not a database"),
         (["--navigation", "crowd"], "--navigation: navigation mode must be one of single, each, group"),
+        ([], "stream-seq does not hold a seq number"),  # with a seq file beside the database that does not
     ],
 )
 def test_bad_options_raise_a_cavewalk_error(
@@ -53,6 +56,9 @@ def test_bad_options_raise_a_cavewalk_error(
         notes = tmp_path / "notes.txt"
         notes.write_text("these are my notes, not a database\n" * 100)
         args[args.index("NOTADB")] = str(notes)
+    bad_seq_file = not args
+    if bad_seq_file:
+        (tmp_path / "stream-seq").write_text("my notes\n")
     if "--db" not in args:
         args += ["--db", str(tmp_path / "x.db")]
     for opt in ("--port", "--viser-port"):  # not 8000/8080, which another server here may hold
@@ -62,6 +68,8 @@ def test_bad_options_raise_a_cavewalk_error(
     assert isinstance(result.exception, CavewalkError), result.output
     assert match in str(result.exception)
     assert not (tmp_path / "x.db").exists(), "a refused start creates no database"
+    if bad_seq_file:
+        assert (tmp_path / "stream-seq").read_text() == "my notes\n", "left unchanged"
     if (tmp_path / "notes.txt").exists():
         assert (tmp_path / "notes.txt").read_text().startswith("these are my notes"), "left unchanged"
 
@@ -203,9 +211,9 @@ def test_a_read_only_database_is_one_message(where: str) -> None:
         shutil.rmtree(top)
 
 
-def _demo(tmp_path: Path, **env: str) -> subprocess.Popen[str]:
+def _demo(tmp_path: Path, *args: str, **env: str) -> subprocess.Popen[str]:
     cmd = [sys.executable, "-m", "app.cli", "demo", "--db", str(tmp_path / "study.db"), "--port",
-           str(free_port()), "--viser-port", str(free_port())]
+           str(free_port()), "--viser-port", str(free_port()), *args]
     return subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             env={**os.environ, **env})
 
@@ -261,3 +269,33 @@ def test_no_log_file_when_switched_off_and_a_log_file_that_cannot_be_written_is_
     assert err.strip().splitlines()[-1] == (f"error: the log file {bad} cannot be written: File exists "
                                            "(set runtime.log.path, or runtime.log.enabled = false)"), err
     assert "Traceback" not in err and "cavewalk dashboard" not in out
+
+
+@pytest.mark.slow
+def test_seq_goes_on_across_server_processes_stopped_and_killed(tmp_path: Path) -> None:
+    """Three real `cavewalk demo` processes on one database send to one real UDP workstation: the
+    second (after a clean Ctrl+C) goes on with the next seq; the third (after SIGKILL) goes on above
+    every seq the killed one sent. A workstation that drops a seq that went back drops nothing."""
+    rx = DatagramRecorder()
+    seq_file = tmp_path / "stream-seq"
+    runs: list[list[int]] = []
+    try:
+        for end in ("sigint", "sigkill", "sigint"):
+            count = len(rx.got)
+            server = _demo(tmp_path, "--emit", f"127.0.0.1:{rx.port}")
+            try:
+                wait_until(lambda: rx.locomotion_since(count) >= 60, "locomotion from the demo")  # noqa: B023
+            finally:
+                server.send_signal(signal.SIGINT if end == "sigint" else signal.SIGKILL)
+                server.communicate(timeout=60)
+            time.sleep(0.3)  # what was in flight has arrived
+            runs.append([m["seq"] for _, m in rx.got[count:]])
+            if end == "sigint":
+                assert int(seq_file.read_text()) == runs[-1][-1] + 1, "a clean stop leaves the next seq"
+    finally:
+        rx.close()
+    first, killed, last = runs
+    assert first[0] == 0 and first == list(range(len(first))), "the first server starts at 0, no gap"
+    assert killed[0] == first[-1] + 1, "after a clean stop: the next seq, no gap"
+    assert killed == list(range(killed[0], killed[0] + len(killed)))
+    assert killed[-1] < last[0] <= killed[-1] + 100_000, "after a kill: above all it sent, within a lease"

@@ -8,11 +8,16 @@ shared book hands ``seq`` and the endpoints between the two emitters of one stre
 from __future__ import annotations
 
 import itertools
+import logging
 import multiprocessing
 import os
+import shutil
 import signal
+import subprocess
+import sys
 import threading
 import time
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -22,7 +27,8 @@ from pipeline.emitter.udp import EmitterConfig, UdpEmitter, stream_socket
 from pipeline.errors import InputError
 from pipeline.recognition.recognizer import DEFAULT_MODEL_PATH
 from pipeline.results import FrameResult
-from pipeline.runtime.pipeline import Pipeline
+from pipeline.runtime.config import RuntimeConfig
+from pipeline.runtime.pipeline import Handover, Pipeline
 from pipeline.runtime.stream import MAX_ENDPOINTS, StreamBook
 from tests.adaptation import FIXED, shows_fixed
 from tests.datagrams import DatagramRecorder
@@ -30,6 +36,7 @@ from tests.waiting import wait_until
 
 from .live import wait_for
 
+ROOT = Path(__file__).resolve().parents[3]
 needs_model = pytest.mark.skipif(not DEFAULT_MODEL_PATH.is_file(), reason="the trained action model")
 
 
@@ -271,3 +278,120 @@ def test_a_datagram_takes_its_seq_only_once_it_is_built(monkeypatch: pytest.Monk
         emitter.close()
         rx.close()
         book.unlink()
+
+
+# -- seq across server processes (emitter.seq_file) ------------------------------------------------
+_SENDER = """
+import sys, time
+from pathlib import Path
+from pipeline.emitter.udp import EmitterConfig, UdpEmitter
+from pipeline.runtime.stream import StreamBook
+book = StreamBook.create(seq_file=Path(sys.argv[1]), lease=int(sys.argv[3]))
+emitter = UdpEmitter(EmitterConfig(heartbeat_s=0.005), [("127.0.0.1", int(sys.argv[2]))], shared=book,
+                     role="standby")
+emitter.start()
+time.sleep(600)
+"""
+
+
+def test_a_server_killed_mid_stream_leaves_its_successor_above_every_seq_it_sent(tmp_path: Path) -> None:
+    """A real process sends heartbeats 200 times a second with a lease of 20 (renewed every 10
+    datagrams) and is killed with SIGKILL: the next book starts above every seq that arrived."""
+    seq_file = tmp_path / "stream-seq"
+    rx = DatagramRecorder()
+    proc = subprocess.Popen([sys.executable, "-c", _SENDER, str(seq_file), str(rx.port), "20"], cwd=ROOT)
+    try:
+        wait_until(lambda: len(rx.got) >= 150, "150 heartbeats from the sending process")
+        proc.kill()
+        proc.wait(30)
+        time.sleep(0.2)  # what was in flight has arrived
+        sent = [m["seq"] for _, m in rx.got]
+        assert sent[0] == 0 and sent == list(range(len(sent))), "a first process starts at 0"
+        book = StreamBook.create(seq_file=seq_file, lease=20)
+        try:
+            first = book.take_seq()
+            assert max(sent) < first <= max(sent) + 21, f"{first} after {max(sent)}: above, within a lease"
+        finally:
+            book.unlink()
+    finally:
+        proc.kill()
+        rx.close()
+
+
+def test_the_lease_in_the_seq_file_stays_above_every_seq_taken(tmp_path: Path) -> None:
+    seq_file = tmp_path / "state" / "stream-seq"  # its folder is made
+    book = StreamBook.create(seq_file=seq_file, lease=6)
+    try:
+        assert int(seq_file.read_text()) == 6, "the lease is written before the first seq is taken"
+        for _ in range(40):
+            seq = book.take_seq()
+            assert int(seq_file.read_text()) > seq
+        book.release_lease()  # a clean close: the next process goes on without a gap
+        assert int(seq_file.read_text()) == 40 == book.peek_seq()
+    finally:
+        book.unlink()
+    again = StreamBook.create(seq_file=seq_file, lease=6)
+    try:
+        assert again.take_seq() == 40
+    finally:
+        again.unlink()
+
+
+@pytest.mark.parametrize("content", ["", "12x\n", "-5\n", "1.5\n", "\u00b2\n"])
+def test_a_seq_file_that_holds_no_seq_number_is_refused_and_left_alone(tmp_path: Path, content: str) -> None:
+    seq_file = tmp_path / "stream-seq"
+    seq_file.write_text(content, encoding="utf-8")
+    with pytest.raises(InputError, match="does not hold a seq number"):
+        StreamBook.create(seq_file=seq_file)
+    assert seq_file.read_text(encoding="utf-8") == content
+
+
+def test_a_seq_file_that_cannot_be_written_again_is_said_once_and_the_stream_goes_on(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    folder = tmp_path / "state"
+    book = StreamBook.create(seq_file=folder / "stream-seq", lease=4)
+    try:
+        shutil.rmtree(folder)
+        folder.write_text("a file where the folder was")  # the lease cannot be renewed now
+        with caplog.at_level(logging.WARNING, logger="pipeline.runtime.stream"):
+            seqs = [book.take_seq() for _ in range(30)]
+        assert seqs == list(range(30)), "the stream goes on"
+        said = [r for r in caplog.records if "cannot be written" in r.getMessage()]
+        assert len(said) == 1, [r.getMessage() for r in said]
+    finally:
+        book.unlink()
+
+
+def test_a_pipeline_closed_cleanly_is_followed_without_a_gap_and_a_handover_keeps_the_file_ahead(
+    tmp_path: Path,
+) -> None:
+    """Real pipelines, a real UDP socket: a second server process's pipeline (the same seq file)
+    goes on with the next seq; a pipeline that handed over leaves the file to its successor."""
+    seq_file = tmp_path / "stream-seq"
+    rx = DatagramRecorder()
+    emitter = EmitterConfig(heartbeat_s=0.02, seq_file=seq_file)
+
+    def build(handover: Handover | None = None) -> Pipeline:
+        return Pipeline(RuntimeConfig(), None, workstations=[("127.0.0.1", rx.port)], emitter=emitter,
+                        handover=handover)
+
+    first = build()
+    wait_until(lambda: len(rx.got) >= 5, "heartbeats of the first pipeline")
+    handover = first.hand_over()
+    second = build(handover)
+    count = len(rx.got)
+    wait_until(lambda: len(rx.got) >= count + 5, "heartbeats of the pipeline that took over")
+    first.close()  # after its successor took over: it must not write its own, older, place back
+    assert int(seq_file.read_text()) > max(m["seq"] for _, m in rx.got), "the file stays ahead"
+    second.close()
+    time.sleep(0.1)
+    third = build()  # as a new server process does
+    try:
+        count = len(rx.got)
+        wait_until(lambda: len(rx.got) >= count + 3, "heartbeats of the new server's pipeline")
+    finally:
+        third.close()
+    seqs = [m["seq"] for _, m in rx.got]
+    assert seqs == list(range(len(seqs))), f"one sequence across all three, no gap: {seqs}"
+    rx.close()
