@@ -165,6 +165,7 @@ def create_app(
         if built is None:
             pipeline.unavailable_reason = reason
         models.on_change(pipeline.model_changed)  # a newly active model: rebuilt at the next start
+        pipeline.track_model(models.stale)  # ... or one activated on the command line: the top bar says so
         models.on_adaptation(pipeline.set_adaptation)  # teach: while the participant's session runs
         app.state.training = training = TrainingService(settings, factory, models)
         calibration = CalibrationService(settings, factory, events, pipeline, viewer)

@@ -246,6 +246,10 @@ class PipelineService:
         # the active calibration run (the app's; None: none) and the one the pipeline was built with
         self._active_calibration: Callable[[], int | None] = lambda: None
         self._built_calibration: int | None = None
+        # whether a model was activated elsewhere (the command line) since the pipeline was built, and
+        # when that was last asked (the database is asked at most once a second)
+        self._model_stale: Callable[[], bool] = lambda: False
+        self._model_asked: tuple[float, bool] = (-math.inf, False)
         self._last_start: tuple[SourceName, dict[str, Path] | None] | None = None
         self._result_sinks: tuple[ResultSink, ...] = ()
         self._navigation: str | None = None  # the operator's navigation mode, kept over rebuilds
@@ -286,6 +290,23 @@ class PipelineService:
         self._active_calibration = active_id
         self._built_calibration = active_id()
 
+    def track_model(self, stale: Callable[[], bool]) -> None:
+        """``stale()``: whether the active action model is another than the pipeline's (one activated
+        elsewhere, e.g. by ``cavewalk models ... --activate`` on the same database)."""
+        self._model_stale = stale
+
+    def _model_activated_elsewhere(self) -> bool:
+        asked_at, stale = self._model_asked
+        now = time.monotonic()
+        if now - asked_at >= 1.0:
+            try:
+                stale = self._model_stale()
+            except Exception:  # the status goes on without it (asked again in a second)
+                log.exception("could not read the active action model")
+                stale = False
+            self._model_asked = (now, stale)
+        return stale
+
     def calibration_changed(self) -> None:
         """A new calibration is active: the next start builds the pipeline with its cameras (and the
         live status shows the active calibration's id); back to the one the pipeline was built
@@ -310,6 +331,8 @@ class PipelineService:
         if now.state in ("stopped", "unavailable"):
             return []
         pending = set(self._rebuild_for)
+        if self._model_activated_elsewhere():
+            pending.add("model")
         if now.source == "simulator":
             pending.discard("calibration")
         return sorted(pending)
@@ -371,6 +394,7 @@ class PipelineService:
             if self._pipeline is None:
                 self._built_calibration = self._active_calibration()
                 self._pipeline = self._build(self._factory, carried)
+                self._model_asked = (-math.inf, False)  # built with the active model: ask afresh
             # (re)start: the pipeline validates first, so a bad request leaves the running one as it was;
             # it reports its own state changes as events, and publishes the status it starts with
             self._pipeline.start(source, videos)

@@ -263,8 +263,8 @@ def test_a_calibration_accepted_while_the_videos_run_waits_for_a_restart(
 
 def test_restart_now_takes_a_model_activated_on_the_command_line(tmp_path: Path) -> None:
     """`cavewalk models register --activate` on the server's database while the simulator runs: the
-    server learns of it only when the pipeline starts again, and ``POST /pipeline/restart`` builds
-    the pipeline with it (as ``/pipeline/start`` does)."""
+    status says the running pipeline waits for a restart for it (the top bar's notice), and
+    ``POST /pipeline/restart`` builds the pipeline with it (as ``/pipeline/start`` does)."""
     import subprocess
     import sys
 
@@ -280,9 +280,11 @@ def test_restart_now_takes_a_model_activated_on_the_command_line(tmp_path: Path)
                                "--db", str(settings.paths.db)], capture_output=True, text=True, timeout=120)
         assert proc.returncode == 0, proc.stderr
         assert models.running["id"] == 1, "the running pipeline keeps its model"
+        served.wait_status(lambda s: s["restart_for"] == ["model"])  # the top bar's notice and button
         r = http.post(f"{served.base}/api/v1/pipeline/restart")
         assert r.status_code == 200, r.text
         assert models.running["id"] == 2, models.running
+        assert r.json()["restart_for"] == [], r.json()
         served.wait_status(lambda s: s["state"] == "running")
 
 
