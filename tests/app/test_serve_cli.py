@@ -299,3 +299,4 @@ def test_seq_goes_on_across_server_processes_stopped_and_killed(tmp_path: Path) 
     assert killed[0] == first[-1] + 1, "after a clean stop: the next seq, no gap"
     assert killed == list(range(killed[0], killed[0] + len(killed)))
     assert killed[-1] < last[0] <= killed[-1] + 100_000, "after a kill: above all it sent, within a lease"
+    assert last == list(range(last[0], last[0] + len(last))), "no seq from the killed server's workers"
