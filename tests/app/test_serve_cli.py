@@ -44,7 +44,7 @@ def busy_port() -> Iterator[int]:
         (["--config", "missing.toml"], "config file not found"),
         (["--db", "NOTADB"], "cannot be used: file is not a database"),
         (["--navigation", "crowd"], "--navigation: navigation mode must be one of single, each, group"),
-        ([], "stream-seq does not hold a seq number"),  # with a seq file beside the database that does not
+        ([], "stream-seq does not hold a seq number"),  # a seq file beside the database holding no number
     ],
 )
 def test_bad_options_raise_a_cavewalk_error(

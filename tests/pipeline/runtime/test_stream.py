@@ -376,22 +376,23 @@ def test_a_pipeline_closed_cleanly_is_followed_without_a_gap_and_a_handover_keep
         return Pipeline(RuntimeConfig(), None, workstations=[("127.0.0.1", rx.port)], emitter=emitter,
                         handover=handover)
 
-    first = build()
-    wait_until(lambda: len(rx.got) >= 5, "heartbeats of the first pipeline")
-    handover = first.hand_over()
-    second = build(handover)
-    count = len(rx.got)
-    wait_until(lambda: len(rx.got) >= count + 5, "heartbeats of the pipeline that took over")
-    first.close()  # after its successor took over: it must not write its own, older, place back
-    assert int(seq_file.read_text()) > max(m["seq"] for _, m in rx.got), "the file stays ahead"
-    second.close()
-    time.sleep(0.1)
-    third = build()  # as a new server process does
     try:
+        first = build()
+        wait_until(lambda: len(rx.got) >= 5, "heartbeats of the first pipeline")
+        handover = first.hand_over()
+        second = build(handover)
         count = len(rx.got)
-        wait_until(lambda: len(rx.got) >= count + 3, "heartbeats of the new server's pipeline")
+        wait_until(lambda: len(rx.got) >= count + 5, "heartbeats of the pipeline that took over")
+        first.close()  # after its successor took over: it must not write its own, older, place back
+        assert int(seq_file.read_text()) > max(m["seq"] for _, m in rx.got), "the file stays ahead"
+        second.close()
+        third = build()  # as a new server process does
+        try:
+            count = len(rx.got)
+            wait_until(lambda: len(rx.got) >= count + 3, "heartbeats of the new server's pipeline")
+        finally:
+            third.close()
+        seqs = [m["seq"] for _, m in rx.got]
+        assert seqs == list(range(len(seqs))), f"one sequence across all three, no gap: {seqs}"
     finally:
-        third.close()
-    seqs = [m["seq"] for _, m in rx.got]
-    assert seqs == list(range(len(seqs))), f"one sequence across all three, no gap: {seqs}"
-    rx.close()
+        rx.close()
