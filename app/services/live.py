@@ -388,7 +388,8 @@ class PipelineService:
             if self._factory is None:
                 raise PipelineUnavailable(self.unavailable_reason)
             carried = None
-            if self._pipeline is not None and self._rebuild_for:
+            # a rebuild for a new calibration or model, also one activated elsewhere (the command line)
+            if self._pipeline is not None and (self._rebuild_for or self._model_stale()):
                 carried = self._close_pipeline()
             self._rebuild_for.clear()
             if self._pipeline is None:

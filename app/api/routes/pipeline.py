@@ -47,13 +47,6 @@ def _no_take_recording(request: Request, pipeline: PipelineService) -> None:
                             "pipeline would put two runs in one take)")
 
 
-def _take_a_model_activated_elsewhere(request: Request, pipeline: PipelineService) -> None:
-    """A model activated elsewhere (the command line, on the same database): the start builds with it."""
-    models = getattr(request.app.state, "models", None)
-    if models is not None and models.stale():
-        pipeline.model_changed()
-
-
 @router.post(
     "/start",
     response_model=StatusPublic,
@@ -62,7 +55,6 @@ def _take_a_model_activated_elsewhere(request: Request, pipeline: PipelineServic
 )
 def start(body: PipelineStart, pipeline: PipelineDep, request: Request) -> StatusPublic:
     _no_take_recording(request, pipeline)
-    _take_a_model_activated_elsewhere(request, pipeline)
     videos = None
     if body.videos:
         videos = {name: Path(p) for name, p in body.videos.items()}
@@ -91,7 +83,6 @@ def restart(pipeline: PipelineDep, request: Request) -> StatusPublic:
     """Start again on the last start's source and videos: a calibration or action model made active
     since the last start is used from now on (the status's ``restart_for`` lists them)."""
     _no_take_recording(request, pipeline)
-    _take_a_model_activated_elsewhere(request, pipeline)
     try:
         pipeline.restart()
     except PipelineUnavailable as exc:
