@@ -70,3 +70,32 @@ def test_bad_arguments_are_one_error_line(tmp_path: Path) -> None:
         [sys.executable, str(SCRIPT), str(tmp_path / "none")], capture_output=True, text=True, check=False
     )
     assert done.returncode == 2 and done.stderr.strip() == f"error: {tmp_path / 'none'} is not a folder"
+
+
+def test_a_swing_the_ankle_never_shows_is_contact_for_the_visible_oracle() -> None:
+    """--visible: a foot flagged up while its ankle stays where it was (a generator's unloaded foot)
+    is contact; a 5 cm lift under 1.2 cm of capture noise stays a swing."""
+    rng = np.random.default_rng(3)
+    n = 60
+    joints = np.zeros((n, 17, 3))
+    joints[:, label_bound._ANKLES[0]] = [-0.1, 0.0, 0.08]
+    joints[:, label_bound._ANKLES[1]] = [0.1, 0.0, 0.08]
+    joints[10:25, label_bound._ANKLES[0], 2] += 0.05 * np.sin(np.linspace(0, np.pi, 15))  # a real lift
+    joints += rng.normal(0.0, 0.012, joints.shape)
+    joints[40, label_bound._ANKLES[1]] = np.nan  # an unknown frame inside the unseen swing
+    contacts = np.ones((n, 2), dtype=bool)
+    contacts[10:25, 0] = False
+    contacts[35:50, 1] = False  # flagged up, never moves
+    seen = label_bound.visible_contacts(joints, contacts, 0.03)
+    assert np.array_equal(seen[:, 0], contacts[:, 0]), "the 5 cm lift is a swing"
+    assert seen[:, 1].all(), "the unmoved foot is contact"
+    assert np.array_equal(label_bound.visible_contacts(joints, contacts, 0.5)[:, 0], np.ones(n, bool))
+
+
+def test_a_bad_visible_distance_is_one_error_line(tmp_path: Path) -> None:
+    for value in ("0", "-0.02", "nan", "0.8"):
+        done = subprocess.run(
+            [sys.executable, str(SCRIPT), str(tmp_path), "--visible", value],
+            capture_output=True, text=True, check=False,
+        )  # fmt: skip
+        assert done.returncode == 2 and done.stderr.startswith("error: --visible is metres"), done.stderr
