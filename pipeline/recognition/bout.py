@@ -35,7 +35,9 @@ What a user expects (MODEL_CARD.md, "Behaviour"):
   Such a foot lifting again is the way back (within ``split_memory_s`` of the bout's newest step): the
   bout's side is kept for it, a bout it starts goes to that side, and while it, or the other foot
   following it (a step-together), only rises in place (lower than ``march_lift_m``) it is no march
-  step until it lands.
+  step until it lands; nor when it lands (``way_back_landing``): a foot that stood out to the bout's
+  side when it lifted and rose less than ``march_lift_m`` came part of the way home (a way back in
+  two parts: a low rise, then a slide home), so its landing does not turn the bout forward.
 - **Stops stay fast**: past the pause the person's *median* rhythm allows, a smoothed p(still) of
   ``late_still_prob`` already ends the bout (the longest-interval deadline is only for pauses the
   network does not call a stop).
@@ -210,6 +212,9 @@ class GateConfig:
     # step, not a pivot of a turn on the spot: the body's turn just before it (a turn that has ended)
     # neither vetoes its start nor ends its bout (inf: never)
     march_lift_m: float = 0.10
+    # the landing of a low rise (under march_lift_m) of a foot that stood out to the bout's side when it
+    # lifted is the way back, no march step: it does not turn the bout forward (False: before 2026-12-07)
+    way_back_landing: bool = True
     # a side-step bout turns forward while a foot that has risen march_lift_m swings without opening
     # sideways and the full-body network gives forward this share of its moving probability (a march
     # that begins on the way back from a side step; 1: never by this) ...
@@ -423,6 +428,7 @@ class BoutGate:
         self._swing_top = [0.0, 0.0]  # each foot's highest point (above its standing level) this swing
         self._slid = [False, False]  # the current (or last) swing of each foot was part of a slide
         self._opened = [False, False]  # each foot's last step opened (away from the other, not followed)
+        self._out_lift = [False, False]  # each foot stood out to the bout's side when it last lifted off
         self._first_foot = -1  # the foot of the bout's first landed step
         self._crouch_t = -math.inf  # when the body was last crouched
         self._turned_last = 0.0  # the body's turn within turn_window_s, as of the last frame
@@ -716,6 +722,7 @@ class BoutGate:
                 if self._active:
                     self._side_t = f.event_t
                 self._swing_lift[k], self._swing_maxp[k] = f.event_t, p_move
+                self._out_lift[k] = self._out_to_side(k)
                 self._lift_yaw[k] = frame.yaw_deg
             elif not f.planted and math.isfinite(self._swing_lift[k]):
                 self._swing_maxp[k] = max(self._swing_maxp[k], p_move)
@@ -845,8 +852,12 @@ class BoutGate:
             return self._end("network-still", ev_name)
         sideways = self._label in (_LEFT, _RIGHT) and self._side != _STILL  # seen stepping sideways
         # a side-step bout turns forward on a landed march step (if the network agrees), not on the
-        # rising start of a side step, nor while the other foot steps sideways
-        landed = [f.kind for f in frame.feet if f.landed]
+        # rising start of a side step, nor while the other foot steps sideways, nor on the landing of a
+        # low rise of a foot that stood out to the side (part of its way back)
+        way_back = [
+            c.way_back_landing and self._out_lift[k] and self._swing_top[k] < c.march_lift_m for k in (0, 1)
+        ]
+        landed = [f.kind for k, f in enumerate(frame.feet) if f.landed and not way_back[k]]
         sideways_swing = any(not f.planted and f.kind in SIDEWAYS_KINDS for f in frame.feet)
         march_landed = bool(landed) and all(k in ("vertical", "forward") for k in landed) and not long_landed
         if sideways and march_landed and not sideways_swing and choose_direction(p, _FORWARD, c) == _FORWARD:

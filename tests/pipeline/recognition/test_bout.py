@@ -739,7 +739,8 @@ def test_a_swing_too_long_for_a_step_does_not_turn_a_side_bout_forward() -> None
     frames = _frames(events, 4.5)
     wavering = np.array([0.05, 0.2, 0.23, 0.52])  # forward x evidence_weight beats right
     probs = [wavering if 3.4 <= f.t < 3.7 else RIGHT for f in frames]
-    for config, want_forward in ((GateConfig(), False), (GateConfig(max_step_swing_s=float("inf")), True)):
+    alone = GateConfig(way_back_landing=False)  # this rule alone (the foot out rising low is a way back too)
+    for config, want_forward in ((alone, False), (replace(alone, max_step_swing_s=float("inf")), True)):
         gate = BoutGate(config)
         verdicts = [gate.update(f, p, f.t) for f, p in zip(frames, probs, strict=True)]
         labels = np.array([v.label for v in verdicts])
@@ -1098,3 +1099,32 @@ def test_standing_up_from_a_kneel_brings_the_feet_together_without_a_bout(
         assert (labels(GateConfig(kneel_quiet_s=0.0)) != S).any(), (
             "without the rule the stand-up step starts a bout"
         )
+
+
+def test_the_low_rise_of_a_foot_out_to_the_side_is_its_way_back_not_a_march_step() -> None:
+    """Two steps out to the right and back, a third out; the bout ends in a long pause with the foot
+    out. The foot then comes home in two parts: it rises 6 cm in place (moving 4 cm inwards) and
+    lands, then slides home low. The network leans forward at the rise. The new bout takes the side
+    of the foot out at its start and keeps it when that rise lands (the way back is a side step's,
+    not a march); with ``way_back_landing`` off the landing turned the bout forward."""
+    side = [
+        Swing(1, 1.0, 1.35, lateral=0.25, peak=0.05),
+        Swing(1, 1.6, 1.95, lateral=-0.25, peak=0.05),
+        Swing(1, 2.2, 2.55, lateral=0.25, peak=0.05),
+    ]
+    rise = Swing(1, 4.5, 4.9, lateral=-0.04, peak=0.06)
+    home = Swing(1, 5.2, 5.6, lateral=-0.21, peak=0.005)
+    duration = 6.5
+    t = np.arange(round(duration * FPS)) / FPS
+    leaning = np.array([0.04, 0.55, 0.1, 0.31])  # forward, not sure of it
+    probs = [
+        RIGHT if ti < 3.2 else np.array([0.95, 0.02, 0.01, 0.02]) if ti < rise.t0 else leaning for ti in t
+    ]
+    scene = Scene(duration, (*side, rise, home))
+    after = (t > rise.t1 + 0.15) & (t < home.t0)  # the rise has landed, the slide home not begun
+    for config, want in ((GateConfig(), R), (GateConfig(way_back_landing=False), F)):
+        labels, _, _ = _gate(scene, probs, config=config)
+        assert (labels[(t > 1.2) & (t < 2.5)] == R).all(), "the side steps are right"
+        assert (labels[(t > 3.4) & (t < rise.t0)] == S).all(), "the bout ended in the pause"
+        got = np.bincount(labels[after], minlength=4)
+        assert got[want] == after.sum(), f"way_back_landing={config.way_back_landing}: {got}"
