@@ -21,8 +21,8 @@ detection could win.
 ``--visible M``: swings whose ankle never moves ``M`` metres from where it lifted off (a centred
 five-frame mean of the file's joints, so the capture noise is part of it) count as contact: the
 oracle knows only the swings a camera could show. Some generators unload a foot without moving it
-(blind6's side steps: the other foot "lifts" 1-2 cm); an oracle that sees those has room that no
-recogniser working from the skeleton has.
+(29 % of blind6's side-step swings move the ankle less than 3 cm, noise included); an oracle that
+sees those has room that no recogniser working from the skeleton has.
 """
 
 from __future__ import annotations

@@ -195,9 +195,7 @@ def growth(samples: list[dict[str, Any]], key: str, warmup_s: float) -> dict[str
     }
 
 
-def run_session(
-    client: httpx.Client, sid: int, run_s: float, rng: random.Random, watch: Watchers
-) -> dict[str, Any]:
+def run_session(client: httpx.Client, sid: int, run_s: float, rng: random.Random) -> dict[str, Any]:
     """One session as the operator and the participant's tablet go through it."""
     link = client.post(f"{API}/sessions/{sid}/participant-link")
     link.raise_for_status()
@@ -337,7 +335,7 @@ def main(argv: list[str] | None = None) -> int:
             plan.raise_for_status()
             for person in plan.json()["participants"]:
                 for sid in person["session_ids"]:
-                    results.append(run_session(client, sid, args.run_s, rng, watch))
+                    results.append(run_session(client, sid, args.run_s, rng))
                     done = len(results)
                     print(
                         f"session {done}/{2 * args.participants} ({person['code']}): "
