@@ -22,7 +22,10 @@ def test_one_participants_two_sessions_are_stored_whole_and_backed_up(tmp_path: 
     report_path = tmp_path / "day.json"
     done = subprocess.run(
         [sys.executable, str(SCRIPT), "--participants", "1", "--run-s", "4", "--every", "1",
-         "--warmup", "0", "--folder", str(folder), "--json", str(report_path)],
+         "--warmup", "0", "--folder", str(folder), "--json", str(report_path),
+         # a shared test machine: the stream may pause longer than a quiet lab PC's; the first
+         # seconds' memory is the warm-up, not a leak (the long run measures that)
+         "--max-quiet-s", "5", "--max-growth-mb", "300"],
         capture_output=True, text=True, check=False, timeout=300,
     )  # fmt: skip
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
