@@ -294,7 +294,11 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: out of range: {', '.join(bad)} (see --help)", file=sys.stderr)
         return 2
     folder = args.folder or Path(tempfile.mkdtemp(prefix="study-day-"))
-    folder.mkdir(parents=True, exist_ok=True)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        print(f"error: --folder {folder}: {exc.strerror or exc}", file=sys.stderr)
+        return 2
     db = folder / "study.db"
     if db.exists():
         print(f"error: {db} exists: the day starts on a fresh database", file=sys.stderr)

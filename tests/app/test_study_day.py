@@ -76,3 +76,13 @@ def test_a_database_already_there_is_refused(tmp_path: Path) -> None:
     )
     assert done.returncode == 2 and "exists: the day starts on a fresh database" in done.stderr
     assert (tmp_path / "study.db").read_bytes() == b"a study's data"
+
+
+def test_a_folder_that_is_a_file_is_one_error_line(tmp_path: Path) -> None:
+    taken = tmp_path / "taken"
+    taken.write_text("a file where the day's folder would go")
+    done = subprocess.run(
+        [sys.executable, str(SCRIPT), "--folder", str(taken)], capture_output=True, text=True, check=False
+    )
+    assert done.returncode == 2 and done.stderr.startswith(f"error: --folder {taken}: "), done.stderr
+    assert len(done.stderr.strip().splitlines()) == 1, "one line, no traceback"
