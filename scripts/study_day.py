@@ -62,6 +62,10 @@ from pipeline.emitter.receiver import ReceiverStats  # noqa: E402
 API = "/api/v1"
 
 
+class DayAborted(Exception):
+    """The day could not go on (the server refused or stopped answering): a failed check."""
+
+
 def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -215,7 +219,7 @@ def run_session(client: httpx.Client, sid: int, run_s: float, rng: random.Random
             deadline = time.time() + run_s + 60
             while client.get(f"{API}/sessions/{sid}").json()["status"] != "stopped":
                 if time.time() > deadline:
-                    raise SystemExit(f"error: session {sid} was not stopped by the server's timer")
+                    raise DayAborted(f"session {sid} was not stopped by the server's timer")
                 time.sleep(0.5)
             continue
         answers, pairwise = sheet(instruments[step["instrument"]], rng)
@@ -317,6 +321,8 @@ def main(argv: list[str] | None = None) -> int:
     rng = random.Random(args.seed)
     results: list[dict[str, Any]] = []
     watch: Watchers | None = None
+    stored: dict[int, list[tuple[str, str | None]]] = {}
+    aborted: str | None = None
     try:
         with httpx.Client(base_url=base, timeout=30) as client:
             while True:
@@ -332,26 +338,30 @@ def main(argv: list[str] | None = None) -> int:
             ready_s = time.time() - t_start
             watch = Watchers(base, udp, psutil.Process(server.pid), args.every, args.reload_s)
             watch.start()
-            plan = client.post(
-                API + "/study/plan",
-                json={"participants": args.participants, "run_minutes": args.run_s / 60.0},
-            )
-            plan.raise_for_status()
-            for person in plan.json()["participants"]:
-                for sid in person["session_ids"]:
-                    results.append(run_session(client, sid, args.run_s, rng))
-                    done = len(results)
-                    print(
-                        f"session {done}/{2 * args.participants} ({person['code']}): "
-                        f"{results[-1]['status']}, {len(results[-1]['sent'])} sheets, "
-                        f"{time.time() - t_start:.0f} s",
-                        flush=True,
-                    )
-            stored = {
-                s["id"]: [(q["instrument"], q["phase"]) for q in
-                          client.get(f"{API}/sessions/{s['id']}/questionnaires").json()]
-                for s in client.get(API + "/sessions").json()
-            }  # fmt: skip
+            try:
+                plan = client.post(
+                    API + "/study/plan",
+                    json={"participants": args.participants, "run_minutes": args.run_s / 60.0},
+                )
+                plan.raise_for_status()
+                for person in plan.json()["participants"]:
+                    for sid in person["session_ids"]:
+                        results.append(run_session(client, sid, args.run_s, rng))
+                        done = len(results)
+                        print(
+                            f"session {done}/{2 * args.participants} ({person['code']}): "
+                            f"{results[-1]['status']}, {len(results[-1]['sent'])} sheets, "
+                            f"{time.time() - t_start:.0f} s",
+                            flush=True,
+                        )
+                stored = {
+                    s["id"]: [(q["instrument"], q["phase"]) for q in
+                              client.get(f"{API}/sessions/{s['id']}/questionnaires").json()]
+                    for s in client.get(API + "/sessions").json()
+                }  # fmt: skip
+            except (httpx.HTTPError, DayAborted, KeyError, ValueError) as exc:
+                aborted = f"{type(exc).__name__}: {exc}"
+                print(f"the day stopped after {len(results)} sessions: {aborted}", file=sys.stderr)
     finally:
         if watch is not None:
             watch.finish()
@@ -372,6 +382,7 @@ def main(argv: list[str] | None = None) -> int:
     memory = {k: growth(watch.samples, k, args.warmup) for k in keys}
     main_growth = memory.get("main")
     checks = {
+        "the day ran to its end": aborted is None and len(results) == 2 * args.participants,
         "every session stopped by the server's timer": all(
             r["status"] == "stopped" and r["stopped_by"] == "timer" for r in results
         ),
@@ -395,6 +406,7 @@ def main(argv: list[str] | None = None) -> int:
         "duration_s": round(time.time() - t_start, 1),
         "server_ready_s": round(ready_s, 2),
         "sheets_sent": sent_total,
+        "aborted": aborted,
         "dashboard": dict(watch.counts),
         "dashboard_errors": watch.errors,
         "udp": {k: v for k, v in watch.stream.summary().items() if k not in ("navigation",)},
