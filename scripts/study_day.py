@@ -58,6 +58,7 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 from pipeline.emitter.receiver import ReceiverStats  # noqa: E402
+from pipeline.machine import machine_facts  # noqa: E402
 
 API = "/api/v1"
 
@@ -399,7 +400,7 @@ def main(argv: list[str] | None = None) -> int:
         and main_growth["growth_mb"] < args.max_growth_mb,
     }
     report = {
-        "machine": {"cpu": _cpu(), "cores": psutil.cpu_count()},
+        "machine": {"cpu": machine_facts().summary(), "cores": psutil.cpu_count()},
         "participants": args.participants,
         "sessions": len(results),
         "run_s": args.run_s,
@@ -441,16 +442,6 @@ def main(argv: list[str] | None = None) -> int:
     for name in failed:
         print(f"error: check failed: {name}", file=sys.stderr)
     return 1 if failed else 0
-
-
-def _cpu() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return "unknown"
 
 
 if __name__ == "__main__":
