@@ -1105,8 +1105,9 @@ def test_the_low_rise_of_a_foot_out_to_the_side_is_its_way_back_not_a_march_step
     """Two steps out to the right and back, a third out; the bout ends in a long pause with the foot
     out. The foot then comes home in two parts: it rises 6 cm in place (moving 4 cm inwards) and
     lands, then slides home low. The network leans forward at the rise. The new bout takes the side
-    of the foot out at its start and keeps it when that rise lands (the way back is a side step's,
-    not a march); with ``way_back_landing`` off the landing turned the bout forward."""
+    of the foot out at its start and keeps it when that rise lands and through the slide home (the
+    way back is a side step's, not a march); with ``way_back_landing`` off the landing turned the
+    bout forward for the rest of it."""
     side = [
         Swing(1, 1.0, 1.35, lateral=0.25, peak=0.05),
         Swing(1, 1.6, 1.95, lateral=-0.25, peak=0.05),
@@ -1121,7 +1122,7 @@ def test_the_low_rise_of_a_foot_out_to_the_side_is_its_way_back_not_a_march_step
         RIGHT if ti < 3.2 else np.array([0.95, 0.02, 0.01, 0.02]) if ti < rise.t0 else leaning for ti in t
     ]
     scene = Scene(duration, (*side, rise, home))
-    after = (t > rise.t1 + 0.15) & (t < home.t0)  # the rise has landed, the slide home not begun
+    after = (t > rise.t1 + 0.15) & (t < home.t1)  # from the rise's landing to the end of the slide home
     for config, want in ((GateConfig(), R), (GateConfig(way_back_landing=False), F)):
         labels, _, _ = _gate(scene, probs, config=config)
         assert (labels[(t > 1.2) & (t < 2.5)] == R).all(), "the side steps are right"
