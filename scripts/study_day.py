@@ -38,7 +38,6 @@ import json
 import random
 import signal
 import socket
-import sqlite3
 import subprocess
 import sys
 import tempfile
@@ -56,7 +55,11 @@ import websockets
 ROOT = Path(__file__).resolve().parent.parent
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "scripts"))
 
+from runtime_faults import free_port  # noqa: E402
+
+from app.db.backup import BackupError, inspect_database, list_backups  # noqa: E402
 from pipeline.emitter.receiver import ReceiverStats  # noqa: E402
 from pipeline.machine import machine_facts  # noqa: E402
 
@@ -65,12 +68,6 @@ API = "/api/v1"
 
 class DayAborted(Exception):
     """The day could not go on (the server refused or stopped answering): a failed check."""
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 def sheet(definition: dict[str, Any], rng: random.Random) -> tuple[dict[str, Any], dict[str, str] | None]:
@@ -242,24 +239,24 @@ def run_session(client: httpx.Client, sid: int, run_s: float, rng: random.Random
     }
 
 
-def check_backup(folder: Path, sheets: int) -> dict[str, Any]:
-    """The newest backup: its name, quick_check, and how many questionnaire sheets it holds."""
-    backups = sorted(folder.glob("*.db"), key=lambda p: p.stat().st_mtime)
+def check_backup(folder: Path, db: Path, sheets: int) -> dict[str, Any]:
+    """The newest of ``db``'s backups in ``folder`` (by the time in its name): checked as
+    ``cavewalk db restore`` checks it, and how many questionnaire sheets it holds."""
+    backups = list_backups(folder, db)
     if not backups:
         return {"count": 0, "ok": False}
-    newest = backups[-1]
-    con = sqlite3.connect(f"file:{newest}?mode=ro", uri=True)
+    newest = backups[0].path
     try:
-        quick = con.execute("PRAGMA quick_check").fetchone()[0]
-        held = con.execute("SELECT COUNT(*) FROM questionnaire_responses").fetchone()[0]
-    finally:
-        con.close()
+        _, counts = inspect_database(newest)
+    except BackupError as exc:
+        return {"count": len(backups), "newest": newest.name, "error": str(exc), "ok": False}
+    held = counts.get("questionnaire_responses", 0)
     return {
         "count": len(backups),
         "newest": newest.name,
-        "quick_check": quick,
+        "quick_check": "ok",
         "sheets": held,
-        "ok": quick == "ok" and held == sheets,
+        "ok": held == sheets,
     }
 
 
@@ -377,7 +374,7 @@ def main(argv: list[str] | None = None) -> int:
     log = folder / "logs" / "cavewalk.log"
     log_text = log.read_text(errors="replace") if log.exists() else ""
     bad_lines = [ln for ln in log_text.splitlines() if " ERROR " in ln or "Traceback" in ln]
-    backup = check_backup(folder / "backups", sent_total)
+    backup = check_backup(folder / "backups", db, sent_total)
     assert watch is not None
     keys = sorted({k for s in watch.samples for k in s if k != "t_s"})
     memory = {k: growth(watch.samples, k, args.warmup) for k in keys}

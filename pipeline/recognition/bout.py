@@ -583,6 +583,12 @@ class BoutGate:
         foot has not followed it."""
         return self._opened[k] and self._side == (_LEFT if k == 0 else _RIGHT)
 
+    def _low_way_back(self, k: int) -> bool:
+        """Foot ``k``'s swing (landing now) rose less than ``march_lift_m`` from where it stood out to
+        the bout's side: part of its way back (``way_back_landing``), no march step."""
+        c = self.config
+        return c.way_back_landing and self._out_lift[k] and self._swing_top[k] < c.march_lift_m
+
     def _moving(self) -> str:
         """The reason of a bout's stepping frames: ``rhythm`` while the rhythm alone carries it,
         ``start-head`` while only the start head has been sure of it."""
@@ -854,10 +860,7 @@ class BoutGate:
         # a side-step bout turns forward on a landed march step (if the network agrees), not on the
         # rising start of a side step, nor while the other foot steps sideways, nor on the landing of a
         # low rise of a foot that stood out to the side (part of its way back)
-        way_back = [
-            c.way_back_landing and self._out_lift[k] and self._swing_top[k] < c.march_lift_m for k in (0, 1)
-        ]
-        landed = [f.kind for k, f in enumerate(frame.feet) if f.landed and not way_back[k]]
+        landed = [f.kind for k, f in enumerate(frame.feet) if f.landed and not self._low_way_back(k)]
         sideways_swing = any(not f.planted and f.kind in SIDEWAYS_KINDS for f in frame.feet)
         march_landed = bool(landed) and all(k in ("vertical", "forward") for k in landed) and not long_landed
         if sideways and march_landed and not sideways_swing and choose_direction(p, _FORWARD, c) == _FORWARD:
