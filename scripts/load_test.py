@@ -38,12 +38,9 @@ from typing import Any
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "scripts"))
 
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
+from runtime_faults import free_port  # noqa: E402
 
 
 def _receiver(port_q: Any, stop: Any, out_q: Any) -> None:
