@@ -17,7 +17,13 @@ per output before the pooling; 47 graph nodes for eight networks per output inst
 network) and checked against the files it came from (at most 1e-5 apart) before it is written.
 Needs the ``train`` extra (onnx). The files come from ``scripts/train_action.py`` with the same
 ``--window``; the first START file's metadata is kept under ``start_`` keys, ``seed`` and
-``members`` (and ``start_seed``, ``start_members``) count every file's networks.
+``members`` (and ``start_seed``, ``start_members``) count every file's networks, ``sources`` names
+every file's sources. ``FILE:SEEDS`` (``SEEDS`` like ``4-7`` or ``4,6``) takes only the networks of
+those seeds (the file's ``seed`` metadata, one seed per network) from that file's output: an ensemble
+keeps some of a committed file's networks and replaces the others.
+
+    .venv/bin/python scripts/combine_action.py --full NEW.onnx action.onnx:4-7 \
+        --start NEW_START.onnx action.onnx:4-7 --out pipeline/recognition/action.onnx
 """
 
 from __future__ import annotations
@@ -85,7 +91,56 @@ class Part:
     networks: list[Network]
 
 
-def _part(path: Path, as_start: bool) -> Part:
+def parse_seeds(text: str) -> tuple[int, ...]:
+    """``4-7`` or ``4,6`` (or both: ``0-1,6``) as seeds; ValueError for anything else."""
+    seeds: list[int] = []
+    for item in text.split(","):
+        lo, dash, hi = item.partition("-")
+        if not lo.isdigit() or (dash and not hi.isdigit()):
+            raise ValueError(f"seeds are like 4-7 or 4,6, got {text!r}")
+        first, last = int(lo), int(hi) if dash else int(lo)
+        if last < first:
+            raise ValueError(f"seeds are like 4-7 or 4,6, got {text!r}")
+        seeds += range(first, last + 1)
+    if len(set(seeds)) != len(seeds):
+        raise ValueError(f"a seed is named twice in {text!r}")
+    return tuple(seeds)
+
+
+def split_spec(text: str) -> tuple[Path, tuple[int, ...] | None]:
+    """``FILE`` or ``FILE:SEEDS`` as (path, seeds or None)."""
+    head, sep, tail = text.rpartition(":")
+    if sep and tail and all(c.isdigit() or c in ",-" for c in tail):
+        return Path(head), parse_seeds(tail)
+    return Path(text), None
+
+
+def _subset(part: Part, seeds: tuple[int, ...]) -> Part:
+    """The networks of ``seeds`` alone, as a one-output file of their own (the reference that the
+    joined model is checked against)."""
+    have = part.meta.get("seed", "").split(",")
+    if len(have) != len(part.networks):
+        raise ValueError(
+            f"{part.path.name} names {len(have)} seeds for {len(part.networks)} networks: "
+            "its networks cannot be chosen by seed"
+        )
+    missing = [s for s in seeds if str(s) not in have]
+    if missing:
+        raise ValueError(
+            f"{part.path.name} has no network of seed {missing[0]} (its seeds: {','.join(have)})"
+        )
+    chosen = [part.networks[have.index(str(s))] for s in seeds]
+    meta = dict(part.meta, seed=",".join(map(str, seeds)), members=str(len(seeds)))
+    proto = fused_model(part.proto, [("probs", chosen, None)], meta, share=False)
+    return Part(part.path, proto, "probs", meta, chosen)
+
+
+def _part(path: Path, as_start: bool, seeds: tuple[int, ...] | None = None) -> Part:
+    part = _whole_part(path, as_start)
+    return part if seeds is None else _subset(part, seeds)
+
+
+def _whole_part(path: Path, as_start: bool) -> Part:
     proto = _load(path)
     meta = metadata(proto)
     outputs = [o.name for o in proto.graph.output]
@@ -132,6 +187,9 @@ def _joined(parts: list[Part], role: str, allowed: tuple[str, ...]) -> dict[str,
     meta["members"] = str(sum(len(p.networks) for p in parts))
     if all("seed" in p.meta for p in parts):
         meta["seed"] = ",".join(p.meta["seed"] for p in parts)
+    if all("sources" in p.meta for p in parts):
+        names = [n for p in parts for n in p.meta["sources"].split(",")]
+        meta["sources"] = ",".join(dict.fromkeys(names))
     return meta
 
 
@@ -152,14 +210,21 @@ def _reference(parts: list[Part], scale: np.ndarray | None, x: np.ndarray) -> np
     return total / total.sum(axis=1, keepdims=True)
 
 
-def combine(full_paths: list[Path], start_paths: list[Path], out: Path) -> float:
+Spec = tuple[Path, tuple[int, ...] | None]
+
+
+def combine(full_paths: list[Path] | list[Spec], start_paths: list[Path] | list[Spec], out: Path) -> float:
     """Write the FULL files' networks as output ``probs`` and the START files' as ``start_probs``,
-    grouped; the largest difference from the files' own outputs. ValueError if they do not fit
-    together, one is no ONNX model or the joined model would differ from them."""
+    grouped; the largest difference from the files' own outputs. A file may come with the seeds of
+    the networks to take from it (``(path, seeds)``). ValueError if they do not fit together, one is
+    no ONNX model, a seed is not in its file or the joined model would differ from them."""
     import onnx
 
-    full = [_part(p, as_start=False) for p in full_paths]
-    start = [_part(p, as_start=True) for p in start_paths]
+    def spec(item: Path | Spec) -> Spec:
+        return item if isinstance(item, tuple) else (item, None)
+
+    full = [_part(p, False, seeds) for p, seeds in map(spec, full_paths)]
+    start = [_part(p, True, seeds) for p, seeds in map(spec, start_paths)]
     mf = _joined(full, "full", (FEATURES_V2,))
     ms = _joined(start, "start", (FEATURES_V2, FEATURES_V3))
     for key in _SHARED:
@@ -203,16 +268,25 @@ def _session(proto: Any) -> Any:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--full", type=Path, nargs="+", required=True, help="the full-body models (features v2)")
-    ap.add_argument("--start", type=Path, nargs="+", required=True, help="the start head's models (v2 or v3)")
+    ap.add_argument(
+        "--full", nargs="+", required=True, help="the full-body models (features v2): FILE or FILE:SEEDS"
+    )
+    ap.add_argument(
+        "--start", nargs="+", required=True, help="the start head's models (v2 or v3): FILE or FILE:SEEDS"
+    )
     ap.add_argument("--out", type=Path, required=True)
     args = ap.parse_args(argv)
-    for p in (*args.full, *args.start):
+    try:
+        full, start = [split_spec(t) for t in args.full], [split_spec(t) for t in args.start]
+    except ValueError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    for p, _ in (*full, *start):
         if not p.is_file():
             print(f"error: no such model: {p}", file=sys.stderr)
             return 2
     try:
-        diff = combine(args.full, args.start, args.out)
+        diff = combine(full, start, args.out)
     except (ValueError, OSError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

@@ -307,3 +307,69 @@ def test_a_towers_entry_that_does_not_name_the_output_is_an_error() -> None:
         entry.value = value
         with pytest.raises(ValueError, match=message):
             read_networks(proto, "start_probs")
+
+
+def test_networks_chosen_by_seed_join_back_into_the_same_file(tmp_path: Path) -> None:
+    """``FILE:SEEDS`` takes only those networks of a file's output: the committed file's networks split
+    in two by seed and joined again are the committed file byte for byte, and one network alone is
+    that network (its seed, its weights)."""
+    from pipeline.recognition.networks import read_networks
+
+    path = DEFAULT_MODEL_PATH
+    meta = {p.key: p.value for p in onnx.load(str(path)).metadata_props}
+    seeds, start_seeds = meta["seed"].split(","), meta["start_seed"].split(",")
+    half, start_half = len(seeds) // 2, len(start_seeds) // 2
+    out = tmp_path / "again.onnx"
+    first, second = ",".join(seeds[:half]), ",".join(seeds[half:])
+    start_first, start_second = ",".join(start_seeds[:start_half]), ",".join(start_seeds[start_half:])
+    done = _combine_in_process(
+        "--full", f"{path}:{first}", f"{path}:{second}",
+        "--start", f"{path}:{start_first}", f"{path}:{start_second}",
+        "--out", out,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    assert out.read_bytes() == path.read_bytes(), "split by seed and joined: the same file"
+
+    one = tmp_path / "one.onnx"
+    done = _combine_in_process(
+        "--full", f"{path}:{seeds[-1]}", "--start", f"{path}:{start_seeds[0]}", "--out", one
+    )
+    assert done.returncode == 0, done.stderr
+    proto = onnx.load(str(one))
+    got = {p.key: p.value for p in proto.metadata_props}
+    assert (got["seed"], got["members"], got["start_seed"], got["start_members"]) == (
+        seeds[-1],
+        "1",
+        start_seeds[0],
+        "1",
+    )
+    committed = onnx.load(str(path))
+    for output, index in (("probs", -1), ("start_probs", 0)):
+        (net,) = read_networks(proto, output)
+        want = read_networks(committed, output)[index]
+        for (wa, ba), (wb, bb) in zip(net.convs, want.convs, strict=True):
+            np.testing.assert_array_equal(wa, wb)
+            np.testing.assert_array_equal(ba, bb)
+        np.testing.assert_array_equal(net.head[0], want.head[0])
+
+
+@pytest.mark.parametrize(
+    ("spec", "message"),
+    [
+        (":99", "has no network of seed 99"),
+        (":7-4", "seeds are like 4-7 or 4,6, got '7-4'"),
+        (":4,4", "a seed is named twice in '4,4'"),
+        (":-4", "seeds are like 4-7 or 4,6, got '-4'"),
+        (":x", "no such model"),
+    ],
+)
+def test_a_seed_that_is_not_in_its_file_is_one_error(spec: str, message: str, tmp_path: Path) -> None:
+    out = tmp_path / "x.onnx"
+    done = _combine_in_process(
+        "--full", f"{DEFAULT_MODEL_PATH}{spec}", "--start", DEFAULT_MODEL_PATH, "--out", out
+    )
+    assert done.returncode == 2 and done.stderr.startswith("error: ") and done.stderr.count("\n") == 1, (
+        done.stderr
+    )
+    assert message in done.stderr, done.stderr
+    assert not out.exists()
