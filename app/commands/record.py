@@ -18,6 +18,7 @@ from app.core.config import Settings, get_settings
 from app.db.engine import make_engine, make_session_factory
 from app.db.migrate import prepare_database
 from app.db.take_repository import create_take, finish_take_row, take_by_uid
+from app.services.backup import backup_before_upgrade
 from app.services.pipeline_factory import build_pipeline, simulator_factory
 from app.services.recorder import model_identity, settings_snapshot
 from app.services.storage import DiskFull, StorageWatch
@@ -378,6 +379,7 @@ def record_cmd(
         disk = StorageWatch({"take": out, "database": index_db}, settings.storage)
         if (state := disk.check())["level"] == "full":
             raise DiskFull(f"the take refused: {state['message']}")
+        backup_before_upgrade(index_db, settings.backup)  # an older cavewalk's database: copied first
         _check_index(index_db, out.name)
         manifest, disk_full = _record_local(
             settings,

@@ -15,6 +15,7 @@ from app.core.config import Settings
 from app.db.engine import make_engine, make_session_factory
 from app.db.errors import RecordNotFound, StateConflict
 from app.db.migrate import prepare_database, upgrade
+from app.services.backup import backup_before_upgrade
 from app.services.event_log import EventWriter
 from app.services.models import ModelService
 from pipeline.errors import CavewalkError, ConfigError
@@ -27,6 +28,7 @@ def open_registry(settings: Settings, db: Path | None = None) -> Iterator[ModelS
     if path.exists() and path.is_dir():
         raise ConfigError(f"--db {path} is a folder, not a database file")
     path.parent.mkdir(parents=True, exist_ok=True)
+    backup_before_upgrade(path, settings.backup)  # an older cavewalk's database: copied first
     prepare_database(path)
     if db is not None:
         settings = settings.model_copy(update={"paths": settings.paths.model_copy(update={"db": path})})

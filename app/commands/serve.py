@@ -16,6 +16,7 @@ from app.core.config import get_settings, load_settings, parse_endpoint, set_set
 from app.db.engine import DatabaseLock
 from app.db.migrate import prepare_database
 from app.main import create_app, operator_token
+from app.services.backup import backup_before_upgrade
 from pipeline.errors import ConfigError, InputError
 from pipeline.runtime.logfile import log_to_file
 from pipeline.runtime.stream import check_seq_file
@@ -104,12 +105,13 @@ def run_server(
         except OSError as exc:
             raise ConfigError(f"the stream's seq file {seq_file} cannot be written: "
                               f"{exc.strerror or exc} (set emitter.seq_file)") from None
-        prepare_database(paths.db)  # a database that cannot be used ends here with one message
-        try:
+        try:  # first: the backup and migration lines below go into the file too
             log_file = log_to_file(log, rotate=True)  # this process's log, and the workers' (runtime.log)
         except OSError as exc:
             raise ConfigError(f"the log file {log.path} cannot be written: {exc.strerror or exc} "
                               "(set runtime.log.path, or runtime.log.enabled = false)") from None
+        backup_before_upgrade(paths.db, settings.backup)  # an older cavewalk's database: copied first
+        prepare_database(paths.db)  # a database that cannot be used ends here with one message
     except BaseException:
         lock.release()
         raise

@@ -11,6 +11,7 @@ import typer
 from app.core.config import get_settings
 from app.db.engine import connect_read_only, make_engine, make_session_factory, table_names
 from app.db.migrate import upgrade
+from app.services.backup import backup_before_upgrade
 from app.study.data import load_study
 from app.study.report import write_report
 from app.study.summary import session_rows
@@ -45,6 +46,7 @@ def report(
     tables = _table_names(path)  # read-only: a rejected file is left exactly as it was
     if "participants" not in tables:
         raise InputError(f"{path} is not a cavewalk database (no participants table)")
+    backup_before_upgrade(path, settings.backup)  # an older cavewalk's database: copied first
     engine = make_engine(path)
     try:
         upgrade(engine)  # an older database is read as the app would: migrated in place first

@@ -3,7 +3,10 @@
 - **At start**: when a migration is due, before it (reason ``before-upgrade``; the server does not
   start when that copy cannot be made); otherwise soon after start (``start``, from the backup
   thread), unless the database holds the same rows as its newest backup (the last server stopped
-  cleanly; a killed one left rows no backup holds).
+  cleanly; a killed one left rows no backup holds). Every command that migrates a database makes
+  the ``before-upgrade`` copy first (:func:`backup_before_upgrade`: ``serve`` and ``demo`` before
+  their own migration, the model registry's commands, ``study report``, ``record``); a newer
+  cavewalk's database is not copied (nothing here migrates it).
 - **When a study session ends** (its run time is over or the operator stopped it), with the
   session's events flushed first (``session-end``).
 - **Every** ``interval_min`` while the data changes (``auto``), and **at stop** when it changed
@@ -35,12 +38,26 @@ from app.db.backup import (
     prune_backups,
 )
 from app.db.errors import StateConflict
-from app.db.migrate import head_revision
+from app.db.migrate import head_revision, known_revisions
 from app.services.event_log import EventWriter
 from app.services.storage import StorageWatch, existing_folder
 from pipeline.errors import ConfigError
 
 log = logging.getLogger(__name__)
+
+
+def backup_before_upgrade(db_path: Path, settings: BackupSettings) -> BackupInfo | None:
+    """What a command that migrates a database does first: the ``before-upgrade`` backup when a
+    migration is due (:meth:`BackupService.before_upgrade`; ConfigError when the copy cannot be made,
+    and nothing may be migrated then)."""
+    return BackupService(db_path, settings).before_upgrade()
+
+
+def _migration_due(revision: str | None) -> bool:
+    """A database at ``revision`` is an older cavewalk's (None: an empty revision table): this code
+    migrates it. Another unknown revision is a newer cavewalk's, which nothing here migrates (the
+    migration refuses it, and nothing is copied for it)."""
+    return revision != head_revision() and (revision is None or revision in known_revisions())
 
 
 def _signature(db_path: Path) -> tuple[int, ...]:
@@ -75,26 +92,26 @@ class BackupService:
         self.last_error: str | None = None
 
     # -- at start, before the migrations -----------------------------------------------------
+    def before_upgrade(self) -> BackupInfo | None:
+        """The ``before-upgrade`` backup when a migration is due (returned; ConfigError when it cannot
+        be made: the caller migrates nothing then). None when backups are off, the file is new or
+        empty, already at this code's revision, or no cavewalk database (the migration says so)."""
+        fingerprint = self._fingerprint(quiet=True)
+        if fingerprint is None or not _migration_due(fingerprint[0]):
+            return None
+        return self._upgrade_backup()
+
     def before_start(self) -> BackupInfo | None:
         """Before the migrations: the ``before-upgrade`` backup when one is due (returned;
         ConfigError when it cannot be made). Otherwise a ``start`` backup is queued for the backup
         thread, unless the database holds the same rows as its newest backup (cheap: row counts and
         the newest row of each table, :func:`~app.db.backup.content_fingerprint`)."""
-        if not self.settings.enabled or not self.db_path.is_file() or self.db_path.stat().st_size == 0:
+        fingerprint = self._fingerprint(quiet=False)
+        if fingerprint is None:
             return None
-        try:
-            revision, now = content_fingerprint(self.db_path)
-        except BackupError as exc:  # not a cavewalk database, or damaged: the migration says so
-            log.warning("no start backup: %s", exc)
-            return None
-        if revision != head_revision():
-            try:
-                return self._backup("before-upgrade")
-            except BackupError as exc:
-                raise ConfigError(
-                    f"the database needs a migration and could not be backed up first: {exc}; "
-                    "free the backup folder (backup.folder) or back it up by hand"
-                ) from exc
+        revision, now = fingerprint
+        if _migration_due(revision):
+            return self._upgrade_backup()
         newest = list_backups(self.folder, self.db_path)
         if newest:
             try:
@@ -191,6 +208,27 @@ class BackupService:
             return self._backup(reason)
         except BackupError:
             return None  # logged, recorded and shown by _backup
+
+    def _fingerprint(self, quiet: bool) -> tuple[str | None, tuple[tuple[str, int, int], ...]] | None:
+        """The database's :func:`~app.db.backup.content_fingerprint`; None when backups are off, the
+        file is new or empty, or it cannot be read as a cavewalk database (logged unless ``quiet``)."""
+        if not self.settings.enabled or not self.db_path.is_file() or self.db_path.stat().st_size == 0:
+            return None
+        try:
+            return content_fingerprint(self.db_path)
+        except BackupError as exc:  # not a cavewalk database, or damaged: the migration says so
+            if not quiet:
+                log.warning("no start backup: %s", exc)
+            return None
+
+    def _upgrade_backup(self) -> BackupInfo:
+        try:
+            return self._backup("before-upgrade")
+        except BackupError as exc:
+            raise ConfigError(
+                f"the database needs a migration and could not be backed up first: {exc}; "
+                "free the backup folder (backup.folder) or back it up by hand"
+            ) from exc
 
     def _backup(self, reason: str) -> BackupInfo:
         with self._lock:

@@ -411,3 +411,33 @@ def test_the_backups_say_whether_they_share_the_database_s_disk(tmp_path: Path) 
         import shutil
 
         shutil.rmtree(folder, ignore_errors=True)
+
+
+@pytest.mark.parametrize(
+    "command",
+    [
+        ["models", "list"],  # the model registry's commands (models, train, evaluate --db)
+        ["study", "report", "--out", "{tmp}/report"],
+    ],
+    ids=["models list", "study report"],
+)
+def test_a_command_that_migrates_an_older_database_backs_it_up_first(
+    command: list[str], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Not only the server: every command that migrates a database makes the ``before-upgrade`` copy
+    at the old revision first (``cavewalk serve``: tests/app/test_serve_cli.py)."""
+    db = tmp_path / "study.db"
+    engine = make_engine(db)
+    upgrade(engine, "0001_initial")  # a database an older cavewalk left
+    engine.dispose()
+    _write(db, "INSERT INTO participants (code, notes, created_at) VALUES ('P01', '', '2026-12-01')")
+    args = [a.replace("{tmp}", str(tmp_path)) for a in command]
+    assert run_cli([*args, "--db", str(db)], monkeypatch) == 0
+    (before,) = list_backups(tmp_path / "backups", db)
+    assert before.reason == "before-upgrade" and inspect_database(before.path)[0] == "0001_initial"
+    con = sqlite3.connect(before.path)
+    assert con.execute("SELECT code FROM participants").fetchall() == [("P01",)]
+    con.close()
+    assert inspect_database(db)[0] == head_revision(), "then migrated"
+    assert run_cli([*args, "--db", str(db)], monkeypatch) == 0
+    assert len(list_backups(tmp_path / "backups", db)) == 1, "no copy when no migration is due"

@@ -98,6 +98,29 @@ def test_record_refuses_a_name_the_index_already_has(
     assert not (tmp_path / "take").exists() and db.read_bytes() == before
 
 
+def test_record_backs_up_an_older_index_before_it_migrates_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """An index an older cavewalk left (revision 0004): the ``before-upgrade`` copy is made before the
+    migration, whatever the command then decides (here: the name is taken)."""
+    from app.db.backup import inspect_database, list_backups
+    from app.db.migrate import head_revision, upgrade
+
+    db = tmp_path / "index.db"
+    engine = make_engine(db)
+    upgrade(engine, "0004_takes")
+    with make_session_factory(engine)() as session:
+        create_take(session, uid="take", folder=str(tmp_path / "elsewhere"), status="complete", files={})
+    engine.dispose()
+    code = run_cli(
+        ["record", "--out", str(tmp_path / "take"), "--duration", "1", "--db", str(db)], monkeypatch
+    )
+    assert code == 2 and "already has a take 'take'" in capsys.readouterr().err
+    (before,) = list_backups(tmp_path / "backups", db)
+    assert before.reason == "before-upgrade" and inspect_database(before.path)[0] == "0004_takes"
+    assert inspect_database(db)[0] == head_revision()
+
+
 def test_record_refuses_to_start_on_a_full_disk_and_writes_nothing(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:

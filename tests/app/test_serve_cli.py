@@ -175,6 +175,90 @@ def test_a_database_that_cannot_serve_is_one_message_and_left_unchanged(
     assert isinstance(result.exception, CavewalkError), result.output
     assert match in str(result.exception) and str(db) in str(result.exception)
     assert db.read_bytes() == before, "a refused database is not touched"
+    assert not (tmp_path / "backups").exists(), "nor copied: a newer cavewalk's database is no upgrade"
+
+
+def _older_database(tmp_path: Path) -> Path:
+    """A database an older cavewalk left (its first revision) with a participant in it."""
+    import sqlite3
+
+    from app.db.engine import make_engine
+    from app.db.migrate import upgrade
+
+    db = tmp_path / "study.db"
+    engine = make_engine(db)
+    upgrade(engine, "0001_initial")
+    engine.dispose()
+    con = sqlite3.connect(db)
+    con.execute("INSERT INTO participants (code, notes, created_at) VALUES ('P01', '', '2026-12-01')")
+    con.commit()
+    con.close()
+    return db
+
+
+@pytest.mark.slow
+def test_serve_backs_up_an_older_database_before_it_migrates_it_and_logs_both(tmp_path: Path) -> None:
+    """`cavewalk serve` on an older cavewalk's database: a ``before-upgrade`` copy at the old revision,
+    holding its rows, is made before the migration, and the log file has both lines in that order
+    (the command used to migrate before the app's own start backup could run, so no copy of the old
+    database was made, and its migration line was not in the log file)."""
+    import sqlite3
+
+    from app.db.backup import inspect_database, list_backups
+    from app.db.migrate import head_revision
+
+    db = _older_database(tmp_path)
+    port = free_port()
+    cmd = [sys.executable, "-m", "app.cli", "serve", "--db", str(db), "--port", str(port),
+           "--viser-port", str(free_port())]
+    server = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        def answers() -> bool:
+            with socket.socket() as s:
+                return s.connect_ex(("127.0.0.1", port)) == 0
+
+        wait_until(answers, "the server answering on its port")
+    finally:
+        server.send_signal(signal.SIGINT)
+        _out, err = server.communicate(timeout=60)
+    assert server.returncode == 0, err
+    backups = {b.reason: b for b in list_backups(tmp_path / "backups", db)}
+    before = backups["before-upgrade"]
+    assert inspect_database(before.path)[0] == "0001_initial"
+    con = sqlite3.connect(before.path)
+    assert con.execute("SELECT code FROM participants").fetchall() == [("P01",)]
+    con.close()
+    assert inspect_database(db)[0] == head_revision()
+    lines = (tmp_path / "logs" / "cavewalk.log").read_text(encoding="utf-8").splitlines()
+    copied = next(i for i, x in enumerate(lines) if "database backed up (before-upgrade)" in x)
+    migration = f"database migrated from 0001_initial to {head_revision()}"
+    migrated = next(i for i, x in enumerate(lines) if migration in x)
+    assert copied < migrated, lines[:5]
+
+
+def test_serve_does_not_migrate_an_older_database_it_cannot_back_up_first(tmp_path: Path) -> None:
+    """The backup folder is a file: one message, and the older database is left as it was."""
+    from app.db.backup import inspect_database
+
+    db = _older_database(tmp_path)
+    before = db.read_bytes()
+    (tmp_path / "not-a-folder").write_text("a file where the backups should go\n")
+    cmd = [sys.executable, "-m", "app.cli", "serve", "--db", str(db), "--port", str(free_port()),
+           "--viser-port", str(free_port())]
+    env = {**os.environ, "CAVEWALK_BACKUP__FOLDER": str(tmp_path / "not-a-folder")}
+    server = subprocess.Popen(
+        cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env
+    )
+    try:
+        _out, err = server.communicate(timeout=60)
+    except subprocess.TimeoutExpired:  # it started: it migrated without a copy
+        server.send_signal(signal.SIGINT)
+        server.communicate(timeout=60)
+        pytest.fail("the server started on a database it could not back up before its migration")
+    assert server.returncode == 2 and "Traceback" not in err, err
+    last = err.strip().splitlines()[-1]
+    assert last.startswith("error: the database needs a migration and could not be backed up first"), err
+    assert db.read_bytes() == before and inspect_database(db)[0] == "0001_initial", "not migrated"
 
 
 @pytest.mark.slow
