@@ -213,18 +213,16 @@ def _reference(parts: list[Part], scale: np.ndarray | None, x: np.ndarray) -> np
 Spec = tuple[Path, tuple[int, ...] | None]
 
 
-def combine(full_paths: list[Path] | list[Spec], start_paths: list[Path] | list[Spec], out: Path) -> float:
+def combine(full_specs: list[Spec], start_specs: list[Spec], out: Path) -> float:
     """Write the FULL files' networks as output ``probs`` and the START files' as ``start_probs``,
-    grouped; the largest difference from the files' own outputs. A file may come with the seeds of
-    the networks to take from it (``(path, seeds)``). ValueError if they do not fit together, one is
-    no ONNX model, a seed is not in its file or the joined model would differ from them."""
+    grouped; the largest difference from the files' own outputs. Each file comes with the seeds of
+    the networks to take from it, or None for all (:func:`split_spec`). ValueError if they do not
+    fit together, one is no ONNX model, a seed is not in its file or the joined model would differ
+    from them."""
     import onnx
 
-    def spec(item: Path | Spec) -> Spec:
-        return item if isinstance(item, tuple) else (item, None)
-
-    full = [_part(p, False, seeds) for p, seeds in map(spec, full_paths)]
-    start = [_part(p, True, seeds) for p, seeds in map(spec, start_paths)]
+    full = [_part(p, False, seeds) for p, seeds in full_specs]
+    start = [_part(p, True, seeds) for p, seeds in start_specs]
     mf = _joined(full, "full", (FEATURES_V2,))
     ms = _joined(start, "start", (FEATURES_V2, FEATURES_V3))
     for key in _SHARED:
