@@ -20,6 +20,23 @@ from tests.waiting import GENEROUS_S, HTTP_TIMEOUT_S, free_port, wait_until
 TESTCLIENT_HOST = "testserver"
 
 
+def older_database(db: Path) -> Path:
+    """At ``db``, a database an older cavewalk left (the first revision) with participant P01 in it."""
+    import sqlite3
+
+    from app.db.engine import make_engine
+    from app.db.migrate import upgrade
+
+    engine = make_engine(db)
+    upgrade(engine, "0001_initial")
+    engine.dispose()
+    con = sqlite3.connect(db)
+    with con:
+        con.execute("INSERT INTO participants (code, notes, created_at) VALUES ('P01', '', '2026-12-01')")
+    con.close()
+    return db
+
+
 def make_settings(tmp_path: Path, *, viser: bool = False, **server: object) -> Settings:
     """Settings with the database in ``tmp_path``, free ports, and the TestClient's Host allowed."""
     base = load_settings()

@@ -32,7 +32,7 @@ from app.db.engine import lock_path, make_engine
 from app.db.migrate import head_revision, prepare_database, upgrade
 from app.main import create_app
 from pipeline.errors import ConfigError
-from tests.app.conftest import make_settings
+from tests.app.conftest import make_settings, older_database
 from tests.app.test_cli_errors import run_cli
 from tests.waiting import wait_until
 
@@ -307,11 +307,7 @@ def test_the_server_backs_up_before_a_migration_at_a_session_end_at_stop_and_aft
     tmp_path: Path,
 ) -> None:
     settings = make_settings(tmp_path)
-    db = settings.paths.db
-    engine = make_engine(db)
-    upgrade(engine, "0001_initial")  # a database an older cavewalk left
-    engine.dispose()
-    _write(db, "INSERT INTO participants (code, notes, created_at) VALUES ('P01', '', '2026-12-01')")
+    db = older_database(settings.paths.db)
     with TestClient(create_app(settings, pipeline_factory=None)) as c:
         (before,) = list_backups(db.parent / "backups", db)
         assert before.reason == "before-upgrade" and inspect_database(before.path)[0] == "0001_initial"
@@ -426,11 +422,7 @@ def test_a_command_that_migrates_an_older_database_backs_it_up_first(
 ) -> None:
     """Not only the server: every command that migrates a database makes the ``before-upgrade`` copy
     at the old revision first (``cavewalk serve``: tests/app/test_serve_cli.py)."""
-    db = tmp_path / "study.db"
-    engine = make_engine(db)
-    upgrade(engine, "0001_initial")  # a database an older cavewalk left
-    engine.dispose()
-    _write(db, "INSERT INTO participants (code, notes, created_at) VALUES ('P01', '', '2026-12-01')")
+    db = older_database(tmp_path / "study.db")
     args = [a.replace("{tmp}", str(tmp_path)) for a in command]
     assert run_cli([*args, "--db", str(db)], monkeypatch) == 0
     (before,) = list_backups(tmp_path / "backups", db)

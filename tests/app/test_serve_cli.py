@@ -18,6 +18,7 @@ from typer.testing import CliRunner
 
 from app.cli import cli
 from pipeline.errors import CavewalkError
+from tests.app.conftest import older_database
 from tests.datagrams import DatagramRecorder
 from tests.waiting import free_port, wait_until
 
@@ -178,24 +179,6 @@ def test_a_database_that_cannot_serve_is_one_message_and_left_unchanged(
     assert not (tmp_path / "backups").exists(), "nor copied: a newer cavewalk's database is no upgrade"
 
 
-def _older_database(tmp_path: Path) -> Path:
-    """A database an older cavewalk left (its first revision) with a participant in it."""
-    import sqlite3
-
-    from app.db.engine import make_engine
-    from app.db.migrate import upgrade
-
-    db = tmp_path / "study.db"
-    engine = make_engine(db)
-    upgrade(engine, "0001_initial")
-    engine.dispose()
-    con = sqlite3.connect(db)
-    con.execute("INSERT INTO participants (code, notes, created_at) VALUES ('P01', '', '2026-12-01')")
-    con.commit()
-    con.close()
-    return db
-
-
 @pytest.mark.slow
 def test_serve_backs_up_an_older_database_before_it_migrates_it_and_logs_both(tmp_path: Path) -> None:
     """`cavewalk serve` on an older cavewalk's database: a ``before-upgrade`` copy at the old revision,
@@ -207,7 +190,7 @@ def test_serve_backs_up_an_older_database_before_it_migrates_it_and_logs_both(tm
     from app.db.backup import inspect_database, list_backups
     from app.db.migrate import head_revision
 
-    db = _older_database(tmp_path)
+    db = older_database(tmp_path / "study.db")
     port = free_port()
     cmd = [sys.executable, "-m", "app.cli", "serve", "--db", str(db), "--port", str(port),
            "--viser-port", str(free_port())]
@@ -240,7 +223,7 @@ def test_serve_does_not_migrate_an_older_database_it_cannot_back_up_first(tmp_pa
     """The backup folder is a file: one message, and the older database is left as it was."""
     from app.db.backup import inspect_database
 
-    db = _older_database(tmp_path)
+    db = older_database(tmp_path / "study.db")
     before = db.read_bytes()
     (tmp_path / "not-a-folder").write_text("a file where the backups should go\n")
     cmd = [sys.executable, "-m", "app.cli", "serve", "--db", str(db), "--port", str(free_port()),
