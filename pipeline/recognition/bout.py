@@ -8,7 +8,10 @@ What a user expects (MODEL_CARD.md, "Behaviour"):
   ``rise_wait_s`` after the lift and ``rise_lead_m`` lower: a walker's stance foot rolling over; or
   swinging since well before: running, if it lifted at most ``run_swing_s`` before or the
   full-body network's p(still) is at most ``run_still_prob``; feet both off contact for longer while
-  the network is unsure slide or shuffle, as in dance footwork, and neither carries the body), while
+  the network is unsure slide or shuffle, as in dance footwork, and neither carries the body); a swing
+  that lifted off while the other foot was up in the air (its swing begun well before and risen
+  ``start_air_m``: a kick's stance foot sliding, the feet jumping or sliding apart into a wide stance)
+  starts no bout unless the network sees a run (p(still) at most ``run_still_prob``), while
   the body is not crouched and not turning on the spot (``start_turn_deg`` within ``turn_window_s``
   while the foot has moved less than ``start_travel_m`` forward or back), and the network agreeing
   that it is movement (its smoothed probability of moving at least ``start_prob`` at some moment of
@@ -260,6 +263,12 @@ class GateConfig:
     # the feet back together and starts no bout, whichever judge speaks (0: off)
     kneel_quiet_s: float = 1.5
     kneel_split_m: float = 0.25
+    # a swing that lifted off while the other foot was up in the air (its swing begun before, not
+    # landed, and risen start_air_m) starts no bout: both feet moving at once is no step of a standing
+    # person's (a kick's stance foot sliding as the leg comes down, the feet jumping or sliding apart
+    # into a wide stance); a run's overlapping steps go on only within a bout; a foot that only slides
+    # (a treadmill's belt under the stance foot) is not up (inf: off)
+    start_air_m: float = 0.03
 
     def __post_init__(self) -> None:
         if self.rhythm not in RHYTHMS:
@@ -307,7 +316,10 @@ class GateConfig:
                 f"min_allowance_s ({self.min_allowance_s}) must not exceed "
                 f"max_allowance_s ({self.max_allowance_s})"
             )
-        names = ("slide_step_m", "way_back_m", "start_quiet_deg", "rise_wait_s", "jump_air_s", "run_swing_s")
+        names = (
+            "slide_step_m", "way_back_m", "start_quiet_deg", "rise_wait_s", "jump_air_s", "run_swing_s",
+            "start_air_m",
+        )  # fmt: skip
         for name in names:
             if not getattr(self, name) >= 0:
                 raise ValueError(f"{name} must be >= 0 (inf: never), got {getattr(self, name)}")
@@ -409,6 +421,7 @@ class BoutGate:
         self._active = False
         self._label = _STILL
         self._swing_lift = [math.nan, math.nan]  # lift-off time of each foot's current swing
+        self._lift_in_air = [False, False]  # each foot's current swing lifted while the other was up
         self._swing_maxp = [0.0, 0.0]  # highest network p(moving) during it
         self._intervals: deque[float] = deque(maxlen=3)  # the person's last lift-off to lift-off times
         self._last_lift_t = math.nan
@@ -727,6 +740,11 @@ class BoutGate:
                 self._last_lift_t = f.event_t
                 if self._active:
                     self._side_t = f.event_t
+                other_lift = self._swing_lift[1 - k]  # NaN: the other foot's last swing has landed
+                self._lift_in_air[k] = (
+                    not frame.feet[1 - k].planted and other_lift < f.event_t - 0.1  # well before: no jump
+                    and self._swing_top[1 - k] >= c.start_air_m
+                )  # fmt: skip
                 self._swing_lift[k], self._swing_maxp[k] = f.event_t, p_move
                 self._out_lift[k] = self._out_to_side(k)
                 self._lift_yaw[k] = frame.yaw_deg
@@ -822,6 +840,8 @@ class BoutGate:
         if pivot or first_turned:
             return self._end("pivot", ev_name)
         if not self._active:
+            if p_full_still > c.run_still_prob:  # unless the full-body network sees a run
+                stepping = [k for k in stepping if not self._lift_in_air[k]]
             turning_in_place = (
                 not marching
                 and turned >= c.start_turn_deg

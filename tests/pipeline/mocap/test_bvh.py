@@ -178,3 +178,28 @@ def test_the_committed_real_clips_convert_to_standing_people() -> None:
             labels = np.asarray(seq.labels)
             assert 6.5 < travel < 7.5 and 0.6 < np.mean(labels == "forward") < 0.9
             assert "turn" in (seq.tags or ())
+
+
+def test_the_committed_cmu_131_clips_convert_to_people_who_walk_and_stand() -> None:
+    """bvh11's three CMU subject-131 clips (the cgspeed conversion's skeleton, +Y up, inches) become
+    1.70 m people on the floor, left on the left; each begins and ends standing still; the two walks
+    carry forward labels over 1.7-2.7 m of travel, and the hops are ignored, never scored."""
+    specs = {c.id: c for c in load_catalogue() if c.package == "bvh11"}
+    assert set(specs) == {"cmu-131-01-walk-stop", "cmu-131-02-walk-stop", "cmu-131-03-hop-stop"}
+    files = vendored_members(PACKAGES["bvh11"], sorted(c.path for c in specs.values()))
+    for spec in specs.values():
+        seq = convert_bvh(files[spec.path].decode("latin-1"), spec)
+        j = seq.joints_m
+        assert seq.fps == 30.0 and np.isfinite(j).all()
+        assert 1.55 < np.percentile(j[:, J["nose"], 2], 90) < 1.70, spec.id
+        across = j[:, J["l_hip"], :2] - j[:, J["r_hip"], :2]
+        facing = j[:, J["nose"], :2] - 0.5 * (j[:, J["l_ear"], :2] + j[:, J["r_ear"], :2])
+        assert np.median(facing[:, 0] * across[:, 1] - facing[:, 1] * across[:, 0]) > 0, spec.id
+        labels = np.asarray(seq.labels)
+        assert labels[0] == labels[-1] == "still", spec.id
+        walking = labels == "forward"
+        if spec.id == "cmu-131-03-hop-stop":
+            assert not walking.any() and "hop" in (seq.tags or ())
+        else:
+            pelvis = 0.5 * (j[walking, J["l_hip"], :2] + j[walking, J["r_hip"], :2])
+            assert 1.2 < np.linalg.norm(pelvis[-1] - pelvis[0]) < 3.0, spec.id

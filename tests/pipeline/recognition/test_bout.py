@@ -1129,3 +1129,28 @@ def test_the_low_rise_of_a_foot_out_to_the_side_is_its_way_back_not_a_march_step
         assert (labels[(t > 3.4) & (t < rise.t0)] == S).all(), "the bout ended in the pause"
         got = np.bincount(labels[after], minlength=4)
         assert got[want] == after.sum(), f"way_back_landing={config.way_back_landing}: {got}"
+
+
+def test_a_foot_sliding_out_while_the_other_leg_kicks_starts_no_bout() -> None:
+    """A kick with the right leg (raised 80 degrees), and while it is up the left foot slides 0.2-0.4 m
+    out to the side, flat on the floor, until after the kick has landed; then the person stands with
+    the feet apart (a real dancer's ending, CMU 131_02, `test_real_motion.py`). The slide lifted off
+    while the other foot was up in the air (``start_air_m``), so it starts no bout, with a network
+    sure of movement (p(still) 0.1); without the rule it started one that the pause held for more
+    than a second. A network sure of a run (p(still) at most ``run_still_prob``) may still start one:
+    a run's feet overlap in the air."""
+    kick_ = Swing(1, 1.0, 1.8, peak=0.05)
+    sure_run = np.array([0.02, 0.94, 0.02, 0.02])
+    for t0, lateral in ((1.3, -0.2), (1.4, -0.3), (1.5, -0.4)):
+        slide = Swing(0, t0, 2.4, lateral=lateral, peak=0.0)
+        joints, _ = render(Scene(4.5, (kick_, slide)))
+        joints = kick(joints, kick_, 80.0)
+        t = np.arange(len(joints)) / FPS
+        after = t > kick_.t1 + 0.2
+        labels = _gate_joints(joints, FWD)
+        without = _gate_joints(joints, FWD, GateConfig(start_air_m=INF))
+        assert (labels[after] == S).all(), f"slide at {t0} s: {(labels[after] != S).sum()} frames moving"
+        assert (without[after] != S).sum() / FPS > 1.0, "without the rule the slide starts a bout"
+        assert (_gate_joints(joints, sure_run)[after] != S).any(), "a network sure of a run starts one"
+    with pytest.raises(ValueError, match="start_air_m"):
+        GateConfig(start_air_m=-0.01)

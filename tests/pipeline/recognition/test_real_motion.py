@@ -1,9 +1,12 @@
 """The live recogniser on real people's motion capture that ships in the repository
-(facebookresearch/AnimatedDrawings' BVH clips, `pipeline/mocap/vendored/`; evaluation only, never
-trained on): gestures, jumps and a crouch never move the person, dance footwork hardly does, and
-a slow real walk is one command from its first step."""
+(facebookresearch/AnimatedDrawings' and yuki-koyama/bvh11's BVH clips, `pipeline/mocap/vendored/`;
+evaluation only, never trained on): gestures, jumps and a crouch never move the person, dance
+footwork hardly does, a slow real walk is one command from its first step, and standing after a
+real walk's kick, with the feet slid apart, is still."""
 
 from __future__ import annotations
+
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -17,13 +20,16 @@ pytestmark = pytest.mark.slow
 
 @pytest.fixture(scope="module")
 def clips() -> dict[str, SkeletonSequence]:
-    specs = [c for c in load_catalogue() if c.package == "animated-drawings"]
-    files = vendored_members(PACKAGES["animated-drawings"], [c.path for c in specs])
-    return {c.id: convert_bvh(files[c.path].decode("latin-1"), c) for c in specs}
+    out = {}
+    for package in ("animated-drawings", "bvh11"):
+        specs = [c for c in load_catalogue() if c.package == package]
+        files = vendored_members(PACKAGES[package], [c.path for c in specs])
+        out.update({c.id: convert_bvh(files[c.path].decode("latin-1"), c) for c in specs})
+    return out
 
 
-def _commands(seq: SkeletonSequence) -> np.ndarray:
-    rec = ActionRecognizer.from_config(RecognizerConfig())
+def _commands(seq: SkeletonSequence, config: RecognizerConfig | None = None) -> np.ndarray:
+    rec = ActionRecognizer.from_config(config or RecognizerConfig())
     return np.array([rec.update(j, i / seq.fps).label for i, j in enumerate(seq.joints_m)])
 
 
@@ -71,3 +77,25 @@ def test_a_real_slow_walk_is_one_command_from_its_first_step(clips: dict[str, Sk
     assert 0 <= (first_call - first_step) / seq.fps <= 0.1
     assert np.mean(got[walking] == "forward") >= 0.9
     assert not np.any(np.isin(got[walking], ["left", "right"]))
+
+
+def test_standing_after_a_real_walk_that_ends_in_a_kick_and_a_wide_stance_is_still(
+    clips: dict[str, SkeletonSequence],
+) -> None:
+    """CMU 131_02 ("Start Walk Stop", a stylised strut): the walk is forward in every scored frame;
+    at its end the right leg kicks forward (0.6 m high) and, while it is still up, the left foot
+    slides 0.2 m out to the side; the kick lands with the feet 0.54 m apart and the person stands.
+    That slide lifted off while the other foot was up in the air, so it starts no bout
+    (``GateConfig.start_air_m``): the standing frames are all still. Without the rule they were
+    called `left` for 0.8 s (the pause a foot out to the side holds)."""
+    seq = clips["cmu-131-02-walk-stop"]
+    labels, tags = np.asarray(seq.labels), np.asarray(seq.tags)
+    walking = labels == "forward"
+    standing_after = (labels == "still") & (np.arange(len(labels)) > np.flatnonzero(walking)[-1])
+    assert walking.sum() > 150 and standing_after.sum() > 20 and "walk-styled" in set(tags)
+    got = _commands(seq)
+    assert (got[walking] == "forward").all()
+    assert (got[standing_after] == "still").all(), f"{(got[standing_after] != 'still').sum()} frames moving"
+    base = RecognizerConfig()
+    without = _commands(seq, replace(base, gate_config=replace(base.gate_config, start_air_m=float("inf"))))
+    assert (without[standing_after] != "still").sum() / seq.fps > 0.5
