@@ -263,11 +263,12 @@ class GateConfig:
     # the feet back together and starts no bout, whichever judge speaks (0: off)
     kneel_quiet_s: float = 1.5
     kneel_split_m: float = 0.25
-    # a swing that lifted off while the other foot was up in the air (its swing begun before, not
-    # landed, and risen start_air_m) starts no bout: both feet moving at once is no step of a standing
-    # person's (a kick's stance foot sliding as the leg comes down, the feet jumping or sliding apart
-    # into a wide stance); a run's overlapping steps go on only within a bout; a foot that only slides
-    # (a treadmill's belt under the stance foot) is not up (inf: off)
+    # a swing that lifted off while the other foot was up in the air (its swing begun more than 0.1 s
+    # before, not landed, and risen start_air_m) starts no bout: both feet moving at once is no step of
+    # a standing person's (a kick's stance foot sliding as the leg comes down, the feet jumping or
+    # sliding apart into a wide stance), unless the full-body network sees a run (p(still) at most
+    # run_still_prob: a runner's feet overlap in the air); feet leaving together are the jump rule's;
+    # a foot that only slides (a treadmill's belt under the stance foot) is not up (inf: off)
     start_air_m: float = 0.03
 
     def __post_init__(self) -> None:
