@@ -123,6 +123,18 @@ def save_npz(path: str | Path, seq: SkeletonSequence) -> None:
     np.savez_compressed(Path(path), **arrays)  # type: ignore[arg-type]
 
 
+def npz_read_error(path: Path, exc: Exception) -> InputError:
+    """The one error for an NPZ that numpy could not read: an array of Python objects (labels from a
+    pandas column) gets the way to save it instead, since reading it would unpickle (run code from
+    the file)."""
+    if isinstance(exc, ValueError) and "Object arrays" in str(exc):
+        return InputError(
+            f"{path}: an array holds Python objects, which cavewalk does not unpickle; save labels and "
+            f"tags as strings (np.asarray(labels, dtype=str)) and joints and fps as numbers"
+        )
+    return InputError(f"{path}: not a readable NPZ skeleton file ({exc})")
+
+
 def load_npz(path: str | Path) -> SkeletonSequence:
     """Read a skeleton-sequence NPZ; raises :class:`InputError` with a clear message."""
     p = Path(path)
@@ -145,7 +157,7 @@ def load_npz(path: str | Path) -> SkeletonSequence:
     except InputError:
         raise
     except Exception as exc:  # zipfile / pickle / shape errors from numpy
-        raise InputError(f"{p}: not a readable NPZ skeleton file ({exc})") from exc
+        raise npz_read_error(p, exc) from exc
     try:
         return SkeletonSequence(joints, fps, labels, tags, contacts, source)
     except InputError as exc:

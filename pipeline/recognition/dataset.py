@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.errors import InputError
-from pipeline.skeleton import ACTIONS, NUM_JOINTS
+from pipeline.skeleton import ACTIONS, NUM_JOINTS, npz_read_error
 
 IGNORE = "ignore"
 LABEL_NAMES: tuple[str, ...] = (*ACTIONS, IGNORE)
@@ -112,7 +112,7 @@ def load_labelled(path: str | Path) -> LabelledSequence:
     except InputError:
         raise
     except Exception as exc:  # zip member / object-array / dtype errors from numpy
-        raise InputError(f"{p}: not a readable NPZ skeleton file ({exc})") from exc
+        raise npz_read_error(p, exc) from exc
     if joints.ndim != 3 or joints.shape[1:] != (NUM_JOINTS, 3):
         raise InputError(f"{p}: joints must have shape (T, {NUM_JOINTS}, 3), got {joints.shape}")
     t = joints.shape[0]

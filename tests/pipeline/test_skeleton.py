@@ -55,3 +55,15 @@ def test_a_file_with_an_unknown_label_gets_one_clear_error(tmp_path: Path) -> No
     np.savez(tmp_path / "bad.npz", joints=_joints(2), fps=30.0, labels=np.array(["still", "walk"]))
     with pytest.raises(InputError, match=r"bad.npz: unknown labels \['walk'\]"):
         load_npz(tmp_path / "bad.npz")
+
+
+def test_labels_saved_as_python_objects_get_a_hint_and_no_unpickling(tmp_path: Path) -> None:
+    """Labels taken from a pandas column are saved as an object array: reading it would unpickle
+    (run code from the file), so it is refused, with the way to save it instead; a string array of
+    the same labels reads."""
+    labels = np.array(["still", "forward"], dtype=object)
+    np.savez(tmp_path / "obj.npz", joints=_joints(2), fps=30.0, labels=labels)
+    with pytest.raises(InputError, match=r"obj.npz: an array holds Python objects.*dtype=str"):
+        load_npz(tmp_path / "obj.npz")
+    np.savez(tmp_path / "str.npz", joints=_joints(2), fps=30.0, labels=labels.astype(str))
+    assert load_npz(tmp_path / "str.npz").labels == ("still", "forward")

@@ -113,6 +113,7 @@ def _bad(tmp: Path) -> dict[str, tuple[Path, str]]:
     put("length", r"labels must be \(20,\)", joints=j, fps=30.0, labels=lab[:10])
     put("contacts", "contacts must be", joints=j, fps=30.0, labels=lab, contacts=np.zeros((20, 3), bool))
     put("tags", "tags must be", joints=j, fps=30.0, labels=lab, tags=np.zeros(20))
+    put("objects", r"Python objects.*dtype=str", joints=j, fps=30.0, labels=lab.astype(object))
     text = tmp / "text.npz"
     text.write_text("joints, fps, labels")
     cases["text"] = (text, "not an NPZ file")
@@ -124,7 +125,8 @@ def _bad(tmp: Path) -> dict[str, tuple[Path, str]]:
 
 
 @pytest.mark.parametrize(
-    "case", ["nolabels", "shape", "unknown", "length", "contacts", "tags", "text", "missing", "folder"]
+    "case",
+    ["nolabels", "shape", "unknown", "length", "contacts", "tags", "objects", "text", "missing", "folder"],
 )
 def test_bad_input_ends_with_one_error_line(
     case: str,
