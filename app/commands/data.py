@@ -1,9 +1,12 @@
-"""``cavewalk data demo`` / ``data mocap`` / ``data sources``: the real demo videos, the real mocap
-clips, and every named training / evaluation source as a folder (``NAME=DIR``)."""
+"""``cavewalk data demo`` / ``data mocap`` / ``data sources`` / ``data convert``: the real demo videos,
+the real mocap clips, every named training / evaluation source as a folder (``NAME=DIR``), and a
+lab's own motion capture as skeleton NPZs."""
 
 from __future__ import annotations
 
 from dataclasses import replace
+from pathlib import Path
+from typing import Annotated
 
 import typer
 
@@ -11,7 +14,10 @@ from app.core.config import get_settings
 from pipeline.demo_data import fetch_demo
 from pipeline.errors import InputError
 from pipeline.mocap import fetch_mocap
+from pipeline.mocap.convert import ConvertRequest, convert_file
+from pipeline.mocap.labels import LabelRule
 from pipeline.mocap.sources import BLIND_SETS, GAIT_SETS, SIM_SETS, write_sources
+from pipeline.skeleton import LABELS, save_npz
 
 app = typer.Typer(name="data", help="Demo data.", no_args_is_help=True)
 
@@ -70,3 +76,60 @@ def sources(
     for name, m in manifest.items():
         fpl = ", ".join(f"{k} {v / m['fps']:.0f} s" for k, v in m["frames_per_label"].items() if v)
         typer.echo(f"  {name}={m['dir']}  [{m['use']}] {len(m['clips'])} clips: {fpl}")
+
+
+@app.command("convert")
+def convert(
+    files: Annotated[list[Path], typer.Argument(help="BVH files, or AMC motions (with --skeleton).")],
+    out: Annotated[Path, typer.Option("--out", help="Folder for the NPZs (one per file, named like it).")],
+    label: Annotated[
+        str | None, typer.Option("--label", help=f"One label for every frame: {', '.join(LABELS)}.")
+    ] = None,
+    bout: Annotated[
+        str | None,
+        typer.Option(
+            "--bout",
+            help="Label the frames from the first lift-off to the last touch-down (forward, left or "
+            "right), still before and after.",
+        ),
+    ] = None,
+    tag: Annotated[str, typer.Option("--tag", help="What the person does (the NPZ's tags).")] = "",
+    skeleton: Annotated[
+        Path | None, typer.Option("--skeleton", help="The ASF skeleton of AMC motions.")
+    ] = None,
+    height_m: Annotated[
+        float, typer.Option("--height-m", help="The person's height, for BVH files (they do not carry it).")
+    ] = 1.70,
+) -> None:
+    """Convert a lab's own motion capture (BVH, or ASF/AMC) into skeleton NPZs at 30 fps, labelled if
+    asked, for cavewalk evaluate / recognize. Nothing is written unless every file converts."""
+    if label is not None and bout is not None:
+        raise InputError("give --label or --bout, not both")
+    if label is not None and label not in LABELS:
+        raise InputError(f"--label must be one of {', '.join(LABELS)}, got {label!r}")
+    if bout is not None and bout not in ("forward", "left", "right"):
+        raise InputError(f"--bout must be forward, left or right, got {bout!r}")
+    if tag and label is None and bout is None:
+        raise InputError("--tag names what the person does in labelled frames: give --label or --bout too")
+    rule = (
+        LabelRule("bout", bout, tag) if bout is not None
+        else LabelRule("still", label, tag) if label is not None
+        else None
+    )  # fmt: skip
+    targets = [out / f"{f.stem}.npz" for f in files]
+    if len({t.name for t in targets}) < len(targets):
+        raise InputError("two input files share a name; their NPZs would overwrite each other")
+    taken = [str(t) for t in targets if t.exists()]
+    if taken:
+        raise InputError(f"{taken[0]} exists; remove it or give another --out")
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out {out} is a file, not a folder")
+    seqs = [convert_file(ConvertRequest(f, rule, skeleton, height_m)) for f in files]
+    out.mkdir(parents=True, exist_ok=True)
+    for target, seq in zip(targets, seqs, strict=True):
+        save_npz(target, seq)
+        labelled = ""
+        if seq.labels is not None:
+            counts = {x: seq.labels.count(x) for x in LABELS if x in seq.labels}
+            labelled = ", " + ", ".join(f"{k} {v / seq.fps:.1f} s" for k, v in counts.items())
+        typer.echo(f"{target}: {len(seq.joints_m)} frames at {seq.fps:g} fps{labelled}")

@@ -457,11 +457,12 @@ def convert_acclaim(asf: str, amc: str, spec: ClipSpec, rate_hz: float = 120.0,
     return finish(*_resampled(rate_hz, posed.joints, posed.foot_points, posed.pelvis), spec, contact_cfg)
 
 
-def convert_bvh(text: str, spec: ClipSpec, contact_cfg: ContactConfig = ContactConfig()) -> SkeletonSequence:
-    """A BVH clip (:mod:`pipeline.mocap.bvh`, scaled to :data:`BVH_HEIGHT_M`) as a labelled sequence
-    at 30 fps."""
+def convert_bvh(text: str, spec: ClipSpec, contact_cfg: ContactConfig = ContactConfig(),
+                height_m: float = BVH_HEIGHT_M) -> SkeletonSequence:
+    """A BVH clip (:mod:`pipeline.mocap.bvh`, scaled to ``height_m``, :data:`BVH_HEIGHT_M` for the
+    catalogue's clips) as a labelled sequence at 30 fps."""
     clip = bvh.parse_bvh(text, spec.id)
-    posed = bvh.to_cave(clip, BVH_HEIGHT_M, spec.id)
+    posed = bvh.to_cave(clip, height_m, spec.id)
     return finish(*_resampled(1.0 / clip.frame_time_s, posed.joints, posed.foot_points, posed.pelvis),
                   spec, contact_cfg)
 

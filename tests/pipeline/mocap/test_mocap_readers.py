@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 import struct
+from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,7 +13,9 @@ import pytest
 from pipeline.errors import InputError
 from pipeline.mocap import acclaim
 from pipeline.mocap.c3d import read_c3d
+from pipeline.mocap.convert import ConvertRequest, convert_file
 from pipeline.mocap.fetch import belt_velocity, load_catalogue
+from pipeline.mocap.labels import LabelRule
 from pipeline.mocap.landmarks import read_landmarks
 from pipeline.mocap.markers import pig_to_coco
 from pipeline.skeleton import J
@@ -313,3 +317,21 @@ def test_gaitkit_landmarks_axes_units_and_gaps() -> None:
         read_landmarks(text, "x")
     with pytest.raises(InputError, match="not a gaitkit landmark file"):
         read_landmarks("{}", "y")
+
+
+def test_a_labs_asf_amc_pair_converts_with_its_skeleton(tmp_path: Path) -> None:
+    """`pipeline.mocap.convert` (cavewalk data convert) on an ASF/AMC pair: the person in the ASF's
+    units, on the floor, at 30 fps from 120 Hz, labelled still by a whole-clip rule; an AMC without its
+    ASF, or an ASF that is not one, is one InputError."""
+    (tmp_path / "p.asf").write_text(_asf())
+    (tmp_path / "stand.amc").write_text(_amc([{} for _ in range(240)]))
+    req = ConvertRequest(tmp_path / "stand.amc", LabelRule("still", "still", "stand"), tmp_path / "p.asf")
+    seq = convert_file(req)
+    assert seq.fps == 30.0 and 59 <= len(seq.joints_m) <= 61 and seq.source == "stand"
+    assert set(seq.labels or ()) == {"still"} and set(seq.tags or ()) == {"stand"}
+    assert np.nanmin(seq.joints_m[..., 2]) > -0.01
+    with pytest.raises(InputError, match="needs its ASF skeleton"):
+        convert_file(ConvertRequest(tmp_path / "stand.amc"))
+    (tmp_path / "bad.asf").write_text("hello")
+    with pytest.raises(InputError, match="not an ASF file"):
+        convert_file(replace(req, skeleton=tmp_path / "bad.asf"))

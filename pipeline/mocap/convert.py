@@ -1,0 +1,78 @@
+"""A lab's own motion capture as SPEC skeleton NPZs: ``cavewalk data convert``.
+
+A BVH file (any skeleton whose joint names :mod:`pipeline.mocap.bvh` knows: CMU / cgspeed,
+MotionBuilder, Mixamo-like; scaled to the person's height, which BVH files do not carry) or an
+ASF/AMC pair (:mod:`pipeline.mocap.acclaim`, in the ASF's own units) becomes the joints the
+recogniser sees, at 30 fps, on the floor, with the feet's contacts; labelled, if asked, by one
+label for the whole clip or by the bout rule (the label from the first lift-off to the last
+touch-down, ``still`` before and after: :mod:`pipeline.mocap.labels`), so that ``cavewalk
+evaluate`` can score the recogniser on it. The same converters make the catalogue's clips.
+
+API::
+
+    seq = convert_file(ConvertRequest(Path("walk.bvh"), LabelRule("bout", "forward"), height_m=1.82))
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+from pipeline.errors import DataError, InputError
+from pipeline.mocap.fetch import BVH_HEIGHT_M, ClipSpec, convert_acclaim, convert_bvh
+from pipeline.mocap.labels import LabelRule
+from pipeline.skeleton import SkeletonSequence
+
+FILE_FORMATS = {".bvh": "bvh", ".amc": "acclaim"}  # by file name ending
+
+
+@dataclass(frozen=True, slots=True)
+class ConvertRequest:
+    """One file to convert. rule: how to label it (None: no labels). skeleton: the ASF file of an
+    AMC motion. height_m: the person's height, for a BVH file (an ASF/AMC pair keeps its units)."""
+
+    path: Path
+    rule: LabelRule | None = None
+    skeleton: Path | None = None
+    height_m: float = BVH_HEIGHT_M
+
+
+def _text(path: Path, what: str) -> str:
+    if path.is_dir():
+        raise InputError(f"{path} is a folder, not a {what} file")
+    if not path.is_file():
+        raise InputError(f"{what} file not found: {path}")
+    return path.read_bytes().decode("latin-1")  # BVH / ASF / AMC are ASCII; never fails
+
+
+def convert_file(req: ConvertRequest) -> SkeletonSequence:
+    """The file as a skeleton sequence (``source`` = its name without the ending); one
+    :class:`InputError` for a file that is not what its ending says, an AMC without its ASF, or a
+    height outside (0.5, 2.5) m."""
+    fmt = FILE_FORMATS.get(req.path.suffix.lower())
+    if fmt is None:
+        raise InputError(
+            f"{req.path}: cannot convert a {req.path.suffix or 'nameless'} file; give a BVH (.bvh) or an "
+            f"AMC motion (.amc) with its ASF skeleton (--skeleton)"
+        )
+    if fmt == "acclaim" and req.skeleton is None:
+        raise InputError(f"{req.path}: an AMC motion needs its ASF skeleton (--skeleton FILE.asf)")
+    if fmt == "bvh" and req.skeleton is not None:
+        raise InputError(f"{req.path}: a BVH file carries its own skeleton; --skeleton is for AMC files")
+    rule = req.rule or LabelRule("still")
+    spec = ClipSpec(req.path.stem, "", str(req.path), fmt, "", rule, "eval", "",
+                    skeleton=str(req.skeleton or ""))
+    text = _text(req.path, "BVH" if fmt == "bvh" else "AMC")
+    asf = _text(req.skeleton, "ASF") if req.skeleton is not None else ""
+    try:
+        if fmt == "bvh":
+            seq = convert_bvh(text, spec, height_m=req.height_m)
+        else:
+            seq = convert_acclaim(asf, text, spec)
+    except (InputError, DataError):
+        raise
+    except (ValueError, IndexError, KeyError) as exc:  # a malformed file the readers did not name
+        raise InputError(f"{req.path}: not a readable {fmt.upper()} file ({exc})") from exc
+    if len(seq.joints_m) < 2:
+        raise InputError(f"{req.path}: the motion has fewer than 2 frames at 30 fps")
+    return seq if req.rule is not None else replace(seq, labels=None, tags=None)

@@ -1,0 +1,114 @@
+"""``cavewalk data convert`` through the real entry point: a real BVH take (CMU 131_02, committed
+under pipeline/mocap/vendored/) becomes a labelled skeleton NPZ that ``cavewalk evaluate`` scores;
+bad input is one error line and writes nothing."""
+
+from __future__ import annotations
+
+import gzip
+import re
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from app.cli import main
+from app.core.config import set_settings
+from pipeline.mocap.fetch import PACKAGES, vendored_dir
+from pipeline.skeleton import J, load_npz
+
+
+@pytest.fixture(autouse=True)
+def _reset_settings() -> Iterator[None]:
+    yield
+    set_settings(None)
+
+
+def _run(monkeypatch: pytest.MonkeyPatch, *args: str) -> int:
+    monkeypatch.setattr(sys, "argv", ["cavewalk", *args])
+    try:
+        main()
+    except SystemExit as exc:
+        return int(exc.code or 0)
+    return 0
+
+
+@pytest.fixture
+def take(tmp_path: Path) -> Path:
+    """CMU 131_02 ("Start Walk Stop") as the BVH file a lab would export."""
+    gz = vendored_dir(PACKAGES["bvh11"]) / "resources" / "131_02.bvh.gz"
+    path = tmp_path / "walk.bvh"
+    path.write_bytes(gzip.decompress(gz.read_bytes()))
+    return path
+
+
+def test_a_bvh_take_becomes_a_labelled_npz_that_evaluate_scores(
+    take: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "npz"
+    args = ("data", "convert", str(take), "--out", str(out), "--bout", "forward", "--tag", "walk")
+    assert _run(monkeypatch, *args, "--height-m", "1.84") == 0
+    printed = capsys.readouterr().out
+    assert re.search(r"walk\.npz: 312 frames at 30 fps, still 1\.\d s, forward 9\.\d s", printed), printed
+    seq = load_npz(out / "walk.npz")
+    labels = np.asarray(seq.labels)
+    assert seq.fps == 30.0 and seq.source == "walk" and seq.contacts is not None
+    assert labels[0] == labels[-1] == "still" and 250 < np.sum(labels == "forward") < 290
+    assert set(np.asarray(seq.tags)[labels == "forward"]) == {"walk"}
+    assert 1.66 < np.percentile(seq.joints_m[:, J["nose"], 2], 90) < 1.84, "scaled to the height given"
+    assert _run(monkeypatch, "evaluate", "--skeletons", str(out / "walk.npz")) == 0
+    assert re.search(r"frame accuracy \d+\.\d+ %", capsys.readouterr().out)
+    # without a label option: joints only, for cavewalk recognize
+    assert _run(monkeypatch, "data", "convert", str(take), "--out", str(tmp_path / "plain")) == 0
+    assert load_npz(tmp_path / "plain" / "walk.npz").labels is None
+
+
+def _bad_cases(take: Path, tmp: Path) -> dict[str, tuple[list[str], str]]:
+    (tmp / "junk.bvh").write_text("not a skeleton")
+    (tmp / "a").mkdir()
+    twin = tmp / "a" / "walk.bvh"
+    twin.write_bytes(take.read_bytes())
+    (tmp / "file").write_text("x")
+    t = str(take)
+    return {
+        "unknown label": ([t, "--label", "jump"], r"--label must be one of still, forward, left, right"),
+        "both": ([t, "--label", "still", "--bout", "forward"], "give --label or --bout, not both"),
+        "bout still": ([t, "--bout", "still"], "--bout must be forward, left or right"),
+        "tag alone": ([t, "--tag", "walk"], "--tag names what the person does"),
+        "npz": ([str(tmp / "x.npz")], r"cannot convert a \.npz file"),
+        "amc alone": ([str(tmp / "x.amc")], "an AMC motion needs its ASF skeleton"),
+        "missing": ([str(tmp / "gone.bvh")], "BVH file not found"),
+        "junk": ([t, str(tmp / "junk.bvh")], "not a BVH file"),
+        "twins": ([t, str(twin)], "share a name"),
+        "height": ([t, "--height-m", "3"], r"height_m must be in \(0\.5, 2\.5\)"),
+        "asf for bvh": ([t, "--skeleton", str(tmp / "file")], "carries its own skeleton"),
+    }
+
+
+@pytest.mark.parametrize(
+    "case",
+    ["unknown label", "both", "bout still", "tag alone", "npz", "amc alone", "missing", "junk", "twins",
+     "height", "asf for bvh", "out is a file", "exists"],
+)  # fmt: skip
+def test_bad_input_is_one_error_line_and_writes_nothing(
+    case: str, take: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "npz"
+    if case == "exists":
+        out.mkdir()
+        (out / "walk.npz").write_bytes(b"earlier work")
+        args, match = [str(take)], "walk.npz exists; remove it or give another --out"
+    elif case == "out is a file":
+        out.write_text("x")
+        args, match = [str(take)], "is a file, not a folder"
+    else:
+        args, match = _bad_cases(take, tmp_path)[case]
+    before = sorted(p.name for p in out.iterdir()) if out.is_dir() else None
+    code = _run(monkeypatch, "data", "convert", *args, "--out", str(out))
+    err = [x for x in capsys.readouterr().err.splitlines() if x.strip()]
+    assert code == 2 and len(err) == 1 and err[0].startswith("error: ") and re.search(match, err[0]), err
+    after = sorted(p.name for p in out.iterdir()) if out.is_dir() else None
+    assert after == before, "nothing written"
+    if case == "exists":
+        assert (out / "walk.npz").read_bytes() == b"earlier work"
