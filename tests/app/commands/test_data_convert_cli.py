@@ -6,32 +6,14 @@ from __future__ import annotations
 
 import gzip
 import re
-import sys
-from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from app.cli import main
-from app.core.config import set_settings
 from pipeline.mocap.fetch import PACKAGES, vendored_dir
 from pipeline.skeleton import J, load_npz
-
-
-@pytest.fixture(autouse=True)
-def _reset_settings() -> Iterator[None]:
-    yield
-    set_settings(None)
-
-
-def _run(monkeypatch: pytest.MonkeyPatch, *args: str) -> int:
-    monkeypatch.setattr(sys, "argv", ["cavewalk", *args])
-    try:
-        main()
-    except SystemExit as exc:
-        return int(exc.code or 0)
-    return 0
+from tests.app.commands.conftest import run_cli
 
 
 @pytest.fixture
@@ -48,7 +30,7 @@ def test_a_bvh_take_becomes_a_labelled_npz_that_evaluate_scores(
 ) -> None:
     out = tmp_path / "npz"
     args = ("data", "convert", str(take), "--out", str(out), "--bout", "forward", "--tag", "walk")
-    assert _run(monkeypatch, *args, "--height-m", "1.84") == 0
+    assert run_cli(monkeypatch, *args, "--height-m", "1.84") == 0
     printed = capsys.readouterr().out
     assert re.search(r"walk\.npz: 312 frames at 30 fps, still 1\.\d s, forward 9\.\d s", printed), printed
     seq = load_npz(out / "walk.npz")
@@ -57,10 +39,10 @@ def test_a_bvh_take_becomes_a_labelled_npz_that_evaluate_scores(
     assert labels[0] == labels[-1] == "still" and 250 < np.sum(labels == "forward") < 290
     assert set(np.asarray(seq.tags)[labels == "forward"]) == {"walk"}
     assert 1.66 < np.percentile(seq.joints_m[:, J["nose"], 2], 90) < 1.84, "scaled to the height given"
-    assert _run(monkeypatch, "evaluate", "--skeletons", str(out / "walk.npz")) == 0
+    assert run_cli(monkeypatch, "evaluate", "--skeletons", str(out / "walk.npz")) == 0
     assert re.search(r"frame accuracy \d+\.\d+ %", capsys.readouterr().out)
     # without a label option: joints only, for cavewalk recognize
-    assert _run(monkeypatch, "data", "convert", str(take), "--out", str(tmp_path / "plain")) == 0
+    assert run_cli(monkeypatch, "data", "convert", str(take), "--out", str(tmp_path / "plain")) == 0
     assert load_npz(tmp_path / "plain" / "walk.npz").labels is None
 
 
@@ -105,7 +87,7 @@ def test_bad_input_is_one_error_line_and_writes_nothing(
     else:
         args, match = _bad_cases(take, tmp_path)[case]
     before = sorted(p.name for p in out.iterdir()) if out.is_dir() else None
-    code = _run(monkeypatch, "data", "convert", *args, "--out", str(out))
+    code = run_cli(monkeypatch, "data", "convert", *args, "--out", str(out))
     err = [x for x in capsys.readouterr().err.splitlines() if x.strip()]
     assert code == 2 and len(err) == 1 and err[0].startswith("error: ") and re.search(match, err[0]), err
     after = sorted(p.name for p in out.iterdir()) if out.is_dir() else None

@@ -5,34 +5,16 @@ from __future__ import annotations
 
 import json
 import re
-import sys
-from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from app.cli import main
-from app.core.config import set_settings
 from pipeline.recognition.dataset import encode_labels, load_labelled
 from pipeline.sim.body import body_from_height
 from pipeline.sim.motion import simulate_user
 from pipeline.sim.script import MotionScript, Segment
-
-
-@pytest.fixture(autouse=True)
-def _reset_settings() -> Iterator[None]:
-    yield
-    set_settings(None)
-
-
-def _run(monkeypatch: pytest.MonkeyPatch, *args: str) -> int:
-    monkeypatch.setattr(sys, "argv", ["cavewalk", *args])
-    try:
-        main()
-    except SystemExit as exc:
-        return int(exc.code or 0)
-    return 0
+from tests.app.commands.conftest import run_cli
 
 
 @pytest.fixture(scope="module")
@@ -60,7 +42,7 @@ def test_evaluate_prints_the_report_and_writes_json(
 ) -> None:
     a, b = labelled
     out = tmp_path / "sub" / "report.json"
-    assert _run(monkeypatch, "evaluate", "--skeletons", str(a), str(b), "--json", str(out)) == 0
+    assert run_cli(monkeypatch, "evaluate", "--skeletons", str(a), str(b), "--json", str(out)) == 0
     text = capsys.readouterr().out
     for needle in (
         "frame accuracy",
@@ -138,7 +120,7 @@ def test_bad_input_ends_with_one_error_line(
     path, match = _bad(tmp_path)[case]
     out = tmp_path / "r.json"
     out.write_text("old")
-    code = _run(monkeypatch, "evaluate", "--skeletons", str(labelled[0]), str(path), "--json", str(out))
+    code = run_cli(monkeypatch, "evaluate", "--skeletons", str(labelled[0]), str(path), "--json", str(out))
     err = capsys.readouterr().err
     assert code == 2, f"{case}: exit {code}"
     lines = [x for x in err.splitlines() if x.strip()]

@@ -3,34 +3,16 @@
 from __future__ import annotations
 
 import json
-import sys
-from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from app.cli import main
-from app.core.config import set_settings
 from pipeline.sim.body import body_from_height
 from pipeline.sim.motion import simulate_user
 from pipeline.sim.script import MotionScript, Segment
 from pipeline.skeleton import ACTIONS, SkeletonSequence, save_npz
-
-
-@pytest.fixture(autouse=True)
-def _reset_settings() -> Iterator[None]:
-    yield
-    set_settings(None)
-
-
-def _run(monkeypatch: pytest.MonkeyPatch, *args: str) -> int:
-    monkeypatch.setattr(sys, "argv", ["cavewalk", *args])
-    try:
-        main()
-    except SystemExit as exc:
-        return int(exc.code or 0)
-    return 0
+from tests.app.commands.conftest import run_cli
 
 
 @pytest.fixture(scope="module")
@@ -46,7 +28,7 @@ def test_recognize_writes_one_line_per_frame(
     routine_npz: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
     out = tmp_path / "sub" / "a.jsonl"
-    assert _run(monkeypatch, "recognize", "--skeletons", str(routine_npz), "--out", str(out)) == 0
+    assert run_cli(monkeypatch, "recognize", "--skeletons", str(routine_npz), "--out", str(out)) == 0
     lines = [json.loads(x) for x in out.read_text().splitlines()]
     assert len(lines) == 300
     assert [r["frame"] for r in lines] == list(range(300))
@@ -66,7 +48,7 @@ def test_recognize_honours_the_file_fps(tmp_path: Path, monkeypatch: pytest.Monk
     src = tmp_path / "s60.npz"
     save_npz(src, m.to_sequence())
     out = tmp_path / "a60.jsonl"
-    assert _run(monkeypatch, "recognize", "--skeletons", str(src), "--out", str(out)) == 0
+    assert run_cli(monkeypatch, "recognize", "--skeletons", str(src), "--out", str(out)) == 0
     lines = [json.loads(x) for x in out.read_text().splitlines()]
     assert len(lines) == 300, "one line per input frame, not per model frame"
     assert [r["action"] for r in lines[-60:]].count("left") >= 54
@@ -102,7 +84,7 @@ def test_bad_skeleton_files_end_with_one_message(
     path, match = _bad_files(tmp_path)[case]
     out = tmp_path / "a.jsonl"
     out.write_text("previous results\n")
-    assert _run(monkeypatch, "recognize", "--skeletons", str(path), "--out", str(out)) == 2
+    assert run_cli(monkeypatch, "recognize", "--skeletons", str(path), "--out", str(out)) == 2
     err = capsys.readouterr().err
     assert err.startswith("error: ") and re.search(match, err), err
     assert "Traceback" not in err
@@ -112,7 +94,7 @@ def test_bad_skeleton_files_end_with_one_message(
 def test_bad_model_and_bad_output(
     routine_npz: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    code = _run(
+    code = run_cli(
         monkeypatch,
         "recognize",
         "--skeletons",
@@ -124,7 +106,7 @@ def test_bad_model_and_bad_output(
     )
     assert code == 2 and "action model not found" in capsys.readouterr().err
     assert not (tmp_path / "a.jsonl").exists()
-    code = _run(monkeypatch, "recognize", "--skeletons", str(routine_npz), "--out", str(tmp_path))
+    code = run_cli(monkeypatch, "recognize", "--skeletons", str(routine_npz), "--out", str(tmp_path))
     assert code == 2 and "is a directory" in capsys.readouterr().err
 
 
@@ -135,7 +117,7 @@ def test_recognize_without_data_says_still_with_confidence_zero_and_warns(
     src = tmp_path / "blank.npz"
     np.savez(src, joints=np.full((100, 17, 3), value), fps=30.0)
     out = tmp_path / "a.jsonl"
-    assert _run(monkeypatch, "recognize", "--skeletons", str(src), "--out", str(out)) == 0
+    assert run_cli(monkeypatch, "recognize", "--skeletons", str(src), "--out", str(out)) == 0
     lines = [json.loads(x) for x in out.read_text().splitlines()]
     assert len(lines) == 100
     assert all(r["action"] == "still" and max(r["probs"].values()) == 0.0 and r["no_data"] for r in lines)
