@@ -74,10 +74,11 @@ class Bvh:
     values: F64  # (T, channels)
 
     def index(self, *names: str) -> int | None:
-        """The index of the first joint named one of ``names`` (None if none is there)."""
+        """The index of the first joint named one of ``names`` (None if none is there); a namespace
+        prefix (``mixamorig:LeftUpLeg``, as FBX-to-BVH exports write it) does not count."""
         for n in names:
             for i, j in enumerate(self.joints):
-                if j.name == n:
+                if j.name == n or j.name.rsplit(":", 1)[-1] == n:
                     return i
         return None
 

@@ -1,7 +1,9 @@
 """A lab's own motion capture as SPEC skeleton NPZs: ``cavewalk data convert``.
 
-A BVH file (any skeleton whose joint names :mod:`pipeline.mocap.bvh` knows: CMU / cgspeed,
-MotionBuilder, Mixamo-like; scaled to the person's height, which BVH files do not carry) or an
+A BVH file (joint names as MotionBuilder-style exports write them: ``LeftUpLeg``, ``LeftLeg``,
+``LeftFoot``, ``LeftToeBase``, ``LeftArm``, ``Head``, ..., with or without a ``namespace:`` prefix; or
+the CMU conversion's ``LeftHip``, ``LeftKnee``, ``LeftAnkle``: :mod:`pipeline.mocap.bvh`; scaled to the
+person's height, which BVH files do not carry) or an
 ASF/AMC pair (:mod:`pipeline.mocap.acclaim`, in the ASF's own units) becomes the joints the
 recogniser sees, at 30 fps, on the floor, with the feet's contacts; labelled, if asked, by one
 label for the whole clip or by the bout rule (the label from the first lift-off to the last

@@ -3,6 +3,8 @@ from the format's rules by hand, and on the committed real clips (pipeline/mocap
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -113,6 +115,15 @@ def test_forward_kinematics_follows_the_channel_order() -> None:
     # the root's rotation turns everything below it: Ry(90) takes the left hip (10, 0, 0) to (0, 0, -10)
     turned = bvh.world(bvh.parse_bvh(humanoid([rest(), rest(Hips_y=90.0)])))[0]
     np.testing.assert_allclose(turned[1, hip], [0, 85, -10], atol=1e-9)
+
+
+def test_a_namespace_prefix_on_the_joint_names_is_the_same_skeleton() -> None:
+    """FBX-to-BVH exports name joints ``mixamorig:LeftUpLeg``: the same person, joint for joint."""
+    plain = humanoid([rest(), rest(LeftUpLeg_x=30.0)])
+    prefixed = re.sub(r"(ROOT|JOINT) (\w+)", r"\1 mixamorig:\2", plain)
+    assert "JOINT mixamorig:LeftUpLeg" in prefixed
+    a, b = (bvh.to_cave(bvh.parse_bvh(text), 1.70).joints for text in (plain, prefixed))
+    np.testing.assert_allclose(a, b)
 
 
 def test_to_cave_finds_up_forward_left_and_the_scale() -> None:
