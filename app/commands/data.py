@@ -17,6 +17,7 @@ from pipeline.mocap import fetch_mocap
 from pipeline.mocap.convert import ConvertRequest, convert_file
 from pipeline.mocap.labels import LabelRule
 from pipeline.mocap.sources import BLIND_SETS, GAIT_SETS, SIM_SETS, write_sources
+from pipeline.recognition.metrics import MOVING_LABELS
 from pipeline.skeleton import LABELS, save_npz
 
 app = typer.Typer(name="data", help="Demo data.", no_args_is_help=True)
@@ -107,7 +108,7 @@ def convert(
         raise InputError("give --label or --bout, not both")
     if label is not None and label not in LABELS:
         raise InputError(f"--label must be one of {', '.join(LABELS)}, got {label!r}")
-    if bout is not None and bout not in ("forward", "left", "right"):
+    if bout is not None and bout not in MOVING_LABELS:
         raise InputError(f"--bout must be forward, left or right, got {bout!r}")
     if tag and label is None and bout is None:
         raise InputError("--tag names what the person does in labelled frames: give --label or --bout too")

@@ -128,6 +128,11 @@ REASONS = ("planted", "lifting", "stepping", "pause", "rhythm-broke", "jump", "c
            "step-back")  # fmt: skip
 
 
+# the other foot lifted off "well before" this one (a run's overlapping step, a kick's stance foot) when
+# more than this earlier; two feet leaving within it are a jump's, for the jump rule
+WELL_BEFORE_S = 0.1
+
+
 @dataclass(frozen=True, slots=True)
 class GateConfig:
     """Settings of the bout gate (see the module docstring)."""
@@ -473,7 +478,7 @@ class BoutGate:
             return frame.t - self._swing_lift[k] >= c.rise_wait_s and lead >= c.rise_lead_m
         other_lift = self._swing_lift[1 - k]  # NaN (no swing seen) compares False
         run = frame.t - other_lift <= c.run_swing_s or p_still <= c.run_still_prob
-        return other_lift < self._swing_lift[k] - 0.1 and run
+        return other_lift < self._swing_lift[k] - WELL_BEFORE_S and run
 
     def _jump(self, frame: StepFrame, k: int) -> bool:
         """Foot ``k``'s swing is part of a jump: the tracker says both feet took off together, and it
@@ -743,7 +748,7 @@ class BoutGate:
                     self._side_t = f.event_t
                 other_lift = self._swing_lift[1 - k]  # NaN: the other foot's last swing has landed
                 self._lift_in_air[k] = (
-                    not frame.feet[1 - k].planted and other_lift < f.event_t - 0.1  # well before: no jump
+                    not frame.feet[1 - k].planted and other_lift < f.event_t - WELL_BEFORE_S
                     and self._swing_top[1 - k] >= c.start_air_m
                 )  # fmt: skip
                 self._swing_lift[k], self._swing_maxp[k] = f.event_t, p_move
