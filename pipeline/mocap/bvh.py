@@ -14,14 +14,22 @@ ankles, and the scale makes the body ``height_m`` tall (the distance from the so
 the head at rest). The person's left must then lie to the left of forward: a file whose left
 joints come out on the right is mirrored and refused.
 
-Joint mapping (by name; two naming schemes: the Mixamo-style ``LeftArm`` / ``LeftForeArm`` /
-``LeftHand`` / ``LeftUpLeg`` / ``LeftLeg`` / ``LeftFoot`` / ``LeftToeBase`` and the CMU-converted
-``LeftShoulder`` / ``LeftElbow`` / ``LeftWrist`` / ``LeftHip`` / ``LeftKnee`` / ``LeftAnkle`` /
-``LeftToe``): each COCO joint is the origin of that BVH joint. Face: the ``Head`` joint's origin to
-its end (its End Site, or its child) is the head bone; with H its midpoint, f forward (the body's
-forward turned with the head), s the head's left and u up the bone: nose = H + 0.095 f - 0.01 u,
-eyes = H + 0.08 f + 0.03 u +- 0.032 s, ears = H +- 0.075 s (the face rule of
-:mod:`pipeline.mocap.acclaim`). Foot points for the floor: the ankles and the toes.
+Joint mapping (by name, :data:`NAMES`; three naming schemes: the Mixamo-style ``LeftArm`` /
+``LeftForeArm`` / ``LeftHand`` / ``LeftUpLeg`` / ``LeftLeg`` / ``LeftFoot`` / ``LeftToeBase``, the
+CMU-converted ``LeftShoulder`` / ``LeftElbow`` / ``LeftWrist`` / ``LeftHip`` / ``LeftKnee`` /
+``LeftAnkle`` / ``LeftToe``, and Poser / DAZ / Second Life's ``lShldr`` / ``lForeArm`` / ``lHand`` /
+``lThigh`` / ``lShin`` / ``lFoot`` / ``lToe`` (DAZ Genesis: ``lShldrBend``, ``lForearmBend``,
+``lThighBend``; Second Life: ``mShoulderLeft`` ... ``mAnkleLeft``, ``mFootLeft``); a ``namespace:``
+prefix is ignored): each COCO joint is the origin of that BVH joint. A foot without a toe joint
+(Poser files) has its toe at the foot's End Site. Face: the head joint (``Head``, ``head``, ``mHead``)
+to its end (its End Site, or its child, where that lies up the head at rest) is the head bone; a head
+that ends in eye joints instead (Poser, DAZ) has its top :data:`HEAD_TOP` of the head joint's rest
+height above the joint. With H the bone's midpoint, u up the bone, and f and s the skeleton's rest
+forward (where the toes point at rest) and left turned by the head's world rotation: nose =
+H + 0.095 f - 0.01 u, eyes = H + 0.08 f + 0.03 u +- 0.032 s, ears = H +- 0.075 s (the face rule of
+:mod:`pipeline.mocap.acclaim`). The rest pose is every channel at 0 (the skeleton the offsets
+draw), not the clip's first frame, which may be turned any way. Foot points for the floor: the
+ankles and the toes.
 """
 
 from __future__ import annotations
@@ -37,20 +45,24 @@ from pipeline.mocap.kinematics import F64, axis_rotations
 from pipeline.skeleton import NUM_JOINTS, J
 
 NAMES = {  # COCO joint -> the BVH joint names that may stand for it (first match wins)
-    "l_shoulder": ("LeftArm", "LeftShoulder"),
-    "r_shoulder": ("RightArm", "RightShoulder"),
-    "l_elbow": ("LeftForeArm", "LeftElbow"),
-    "r_elbow": ("RightForeArm", "RightElbow"),
-    "l_wrist": ("LeftHand", "LeftWrist"),
-    "r_wrist": ("RightHand", "RightWrist"),
-    "l_hip": ("LeftUpLeg", "LeftHip"),
-    "r_hip": ("RightUpLeg", "RightHip"),
-    "l_knee": ("LeftLeg", "LeftKnee"),
-    "r_knee": ("RightLeg", "RightKnee"),
-    "l_ankle": ("LeftFoot", "LeftAnkle"),
-    "r_ankle": ("RightFoot", "RightAnkle"),
+    "l_shoulder": ("LeftArm", "LeftShoulder", "lShldr", "lShldrBend", "mShoulderLeft"),
+    "r_shoulder": ("RightArm", "RightShoulder", "rShldr", "rShldrBend", "mShoulderRight"),
+    "l_elbow": ("LeftForeArm", "LeftElbow", "lForeArm", "lForearmBend", "mElbowLeft"),
+    "r_elbow": ("RightForeArm", "RightElbow", "rForeArm", "rForearmBend", "mElbowRight"),
+    "l_wrist": ("LeftHand", "LeftWrist", "lHand", "mWristLeft"),
+    "r_wrist": ("RightHand", "RightWrist", "rHand", "mWristRight"),
+    "l_hip": ("LeftUpLeg", "LeftHip", "lThigh", "lThighBend", "mHipLeft"),
+    "r_hip": ("RightUpLeg", "RightHip", "rThigh", "rThighBend", "mHipRight"),
+    "l_knee": ("LeftLeg", "LeftKnee", "lShin", "mKneeLeft"),
+    "r_knee": ("RightLeg", "RightKnee", "rShin", "mKneeRight"),
+    "l_ankle": ("LeftFoot", "LeftAnkle", "lFoot", "mAnkleLeft"),
+    "r_ankle": ("RightFoot", "RightAnkle", "rFoot", "mAnkleRight"),
 }
-TOES = (("LeftToeBase", "LeftToe"), ("RightToeBase", "RightToe"))
+TOES = (("LeftToeBase", "LeftToe", "lToe", "mFootLeft"), ("RightToeBase", "RightToe", "rToe", "mFootRight"))
+HEAD = ("Head", "head", "mHead")
+# Where the file gives the head no end up its bone (Poser and DAZ files end the head in eye joints):
+# its top lies this share of the head joint's height above the soles (at rest) above the joint, up.
+HEAD_TOP = 0.13
 _CHANNELS = ("Xposition", "Yposition", "Zposition", "Xrotation", "Yrotation", "Zrotation")
 
 
@@ -214,6 +226,22 @@ def _need(bvh: Bvh, names: tuple[str, ...], name: str) -> int:
     return k
 
 
+def _toes(bvh: Bvh, origin: F64, end: F64, ankles: list[int], name: str) -> F64:
+    """The toe points (T, 2, 3): each toe joint's origin, or where there is none (Poser and DAZ files
+    end the foot in an End Site) the foot's end."""
+    out = []
+    for names, ankle in zip(TOES, ankles, strict=True):
+        k = bvh.index(*names)
+        if k is None and bvh.joints[ankle].end is None:
+            raise InputError(f"{name}: no joint named {' or '.join(names)}, and the foot has no End Site")
+        out.append(origin[:, k] if k is not None else end[:, ankle])
+    return np.stack(out, axis=1)
+
+
+def _unit(v: F64) -> F64:
+    return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-12)
+
+
 def to_cave(bvh: Bvh, height_m: float, name: str = "bvh") -> Posed:
     """The clip's COCO-17 joints in CAVE axes (X right, Y forward, Z up) and metres, the body
     ``height_m`` tall (see the module docstring)."""
@@ -221,18 +249,34 @@ def to_cave(bvh: Bvh, height_m: float, name: str = "bvh") -> Posed:
         raise InputError(f"{name}: height_m must be in (0.5, 2.5) m, got {height_m}")
     origin, rot, end = world(bvh)
     idx = {coco: _need(bvh, names, name) for coco, names in NAMES.items()}
-    head = _need(bvh, ("Head",), name)
-    toes = [_need(bvh, names, name) for names in TOES]
+    head = _need(bvh, HEAD, name)
     ankles = [idx["l_ankle"], idx["r_ankle"]]
-    top = end[:, head]
-    feet_mid = origin[:, ankles + toes].mean(axis=1)
-    up_vec = np.median(top - feet_mid, axis=0)
+    toe_pts = _toes(bvh, origin, end, ankles, name)
+    # the rest pose (every channel 0): the skeleton's own up, forward and left, which the head's
+    # world rotation turns into where the face looks in each frame
+    r_origin, _, r_end = world(replace(bvh, values=np.zeros((1, bvh.values.shape[1]))))
+    r_feet = np.concatenate([r_origin[0, ankles], _toes(bvh, r_origin, r_end, ankles, name)[0]])
+    rest_up = _unit(r_origin[0, head] - r_feet.mean(axis=0))
+    rest_fwd = (r_feet[2:] - r_feet[:2]).mean(axis=0)
+    rest_fwd -= (rest_fwd @ rest_up) * rest_up
+    if not np.linalg.norm(rest_fwd) > 1e-6 * np.linalg.norm(r_origin[0, head] - r_feet.mean(axis=0)):
+        raise InputError(f"{name}: at rest the toes do not point forward (cannot tell where the face looks)")
+    rest_fwd = _unit(rest_fwd)
+    rest_left = np.cross(rest_up, rest_fwd)
+    bone = r_end[0, head] - r_origin[0, head]
+    if np.linalg.norm(bone) > 0 and _unit(bone) @ rest_up > np.cos(np.radians(30.0)):
+        top = end[:, head]  # the head's End Site or child lies up its bone
+    else:
+        head_len = HEAD_TOP * float((r_origin[0, head] - r_feet.min(axis=0)) @ rest_up)
+        top = origin[:, head] + np.einsum("tij,j->ti", rot[:, head], head_len * rest_up)
+    foot_pts = np.concatenate([origin[:, ankles], toe_pts], axis=1)
+    up_vec = np.median(top - foot_pts.mean(axis=1), axis=0)
     up_axis = int(np.argmax(np.abs(up_vec)))
     up = np.zeros(3)
     up[up_axis] = np.sign(up_vec[up_axis])
     # forward: where the toes point from the ankles, in the frame where they point most alike (a yaw
     # of the whole clip does not matter: the recogniser reads the body's own facing)
-    toe_dir = (origin[:, toes] - origin[:, ankles]).mean(axis=1)
+    toe_dir = (toe_pts - origin[:, ankles]).mean(axis=1)
     toe_dir -= np.outer(toe_dir @ up, up)
     fwd = toe_dir[int(np.argmax(np.linalg.norm(toe_dir, axis=1)))]
     if np.linalg.norm(fwd) < 1e-9:
@@ -247,7 +291,7 @@ def to_cave(bvh: Bvh, height_m: float, name: str = "bvh") -> Posed:
     to_cave_m = np.stack([-left, fwd, up])
     # standing height: the head's top above the lowest foot point, at the clip's tallest (95th
     # percentile); the soles lie about 4 % of the height below the ankles
-    lowest = np.min(origin[:, ankles + toes] @ up, axis=1)
+    lowest = np.min(foot_pts @ up, axis=1)
     height_units = float(np.percentile(top @ up - lowest, 95)) / 0.96
     if not height_units > 0:
         raise InputError(f"{name}: the head is not above the feet")
@@ -257,16 +301,14 @@ def to_cave(bvh: Bvh, height_m: float, name: str = "bvh") -> Posed:
     for coco, k in idx.items():
         out[:, J[coco]] = pts[:, k]
     h0 = origin[:, head] @ to_cave_m.T * scale
-    h1 = end[:, head] @ to_cave_m.T * scale
+    h1 = top @ to_cave_m.T * scale
     mid = 0.5 * (h0 + h1)
-    u = h1 - h0
-    u /= np.maximum(np.linalg.norm(u, axis=-1, keepdims=True), 1e-9)
-    # the head's own frame: the rest forward / left turned with the head's world rotation
-    r_head = np.einsum("ij,tjk,kl->til", to_cave_m, rot[:, head] @ np.linalg.inv(rot[0, head]), to_cave_m.T)
-    f = np.einsum("tij,j->ti", r_head, np.array([0.0, 1.0, 0.0]))
-    s = np.einsum("tij,j->ti", r_head, np.array([-1.0, 0.0, 0.0]))
+    u = _unit(h1 - h0)
+    # the head's own frame: the skeleton's rest forward and left, turned with the head's world rotation
+    f = np.einsum("ij,tjk,k->ti", to_cave_m, rot[:, head], rest_fwd)
+    s = np.einsum("ij,tjk,k->ti", to_cave_m, rot[:, head], rest_left)
     for coco, (df, du, ds) in FACE.items():
         out[:, J[coco]] = mid + df * f + du * u + ds * s
-    feet = pts[:, ankles + toes]
+    feet = foot_pts @ to_cave_m.T * scale
     pelvis = 0.5 * (out[:, J["l_hip"]] + out[:, J["r_hip"]])
     return Posed(out, feet, pelvis)

@@ -51,7 +51,7 @@ from pipeline.skeleton import J, SkeletonSequence, save_npz
 
 log = logging.getLogger(__name__)
 
-CONVERTER_VERSION = 2
+CONVERTER_VERSION = 3  # 3: a BVH face turns with the head from the rest pose, not from frame 0
 FORMATS = ("deepmimic", "c3d-pig", "c3d-jc", "trc", "acclaim", "gaitkit-json", "amp-npz", "bvh")
 BVH_HEIGHT_M = 1.70  # a BVH clip's body is scaled to this height (the actors' heights are not published)
 MIN_SPAN_S = 1.5  # c3d-jc: the shortest run of known joint centres worth a clip

@@ -79,8 +79,7 @@ def humanoid(frames: list[list[float]], mirror: bool = False) -> str:
         "HIERARCHY\nROOT Hips\n{\nOFFSET 0 0 0\n"
         "CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n" + legs + spine + "}\n"
     )
-    rows = "\n".join(" ".join(f"{v:g}" for v in f) for f in frames)
-    return f"{head}MOTION\nFrames: {len(frames)}\nFrame Time: 0.0333333\n{rows}\n"
+    return with_motion(head, frames)
 
 
 def rest(**channels: float) -> list[float]:
@@ -126,6 +125,82 @@ def test_a_namespace_prefix_on_the_joint_names_is_the_same_skeleton() -> None:
     np.testing.assert_allclose(a, b)
 
 
+POSER = {"Hips": "hip", "Spine": "abdomen", "Neck": "neck", "Head": "head", "UpLeg": "Thigh", "Leg": "Shin",
+         "Foot": "Foot", "Arm": "Shldr", "ForeArm": "ForeArm", "Hand": "Hand"}
+ROT = "CHANNELS 3 Zrotation Xrotation Yrotation"
+EYES = "".join(
+    f"JOINT {side}Eye\n{{\nOFFSET {x} 6 8\n{ROT}\nEnd Site\n{{\nOFFSET 0 0 1\n}}\n}}\n"
+    for side, x in (("left", 3), ("right", -3))
+)
+TOE_JOINT = re.compile(  # the humanoid's toe joint, with its End Site
+    r"JOINT (Left|Right)ToeBase\n\{\nOFFSET 0 -5 12\n[^\n]*\nEnd Site\n\{\nOFFSET 0 0 4\n\}\n\}\n"
+)
+
+
+def with_motion(hierarchy: str, frames: list[list[float]] | int = 2) -> str:
+    """A hierarchy (the text before MOTION) with ``frames`` (each joint's values in the hierarchy's
+    channel order; an int: that many frames of zeros)."""
+    if isinstance(frames, int):
+        width = sum(int(n) for n in re.findall(r"CHANNELS (\d+)", hierarchy))
+        frames = [[0.0] * width] * frames
+    rows = "\n".join(" ".join(f"{v:g}" for v in f) for f in frames)
+    return f"{hierarchy}MOTION\nFrames: {len(frames)}\nFrame Time: 0.0333333\n{rows}\n"
+
+
+def as_poser(text: str) -> str:
+    """The same person in Poser / DAZ naming (``hip``, ``lThigh``, ``lShin``, ``lFoot``, ``lShldr``,
+    ``head``): no toe joint (the foot ends in an End Site where the toe was), a head that ends in two
+    eye joints instead of an End Site; each joint's values carried over by name."""
+    clip = bvh.parse_bvh(text)
+    head = TOE_JOINT.sub("End Site\n{\nOFFSET 0 -5 12\n}\n", text.split("MOTION")[0])
+    head = head.replace("End Site\n{\nOFFSET 0 16 0\n}\n", EYES)
+    for side, s in (("Left", "l"), ("Right", "r")):
+        for mixamo in ("UpLeg", "ForeArm", "Foot", "Hand", "Arm", "Leg"):
+            head = head.replace(f"JOINT {side}{mixamo}\n", f"JOINT {s}{POSER[mixamo]}\n")
+    for mixamo in ("Hips", "Spine", "Neck", "Head"):
+        head = re.sub(rf"(ROOT|JOINT) {mixamo}\n", rf"\1 {POSER[mixamo]}\n", head)
+    back = {f"{s}{POSER[m]}": f"{side}{m}" for side, s in (("Left", "l"), ("Right", "r"))
+            for m in ("UpLeg", "ForeArm", "Foot", "Hand", "Arm", "Leg")}
+    back |= {POSER[m]: m for m in ("Hips", "Spine", "Neck", "Head")}
+    poser = bvh.parse_bvh(with_motion(head))
+    assert poser.index("lToeBase", "LeftToeBase", "lToe") is None and poser.index("leftEye") is not None
+    col = {}
+    for j in clip.joints:
+        for c in j.channels:
+            col[(j.name, c)] = len(col)
+    return with_motion(head, [[frame[col[(back[j.name], c)]] if j.name in back else 0.0
+                               for j in poser.joints for c in j.channels] for frame in clip.values])
+
+
+def test_a_poser_named_skeleton_is_the_same_person() -> None:
+    """Poser, DAZ and CMU's Daz-friendly BVH files name the joints ``hip`` / ``lThigh`` / ``lShin`` /
+    ``lFoot`` / ``lShldr``, end the foot in an End Site (no toe joint) and the head in eye joints:
+    the same motion gives the same joints (the head's top, which sets the scale, is estimated there:
+    within 2 %), a face in front of the head."""
+    frames = [rest(), rest(Hips_y=40.0, LeftUpLeg_x=-30.0, LeftLeg_x=40.0), rest(Hips_xpos=20.0, Neck_y=30.0)]
+    plain = humanoid(frames)
+    a = bvh.to_cave(bvh.parse_bvh(plain), 1.70).joints
+    b = bvh.to_cave(bvh.parse_bvh(as_poser(plain)), 1.70).joints
+    body = [J[k] for k in bvh.NAMES]
+    np.testing.assert_allclose(b[:, body], a[:, body], rtol=0, atol=0.02 * 1.70)
+    np.testing.assert_allclose(b[:, :5], a[:, :5], rtol=0, atol=0.03)  # the face: nose, eyes, ears
+
+
+def test_the_face_looks_where_the_head_looks_whatever_the_first_frame() -> None:
+    """The face turns with the head from the skeleton's rest pose (toes forward): a clip whose first
+    frame is turned 90 degrees (CMU 131_03 starts so) still has the nose in front of the ears in every
+    frame; the face was once turned from frame 0, which put it over an ear for the rest of such a clip."""
+    clip = bvh.parse_bvh(humanoid([rest(Hips_y=90.0), rest(), rest(Hips_y=-60.0), rest(Head_y=45.0)]))
+    j = bvh.to_cave(clip, 1.70).joints
+    across = j[:, J["l_hip"], :2] - j[:, J["r_hip"], :2]
+    body_fwd = np.stack([across[:, 1], -across[:, 0]], axis=1)  # the left hip's side turned to forward
+    face = j[:, J["nose"], :2] - 0.5 * (j[:, J["l_ear"], :2] + j[:, J["r_ear"], :2])
+    cos = np.einsum("ti,ti->t", body_fwd, face) / np.linalg.norm(body_fwd, axis=1)
+    cos /= np.linalg.norm(face, axis=1)
+    np.testing.assert_allclose(cos[:3], 1.0, atol=1e-6)
+    np.testing.assert_allclose(cos[3], np.cos(np.radians(45.0)), atol=1e-6)  # the head turned on its own
+
+
 def test_to_cave_finds_up_forward_left_and_the_scale() -> None:
     clip = bvh.parse_bvh(humanoid([rest(), rest(Hips_xpos=30.0)]))
     posed = bvh.to_cave(clip, 1.70, "synthetic")
@@ -159,6 +234,9 @@ def test_bad_bvh_input_is_one_clear_error() -> None:
     no_head = bvh.parse_bvh(good.replace("JOINT Head", "JOINT Skull"))
     with pytest.raises(InputError, match="no joint named Head"):
         bvh.to_cave(no_head, 1.70)
+    no_toe = with_motion(TOE_JOINT.sub("", good.split("MOTION")[0], count=1))  # the left foot ends nowhere
+    with pytest.raises(InputError, match=r"no joint named LeftToeBase or LeftToe.*no End Site"):
+        bvh.to_cave(bvh.parse_bvh(no_toe), 1.70)
     with pytest.raises(InputError, match="height_m"):
         bvh.to_cave(bvh.parse_bvh(good), 3.0)
 
