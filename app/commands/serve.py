@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 import socket
 from collections.abc import Callable
 from dataclasses import replace
@@ -17,8 +18,8 @@ from app.db.engine import DatabaseLock
 from app.db.migrate import prepare_database
 from app.main import create_app, operator_token
 from app.services.backup import backup_before_upgrade
-from pipeline.errors import ConfigError, InputError
-from pipeline.runtime.logfile import log_to_file
+from pipeline.errors import CavewalkError, ConfigError, InputError
+from pipeline.runtime.logfile import log_to_file, to_log_file_only
 from pipeline.runtime.stream import check_seq_file
 
 app = typer.Typer()
@@ -112,8 +113,10 @@ def run_server(
                               "(set runtime.log.path, or runtime.log.enabled = false)") from None
         backup_before_upgrade(paths.db, settings.backup)  # an older cavewalk's database: copied first
         prepare_database(paths.db)  # a database that cannot be used ends here with one message
-    except BaseException:
+    except BaseException as exc:
         lock.release()
+        if isinstance(exc, CavewalkError | OSError):  # the log file says why, as the terminal does
+            to_log_file_only(logging.ERROR, f"the server did not start: {exc}", __name__)
         raise
     token = operator_token(settings)
     app = create_app(settings, autostart="simulator" if demo else None, token=token)

@@ -18,7 +18,7 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-__all__ = ["LOG_FORMAT", "LogFileConfig", "log_to_file"]
+__all__ = ["LOG_FORMAT", "LogFileConfig", "log_to_file", "to_log_file_only"]
 
 #: One format for every cavewalk process (stderr and the log file).
 LOG_FORMAT = "%(asctime)s %(levelname)-7s %(processName)s %(name)s: %(message)s"
@@ -117,3 +117,15 @@ def log_to_file(config: LogFileConfig, *, rotate: bool) -> Path | None:
     setattr(handler, "_cavewalk_file", path)  # noqa: B010 (found again above)
     root.addHandler(handler)
     return path
+
+
+def to_log_file_only(level: int, message: str, name: str = "cavewalk") -> bool:
+    """One record for this process's log file, not for the terminal (which has just been told the
+    same in its own words: the ``error:`` line of a server that did not start). False when no log
+    file is open."""
+    root = logging.getLogger()
+    files = [h for h in root.handlers if getattr(h, "_cavewalk_file", None) is not None]
+    record = logging.getLogger(name).makeRecord(name, level, __file__, 0, message, (), None)
+    for h in files:
+        h.handle(record)
+    return bool(files)

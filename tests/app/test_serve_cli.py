@@ -177,6 +177,9 @@ def test_a_database_that_cannot_serve_is_one_message_and_left_unchanged(
     assert match in str(result.exception) and str(db) in str(result.exception)
     assert db.read_bytes() == before, "a refused database is not touched"
     assert not (tmp_path / "backups").exists(), "nor copied: a newer cavewalk's database is no upgrade"
+    # the log file (beside the database) says why the server did not start, as the terminal did
+    logged = (tmp_path / "logs" / "cavewalk.log").read_text(encoding="utf-8")
+    assert "ERROR" in logged and "the server did not start" in logged and match in logged, logged
 
 
 @pytest.mark.slow
