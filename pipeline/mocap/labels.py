@@ -8,7 +8,9 @@ faster than ``off_speed_mps``. Between the thresholds it keeps its state (hyster
 
 Rules (``annotations.toml``, per clip): ``bout`` -- the clip's label from the first lift-off to
 the last touch-down (TEAM.md LABELS; the pauses inside keep it), ``still`` before and after;
-``still`` -- the whole clip ``still``; ``ignore`` -- the whole clip ``ignore``. Optional
+``still`` -- the whole clip one label, its ``label`` (``still`` unless said otherwise: every catalogue
+clip with this rule is ``still``; ``cavewalk data convert --label forward`` labels a whole clip
+``forward``); ``ignore`` -- the whole clip ``ignore``. Optional
 ``ignore_foot_above_m``: frames where a foot is that high above its standing level become
 ``ignore`` (a kick's raised leg). Then the annotated spans (checked by eye) override.
 """
@@ -134,7 +136,7 @@ def apply_rule(
             labels[span[0]:span[1] + 1] = rule.label
             tags[span[0]:span[1] + 1] = rule.tag
     else:
-        labels[:] = "still" if rule.rule == "still" else "ignore"
+        labels[:] = rule.label if rule.rule == "still" else "ignore"
         tags[:] = rule.tag
     if rule.ignore_foot_above_m is not None:
         high = np.nanmax(heights, axis=1) > rule.ignore_foot_above_m

@@ -41,6 +41,11 @@ def test_a_bvh_take_becomes_a_labelled_npz_that_evaluate_scores(
     assert 1.66 < np.percentile(seq.joints_m[:, J["nose"], 2], 90) < 1.84, "scaled to the height given"
     assert run_cli(monkeypatch, "evaluate", "--skeletons", str(out / "walk.npz")) == 0
     assert re.search(r"frame accuracy \d+\.\d+ %", capsys.readouterr().out)
+    # one label for the whole clip, as asked (a clip that is all walking, say): every frame
+    one = ("data", "convert", str(take), "--out", str(tmp_path / "one"), "--label", "forward")
+    assert run_cli(monkeypatch, *one) == 0
+    assert set(load_npz(tmp_path / "one" / "walk.npz").labels or ()) == {"forward"}
+    assert "walk.npz: 312 frames at 30 fps, forward 10.4 s" in capsys.readouterr().out
     # without a label option: joints only, for cavewalk recognize
     assert run_cli(monkeypatch, "data", "convert", str(take), "--out", str(tmp_path / "plain")) == 0
     assert load_npz(tmp_path / "plain" / "walk.npz").labels is None
