@@ -99,8 +99,10 @@ def convert(
         Path | None, typer.Option("--skeleton", help="The ASF skeleton of AMC motions.")
     ] = None,
     height_m: Annotated[
-        float, typer.Option("--height-m", help="The person's height, for BVH files (they do not carry it).")
-    ] = 1.70,
+        float | None,
+        typer.Option("--height-m", help="The person's height, for BVH files (they do not carry it; "
+                     "default 1.70 m). An ASF/AMC pair keeps its own units."),
+    ] = None,
 ) -> None:
     """Convert a lab's own motion capture (BVH, or ASF/AMC) into skeleton NPZs at 30 fps, labelled if
     asked, for cavewalk evaluate / recognize. Nothing is written unless every file converts."""

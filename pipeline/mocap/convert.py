@@ -32,12 +32,13 @@ FILE_FORMATS = {".bvh": "bvh", ".amc": "acclaim"}  # by file name ending
 @dataclass(frozen=True, slots=True)
 class ConvertRequest:
     """One file to convert. rule: how to label it (None: no labels). skeleton: the ASF file of an
-    AMC motion. height_m: the person's height, for a BVH file (an ASF/AMC pair keeps its units)."""
+    AMC motion. height_m: the person's height, for a BVH file (None: :data:`BVH_HEIGHT_M`; an ASF/AMC
+    pair keeps its own units, so a height given for one is an error)."""
 
     path: Path
     rule: LabelRule | None = None
     skeleton: Path | None = None
-    height_m: float = BVH_HEIGHT_M
+    height_m: float | None = None
 
 
 def _text(path: Path, what: str) -> str:
@@ -62,6 +63,8 @@ def convert_file(req: ConvertRequest) -> SkeletonSequence:
         raise InputError(f"{req.path}: an AMC motion needs its ASF skeleton (--skeleton FILE.asf)")
     if fmt == "bvh" and req.skeleton is not None:
         raise InputError(f"{req.path}: a BVH file carries its own skeleton; --skeleton is for AMC files")
+    if fmt == "acclaim" and req.height_m is not None:
+        raise InputError(f"{req.path}: an ASF/AMC pair keeps its own units; --height-m is for BVH files")
     rule = req.rule or LabelRule("still")
     spec = ClipSpec(req.path.stem, "", str(req.path), fmt, "", rule, "eval", "",
                     skeleton=str(req.skeleton or ""))
@@ -69,7 +72,7 @@ def convert_file(req: ConvertRequest) -> SkeletonSequence:
     asf = _text(req.skeleton, "ASF") if req.skeleton is not None else ""
     try:
         if fmt == "bvh":
-            seq = convert_bvh(text, spec, height_m=req.height_m)
+            seq = convert_bvh(text, spec, height_m=BVH_HEIGHT_M if req.height_m is None else req.height_m)
         else:
             seq = convert_acclaim(asf, text, spec)
     except (InputError, DataError):

@@ -70,13 +70,15 @@ def _bad_cases(take: Path, tmp: Path) -> dict[str, tuple[list[str], str]]:
         "twins": ([t, str(twin)], "share a name"),
         "height": ([t, "--height-m", "3"], r"height_m must be in \(0\.5, 2\.5\)"),
         "asf for bvh": ([t, "--skeleton", str(tmp / "file")], "carries its own skeleton"),
+        "height for amc": ([str(tmp / "x.amc"), "--skeleton", str(tmp / "file"), "--height-m", "1.8"],
+                           "keeps its own units; --height-m is for BVH files"),
     }
 
 
 @pytest.mark.parametrize(
     "case",
     ["unknown label", "both", "bout still", "tag alone", "npz", "amc alone", "missing", "junk", "twins",
-     "height", "asf for bvh", "out is a file", "exists"],
+     "height", "asf for bvh", "height for amc", "out is a file", "exists"],
 )  # fmt: skip
 def test_bad_input_is_one_error_line_and_writes_nothing(
     case: str, take: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
