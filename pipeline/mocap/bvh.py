@@ -14,14 +14,22 @@ ankles, and the scale makes the body ``height_m`` tall (the distance from the so
 the head at rest). The person's left must then lie to the left of forward: a file whose left
 joints come out on the right is mirrored and refused.
 
-Joint mapping (by name, :data:`NAMES`; three naming schemes: the Mixamo-style ``LeftArm`` /
-``LeftForeArm`` / ``LeftHand`` / ``LeftUpLeg`` / ``LeftLeg`` / ``LeftFoot`` / ``LeftToeBase``, the
-CMU-converted ``LeftShoulder`` / ``LeftElbow`` / ``LeftWrist`` / ``LeftHip`` / ``LeftKnee`` /
-``LeftAnkle`` / ``LeftToe``, and Poser / DAZ / Second Life's ``lShldr`` / ``lForeArm`` / ``lHand`` /
+Joint mapping (by name, :data:`NAMES`: the Mixamo / MotionBuilder / Vicon ``LeftArm`` / ``LeftForeArm``
+/ ``LeftHand`` / ``LeftUpLeg`` / ``LeftLeg`` / ``LeftFoot`` / ``LeftToeBase``; the CMU conversion's
+``LeftShoulder`` / ``LeftElbow`` / ``LeftWrist`` / ``LeftHip`` / ``LeftKnee`` / ``LeftAnkle`` /
+``LeftToe``; Xsens MVN's and Unity's ``LeftUpperArm`` / ``LeftUpperLeg`` / ``LeftLowerLeg`` (Unity:
+``LeftLowerArm``, ``LeftToes``); OptiTrack Motive's ``LUArm`` / ``LFArm`` / ``LHand`` / ``LThigh`` /
+``LShin`` / ``LFoot`` / ``LToe``; Poser / DAZ / Second Life's ``lShldr`` / ``lForeArm`` / ``lHand`` /
 ``lThigh`` / ``lShin`` / ``lFoot`` / ``lToe`` (DAZ Genesis: ``lShldrBend``, ``lForearmBend``,
-``lThighBend``; Second Life: ``mShoulderLeft`` ... ``mAnkleLeft``, ``mFootLeft``); a ``namespace:``
-prefix is ignored): each COCO joint is the origin of that BVH joint. A foot without a toe joint
-(Poser files) has its toe at the foot's End Site. Face: the head joint (``Head``, ``head``, ``mHead``)
+``lThighBend``; Second Life: ``mShoulderLeft`` ... ``mAnkleLeft``, ``mFootLeft``); Bandai Namco-style
+``UpperArm_L`` / ``LowerArm_L`` / ``Hand_L`` / ``UpperLeg_L`` / ``LowerLeg_L`` / ``Foot_L`` /
+``Toes_L``; Blender Rigify's ``upper_arm.L`` / ``forearm.L`` / ``hand.L`` / ``thigh.L`` / ``shin.L``
+/ ``foot.L`` / ``toe.L``; 3ds Max Biped's ``Bip01 L UpperArm`` / ``Forearm`` / ``Hand`` / ``Thigh`` /
+``Calf`` / ``Foot`` / ``Toe0`` (spaces or underscores, ``Bip001``). A ``namespace:`` prefix is
+ignored. Where a collarbone is named like a shoulder (Mixamo's and Xsens' ``LeftShoulder``,
+Motive's ``LShoulder``) the upper arm's joint is the shoulder. Each COCO joint is the origin of
+that BVH joint. A foot without a toe joint (Poser files) has its toe at the foot's End Site.
+Face: the head joint (``Head``, ``head``, ``mHead``)
 to its end (its End Site, or its child, where that lies up the head at rest) is the head bone; a head
 that ends in eye joints instead (Poser, DAZ) has its top :data:`HEAD_TOP` of the head joint's rest
 height above the joint. With H the bone's midpoint, u up the bone, and f and s the skeleton's rest
@@ -45,21 +53,41 @@ from pipeline.mocap.kinematics import F64, axis_rotations
 from pipeline.skeleton import NUM_JOINTS, J
 
 NAMES = {  # COCO joint -> the BVH joint names that may stand for it (first match wins)
-    "l_shoulder": ("LeftArm", "LeftShoulder", "lShldr", "lShldrBend", "mShoulderLeft"),
-    "r_shoulder": ("RightArm", "RightShoulder", "rShldr", "rShldrBend", "mShoulderRight"),
-    "l_elbow": ("LeftForeArm", "LeftElbow", "lForeArm", "lForearmBend", "mElbowLeft"),
-    "r_elbow": ("RightForeArm", "RightElbow", "rForeArm", "rForearmBend", "mElbowRight"),
-    "l_wrist": ("LeftHand", "LeftWrist", "lHand", "mWristLeft"),
-    "r_wrist": ("RightHand", "RightWrist", "rHand", "mWristRight"),
-    "l_hip": ("LeftUpLeg", "LeftHip", "lThigh", "lThighBend", "mHipLeft"),
-    "r_hip": ("RightUpLeg", "RightHip", "rThigh", "rThighBend", "mHipRight"),
-    "l_knee": ("LeftLeg", "LeftKnee", "lShin", "mKneeLeft"),
-    "r_knee": ("RightLeg", "RightKnee", "rShin", "mKneeRight"),
-    "l_ankle": ("LeftFoot", "LeftAnkle", "lFoot", "mAnkleLeft"),
-    "r_ankle": ("RightFoot", "RightAnkle", "rFoot", "mAnkleRight"),
+    # Mixamo / MotionBuilder / Vicon, CMU's conversion, Xsens MVN and Unity, OptiTrack Motive, Poser / DAZ,
+    # Second Life, Bandai Namco-style, Blender Rigify, 3ds Max Biped. Order matters where a name
+    # means two joints: Mixamo's and Xsens' LeftShoulder is the collarbone, CMU's the shoulder.
+    "l_shoulder": ("LeftArm", "LeftUpperArm", "LeftShoulder", "LUArm", "lShldr", "lShldrBend",
+                   "mShoulderLeft", "UpperArm_L", "upper_arm.L", "Bip01 L UpperArm"),
+    "r_shoulder": ("RightArm", "RightUpperArm", "RightShoulder", "RUArm", "rShldr", "rShldrBend",
+                   "mShoulderRight", "UpperArm_R", "upper_arm.R", "Bip01 R UpperArm"),
+    "l_elbow": ("LeftForeArm", "LeftElbow", "LeftLowerArm", "LFArm", "lForeArm", "lForearmBend",
+                "mElbowLeft", "LowerArm_L", "forearm.L", "Bip01 L Forearm"),
+    "r_elbow": ("RightForeArm", "RightElbow", "RightLowerArm", "RFArm", "rForeArm", "rForearmBend",
+                "mElbowRight", "LowerArm_R", "forearm.R", "Bip01 R Forearm"),
+    "l_wrist": ("LeftHand", "LeftWrist", "LHand", "lHand", "mWristLeft", "Hand_L", "hand.L",
+                "Bip01 L Hand"),
+    "r_wrist": ("RightHand", "RightWrist", "RHand", "rHand", "mWristRight", "Hand_R", "hand.R",
+                "Bip01 R Hand"),
+    "l_hip": ("LeftUpLeg", "LeftHip", "LeftUpperLeg", "LThigh", "lThigh", "lThighBend", "mHipLeft",
+              "UpperLeg_L", "thigh.L", "Bip01 L Thigh"),
+    "r_hip": ("RightUpLeg", "RightHip", "RightUpperLeg", "RThigh", "rThigh", "rThighBend", "mHipRight",
+              "UpperLeg_R", "thigh.R", "Bip01 R Thigh"),
+    "l_knee": ("LeftLeg", "LeftKnee", "LeftLowerLeg", "LShin", "lShin", "mKneeLeft", "LowerLeg_L",
+               "shin.L", "Bip01 L Calf"),
+    "r_knee": ("RightLeg", "RightKnee", "RightLowerLeg", "RShin", "rShin", "mKneeRight", "LowerLeg_R",
+               "shin.R", "Bip01 R Calf"),
+    "l_ankle": ("LeftFoot", "LeftAnkle", "LFoot", "lFoot", "mAnkleLeft", "Foot_L", "foot.L",
+                "Bip01 L Foot"),
+    "r_ankle": ("RightFoot", "RightAnkle", "RFoot", "rFoot", "mAnkleRight", "Foot_R", "foot.R",
+                "Bip01 R Foot"),
 }
-TOES = (("LeftToeBase", "LeftToe", "lToe", "mFootLeft"), ("RightToeBase", "RightToe", "rToe", "mFootRight"))
-HEAD = ("Head", "head", "mHead")
+TOES = (
+    ("LeftToeBase", "LeftToe", "LeftToes", "LToe", "lToe", "mFootLeft", "Toes_L", "toe.L",
+     "Bip01 L Toe0"),
+    ("RightToeBase", "RightToe", "RightToes", "RToe", "rToe", "mFootRight", "Toes_R", "toe.R",
+     "Bip01 R Toe0"),
+)
+HEAD = ("Head", "head", "mHead", "Bip01 Head")
 # Where the file gives the head no end up its bone (Poser and DAZ files end the head in eye joints):
 # its top lies this share of the head joint's height above the soles (at rest) above the joint, up.
 HEAD_TOP = 0.13
@@ -87,12 +115,25 @@ class Bvh:
 
     def index(self, *names: str) -> int | None:
         """The index of the first joint named one of ``names`` (None if none is there); a namespace
-        prefix (``mixamorig:LeftUpLeg``, as FBX-to-BVH exports write it) does not count."""
+        prefix (``mixamorig:LeftUpLeg``, as FBX-to-BVH exports write it) does not count, nor the
+        number or the separators of a 3ds Max Biped name (``Bip001_L_Thigh`` is ``Bip01 L Thigh``)."""
+        plain = [_plain_name(j.name) for j in self.joints]
         for n in names:
             for i, j in enumerate(self.joints):
-                if j.name == n or j.name.rsplit(":", 1)[-1] == n:
+                if j.name == n or plain[i] == n:
                     return i
         return None
+
+
+_BIPED = re.compile(r"^Bip0*1[ _]")
+
+
+def _plain_name(name: str) -> str:
+    """A joint's name without a ``namespace:`` prefix, a Biped name as ``Bip01 L Thigh``."""
+    name = name.rsplit(":", 1)[-1]
+    if _BIPED.match(name):
+        name = "Bip01 " + _BIPED.sub("", name).replace("_", " ")
+    return name
 
 
 def parse_bvh(text: str, name: str = "bvh") -> Bvh:
@@ -108,9 +149,12 @@ def parse_bvh(text: str, name: str = "bvh") -> Bvh:
     try:
         while i < len(tokens):
             tok = tokens[i]
-            if tok in ("ROOT", "JOINT"):
-                name_next = tokens[i + 1]
-                i += 2
+            if tok in ("ROOT", "JOINT"):  # the name runs to the brace: 3ds Max writes "Bip01 L Thigh"
+                end = tokens.index("{", i + 1)
+                if end == i + 1:
+                    raise InputError(f"{name}: a {tok} without a name")
+                name_next = " ".join(tokens[i + 1 : end])
+                i = end
             elif tok == "End":  # End Site
                 name_next = None
                 i += 2

@@ -2,9 +2,9 @@
 
 A BVH file (joint names as MotionBuilder-style exports write them: ``LeftUpLeg``, ``LeftLeg``,
 ``LeftFoot``, ``LeftToeBase``, ``LeftArm``, ``Head``, ..., with or without a ``namespace:`` prefix; or
-the CMU conversion's ``LeftHip``, ``LeftKnee``, ``LeftAnkle``; or Poser / DAZ / Second Life's ``hip``,
-``lThigh``, ``lShin``, ``lFoot``, ``lShldr``, ``head``: :mod:`pipeline.mocap.bvh`; scaled to the
-person's height, which BVH files do not carry) or an
+the CMU conversion's ``LeftHip``, ``LeftKnee``, ``LeftAnkle``; Xsens, Unity, OptiTrack, Poser /
+DAZ / Second Life, Bandai Namco-style, Blender Rigify or 3ds Max Biped names: :mod:`pipeline.mocap.bvh`;
+scaled to the person's height, which BVH files do not carry) or an
 ASF/AMC pair (:mod:`pipeline.mocap.acclaim`, in the ASF's own units) becomes the joints the
 recogniser sees, at 30 fps, on the floor, with the feet's contacts; labelled, if asked, by one
 label for the whole clip or by the bout rule (the label from the first lift-off to the last

@@ -125,8 +125,6 @@ def test_a_namespace_prefix_on_the_joint_names_is_the_same_skeleton() -> None:
     np.testing.assert_allclose(a, b)
 
 
-POSER = {"Hips": "hip", "Spine": "abdomen", "Neck": "neck", "Head": "head", "UpLeg": "Thigh", "Leg": "Shin",
-         "Foot": "Foot", "Arm": "Shldr", "ForeArm": "ForeArm", "Hand": "Hand"}
 ROT = "CHANNELS 3 Zrotation Xrotation Yrotation"
 EYES = "".join(
     f"JOINT {side}Eye\n{{\nOFFSET {x} 6 8\n{ROT}\nEnd Site\n{{\nOFFSET 0 0 1\n}}\n}}\n"
@@ -135,6 +133,7 @@ EYES = "".join(
 TOE_JOINT = re.compile(  # the humanoid's toe joint, with its End Site
     r"JOINT (Left|Right)ToeBase\n\{\nOFFSET 0 -5 12\n[^\n]*\nEnd Site\n\{\nOFFSET 0 0 4\n\}\n\}\n"
 )
+PARTS = ("UpLeg", "Leg", "Foot", "ToeBase", "Arm", "ForeArm", "Hand")  # the humanoid's, each side
 
 
 def with_motion(hierarchy: str, frames: list[list[float]] | int = 2) -> str:
@@ -147,29 +146,105 @@ def with_motion(hierarchy: str, frames: list[list[float]] | int = 2) -> str:
     return f"{hierarchy}MOTION\nFrames: {len(frames)}\nFrame Time: 0.0333333\n{rows}\n"
 
 
-def as_poser(text: str) -> str:
-    """The same person in Poser / DAZ naming (``hip``, ``lThigh``, ``lShin``, ``lFoot``, ``lShldr``,
-    ``head``): no toe joint (the foot ends in an End Site where the toe was), a head that ends in two
-    eye joints instead of an End Site; each joint's values carried over by name."""
+def _block_end(text: str, start: int) -> int:
+    """Where the block that opens after ``start`` closes (just past its brace)."""
+    depth, i = 0, text.index("{", start)
+    while True:
+        depth += {"{": 1, "}": -1}.get(text[i], 0)
+        i += 1
+        if depth == 0:
+            return i
+
+
+def renamed(text: str, names: dict[str, str], toe: bool = True, eyes: bool = False,
+            collar: str | None = None) -> str:
+    """The humanoid ``text`` written as another exporter writes it: ``names`` maps its joint names
+    (``LeftUpLeg``, ``Head``, ...) to others; ``toe`` False: no toe joint (the foot ends in an End
+    Site where the toe was); ``eyes``: the head ends in two eye joints instead of an End Site;
+    ``collar``: a collarbone joint between the spine and each arm (``{side}`` in it: Left / Right,
+    ``{s}``: L / R), as Xsens and OptiTrack write them. Each joint's values are carried over by name."""
     clip = bvh.parse_bvh(text)
-    head = TOE_JOINT.sub("End Site\n{\nOFFSET 0 -5 12\n}\n", text.split("MOTION")[0])
-    head = head.replace("End Site\n{\nOFFSET 0 16 0\n}\n", EYES)
-    for side, s in (("Left", "l"), ("Right", "r")):
-        for mixamo in ("UpLeg", "ForeArm", "Foot", "Hand", "Arm", "Leg"):
-            head = head.replace(f"JOINT {side}{mixamo}\n", f"JOINT {s}{POSER[mixamo]}\n")
-    for mixamo in ("Hips", "Spine", "Neck", "Head"):
-        head = re.sub(rf"(ROOT|JOINT) {mixamo}\n", rf"\1 {POSER[mixamo]}\n", head)
-    back = {f"{s}{POSER[m]}": f"{side}{m}" for side, s in (("Left", "l"), ("Right", "r"))
-            for m in ("UpLeg", "ForeArm", "Foot", "Hand", "Arm", "Leg")}
-    back |= {POSER[m]: m for m in ("Hips", "Spine", "Neck", "Head")}
-    poser = bvh.parse_bvh(with_motion(head))
-    assert poser.index("lToeBase", "LeftToeBase", "lToe") is None and poser.index("leftEye") is not None
+    head = text.split("MOTION")[0]
+    if not toe:
+        head = TOE_JOINT.sub("End Site\n{\nOFFSET 0 -5 12\n}\n", head)
+    if eyes:
+        head = head.replace("End Site\n{\nOFFSET 0 16 0\n}\n", EYES)
+    if collar:
+        for side, sign in (("Left", 1), ("Right", -1)):
+            at = head.index(f"JOINT {side}Arm\n")
+            end = _block_end(head, at)
+            arm = head[at:end].replace(f"OFFSET {18 * sign} 35 0", f"OFFSET {10 * sign} 0 0", 1)
+            bone = collar.format(side=side, s=side[0])
+            head = head[:at] + f"JOINT {bone}\n{{\nOFFSET {8 * sign} 35 0\n{ROT}\n{arm}\n}}" + head[end:]
+    for old, new in names.items():
+        head = re.sub(rf"(ROOT|JOINT) {old}\n", rf"\1 {new}\n", head)
+    back = {new: old for old, new in names.items()}
+    out = bvh.parse_bvh(with_motion(head))
     col = {}
     for j in clip.joints:
         for c in j.channels:
             col[(j.name, c)] = len(col)
-    return with_motion(head, [[frame[col[(back[j.name], c)]] if j.name in back else 0.0
-                               for j in poser.joints for c in j.channels] for frame in clip.values])
+    keys = [(back.get(j.name, j.name), c) for j in out.joints for c in j.channels]  # a new joint: zeros
+    return with_motion(head, [[frame[col[k]] if k in col else 0.0 for k in keys] for frame in clip.values])
+
+
+def sided(parts: dict[str, str]) -> dict[str, str]:
+    """Both sides' names from one pattern per part: ``{side}`` Left / Right, ``{s}`` L / R,
+    ``{l}`` l / r."""
+    return {f"{side}{part}": name.format(side=side, s=side[0], l=side[0].lower())
+            for side in ("Left", "Right") for part, name in parts.items()}
+
+
+def as_poser(text: str) -> str:
+    """The same person in Poser / DAZ naming (``hip``, ``lThigh``, ``lShin``, ``lFoot``, ``lShldr``,
+    ``head``): no toe joint (the foot ends in an End Site where the toe was), a head that ends in two
+    eye joints instead of an End Site."""
+    names = sided({"UpLeg": "{l}Thigh", "Leg": "{l}Shin", "Foot": "{l}Foot", "Arm": "{l}Shldr",
+                   "ForeArm": "{l}ForeArm", "Hand": "{l}Hand"})
+    out = renamed(text, names | {"Hips": "hip", "Spine": "abdomen", "Neck": "neck", "Head": "head"},
+                  toe=False, eyes=True)
+    poser = bvh.parse_bvh(out)
+    assert poser.index("lToeBase", "LeftToeBase", "lToe") is None and poser.index("leftEye") is not None
+    return out
+
+
+# How other exporters name the humanoid's joints (each with a toe joint and a head End Site)
+NAMINGS = {
+    "xsens-mvn": (sided({"UpLeg": "{side}UpperLeg", "Leg": "{side}LowerLeg", "ToeBase": "{side}Toe",
+                         "Arm": "{side}UpperArm"}), "{side}Shoulder"),
+    "unity": (sided({"UpLeg": "{side}UpperLeg", "Leg": "{side}LowerLeg", "ToeBase": "{side}Toes",
+                     "Arm": "{side}UpperArm", "ForeArm": "{side}LowerArm"}), None),
+    "optitrack-motive": (sided({"UpLeg": "{s}Thigh", "Leg": "{s}Shin", "Foot": "{s}Foot", "ToeBase": "{s}Toe",
+                                "Arm": "{s}UArm", "ForeArm": "{s}FArm", "Hand": "{s}Hand"}), "{s}Shoulder"),
+    "bandai-namco": (sided({"UpLeg": "UpperLeg_{s}", "Leg": "LowerLeg_{s}", "Foot": "Foot_{s}",
+                            "ToeBase": "Toes_{s}", "Arm": "UpperArm_{s}", "ForeArm": "LowerArm_{s}",
+                            "Hand": "Hand_{s}"}), "Shoulder_{s}"),
+    "blender-rigify": (sided({"UpLeg": "thigh.{s}", "Leg": "shin.{s}", "Foot": "foot.{s}",
+                              "ToeBase": "toe.{s}", "Arm": "upper_arm.{s}", "ForeArm": "forearm.{s}",
+                              "Hand": "hand.{s}"})
+                       | {"Head": "head"}, "shoulder.{s}"),
+    "3dsmax-biped": (sided({"UpLeg": "Bip01 {s} Thigh", "Leg": "Bip01 {s} Calf", "Foot": "Bip001_{s}_Foot",
+                            "ToeBase": "Bip01 {s} Toe0", "Arm": "Bip01 {s} UpperArm",
+                            "ForeArm": "Bip01 {s} Forearm", "Hand": "Bip01 {s} Hand"})
+                     | {"Hips": "Bip01 Pelvis", "Head": "Bip01 Head"}, "Bip01 {s} Clavicle"),
+}
+
+
+@pytest.mark.parametrize("naming", sorted(NAMINGS))
+def test_other_exporters_names_are_the_same_person(naming: str) -> None:
+    """Xsens MVN, Unity, OptiTrack Motive, Bandai Namco-style, Blender Rigify and 3ds Max Biped
+    names (Biped's with spaces, or underscores and Max's Bip001): the same motion gives the same
+    joints; where a collarbone is named like a shoulder (Xsens' LeftShoulder, Motive's LShoulder),
+    the shoulder is the upper arm's joint, not the collarbone's."""
+    frames = [rest(), rest(Hips_y=40.0, LeftUpLeg_x=-30.0, LeftLeg_x=40.0, RightArm_z=-50.0),
+              rest(Hips_xpos=20.0, Neck_y=30.0, LeftForeArm_y=60.0)]
+    plain = humanoid(frames)
+    names, collar = NAMINGS[naming]
+    other = renamed(plain, names, collar=collar)
+    assert "LeftUpLeg" not in other and (collar is None or collar.format(side="Left", s="L") in other)
+    a = bvh.to_cave(bvh.parse_bvh(plain), 1.70).joints
+    b = bvh.to_cave(bvh.parse_bvh(other), 1.70).joints
+    np.testing.assert_allclose(b, a, rtol=0, atol=1e-9)
 
 
 def test_a_poser_named_skeleton_is_the_same_person() -> None:
