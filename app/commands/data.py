@@ -81,7 +81,10 @@ def sources(
 
 @app.command("convert")
 def convert(
-    files: Annotated[list[Path], typer.Argument(help="BVH files, or AMC motions (with --skeleton).")],
+    files: Annotated[
+        list[Path],
+        typer.Argument(help="BVH files, AMC motions (with --skeleton), or C3D trials with joint centres."),
+    ],
     out: Annotated[Path, typer.Option("--out", help="Folder for the NPZs (one per file, named like it).")],
     label: Annotated[
         str | None, typer.Option("--label", help=f"One label for every frame: {', '.join(LABELS)}.")
@@ -104,7 +107,7 @@ def convert(
                      "default 1.70 m). An ASF/AMC pair keeps its own units."),
     ] = None,
 ) -> None:
-    """Convert a lab's own motion capture (BVH, or ASF/AMC) into skeleton NPZs at 30 fps, labelled if
+    """Convert a lab's own motion capture (BVH, ASF/AMC or C3D) into skeleton NPZs at 30 fps, labelled if
     asked, for cavewalk evaluate / recognize. Nothing is written unless every file converts."""
     if label is not None and bout is not None:
         raise InputError("give --label or --bout, not both")

@@ -7,13 +7,23 @@ from __future__ import annotations
 import gzip
 import re
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 
-from pipeline.mocap.fetch import PACKAGES, vendored_dir
+from pipeline.mocap.fetch import (
+    FILES_URL,
+    PACKAGES,
+    download,
+    fetch_mocap,
+    mocap_dir,
+    read_members,
+    vendored_dir,
+)
 from pipeline.skeleton import J, load_npz
 from tests.app.commands.conftest import run_cli
+from tests.pipeline.mocap.test_mocap_readers import write_c3d
 
 
 @pytest.fixture
@@ -51,12 +61,36 @@ def test_a_bvh_take_becomes_a_labelled_npz_that_evaluate_scores(
     assert load_npz(tmp_path / "plain" / "walk.npz").labels is None
 
 
+def test_a_plug_in_gait_c3d_trial_becomes_the_same_npz_as_the_catalogue_s(
+    base_settings: Any, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A real Vicon trial with Plug-in Gait's joint centres (pyc3dsample's ``testsample.c3d``, from the
+    pinned sdist the catalogue reads): ``data convert --bout forward`` writes what the catalogue's
+    clip ``pyc3dsample-walk-1`` holds, joint for joint and label for label."""
+    cache = base_settings.paths.cache_dir
+    catalogue = {p.stem: p for p in fetch_mocap(cache)}
+    pkg = PACKAGES["pyc3dsample"]
+    archive = download(pkg, mocap_dir(cache) / "downloads", FILES_URL, print)
+    trial = tmp_path / "testsample.c3d"
+    trial.write_bytes(read_members(archive, pkg, ["data/testsample.c3d"])["data/testsample.c3d"])
+    out = tmp_path / "npz"
+    args = ("data", "convert", str(trial), "--out", str(out), "--bout", "forward", "--tag", "walk")
+    assert run_cli(monkeypatch, *args) == 0
+    assert re.search(r"testsample\.npz: \d+ frames at 30 fps, .*forward", capsys.readouterr().out)
+    mine, theirs = load_npz(out / "testsample.npz"), load_npz(catalogue["pyc3dsample-walk-1"])
+    np.testing.assert_array_equal(mine.joints_m, theirs.joints_m)
+    assert mine.labels == theirs.labels and "forward" in (mine.labels or ())
+
+
 def _bad_cases(take: Path, tmp: Path) -> dict[str, tuple[list[str], str]]:
     (tmp / "junk.bvh").write_text("not a skeleton")
     (tmp / "a").mkdir()
     twin = tmp / "a" / "walk.bvh"
     twin.write_bytes(take.read_bytes())
     (tmp / "file").write_text("x")
+    (tmp / "junk.c3d").write_text("not a c3d file" * 100)
+    markers = tmp / "markers.c3d"  # markers a lab exported without running a model: no joints
+    markers.write_bytes(write_c3d(["LASI", "RASI", "LKNE"], np.ones((4, 3, 3)), 100.0, True, set()))
     t = str(take)
     return {
         "unknown label": ([t, "--label", "jump"], r"--label must be one of still, forward, left, right"),
@@ -72,13 +106,15 @@ def _bad_cases(take: Path, tmp: Path) -> dict[str, tuple[list[str], str]]:
         "asf for bvh": ([t, "--skeleton", str(tmp / "file")], "carries its own skeleton"),
         "height for amc": ([str(tmp / "x.amc"), "--skeleton", str(tmp / "file"), "--height-m", "1.8"],
                            "keeps its own units; --height-m is for BVH files"),
+        "c3d markers only": ([str(markers)], r"no joint centres.*LFEP.*has 3 points"),
+        "c3d not c3d": ([str(tmp / "junk.c3d")], "not a C3D file"),
     }
 
 
 @pytest.mark.parametrize(
     "case",
     ["unknown label", "both", "bout still", "tag alone", "npz", "amc alone", "missing", "junk", "twins",
-     "height", "asf for bvh", "height for amc", "out is a file", "exists"],
+     "height", "asf for bvh", "height for amc", "c3d markers only", "c3d not c3d", "out is a file", "exists"],
 )  # fmt: skip
 def test_bad_input_is_one_error_line_and_writes_nothing(
     case: str, take: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
