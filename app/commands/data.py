@@ -104,7 +104,7 @@ def convert(
     height_m: Annotated[
         float | None,
         typer.Option("--height-m", help="The person's height, for BVH files (they do not carry it; "
-                     "default 1.70 m). An ASF/AMC pair keeps its own units."),
+                     "default 1.70 m). ASF/AMC and C3D files keep their own units."),
     ] = None,
 ) -> None:
     """Convert a lab's own motion capture (BVH, ASF/AMC or C3D) into skeleton NPZs at 30 fps, labelled if

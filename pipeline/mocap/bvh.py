@@ -29,8 +29,8 @@ Joint mapping (by name, :data:`NAMES`: the Mixamo / MotionBuilder / Vicon ``Left
 ignored. Where a collarbone is named like a shoulder (Mixamo's and Xsens' ``LeftShoulder``,
 Motive's ``LShoulder``) the upper arm's joint is the shoulder. Each COCO joint is the origin of
 that BVH joint. A foot without a toe joint (Poser files) has its toe at the foot's End Site.
-Face: the head joint (``Head``, ``head``, ``mHead``)
-to its end (its End Site, or its child, where that lies up the head at rest) is the head bone; a head
+Face: the head joint (:data:`HEAD`) to its end (its End Site, or its child, where that lies up the
+head at rest) is the head bone; a head
 that ends in eye joints instead (Poser, DAZ) has its top :data:`HEAD_TOP` of the head joint's rest
 height above the joint. With H the bone's midpoint, u up the bone, and f and s the skeleton's rest
 forward (where the toes point at rest) and left turned by the head's world rotation: nose =

@@ -85,7 +85,7 @@ def convert_file(req: ConvertRequest) -> SkeletonSequence:
     rule = req.rule or LabelRule("still")
     spec = ClipSpec(req.path.stem, "", str(req.path), "c3d-pig" if fmt == "c3d" else fmt, "", rule, "eval",
                     "", skeleton=str(req.skeleton or ""))  # a C3D's format is settled by its points
-    text = _text(req.path, {"bvh": "BVH", "acclaim": "AMC", "c3d": "C3D"}[fmt])
+    text = _text(req.path, {"bvh": "BVH", "acclaim": "AMC", "c3d": "C3D"}[fmt])  # latin-1: every byte back
     asf = _text(req.skeleton, "ASF") if req.skeleton is not None else ""
     try:
         if fmt == "bvh":

@@ -133,7 +133,6 @@ EYES = "".join(
 TOE_JOINT = re.compile(  # the humanoid's toe joint, with its End Site
     r"JOINT (Left|Right)ToeBase\n\{\nOFFSET 0 -5 12\n[^\n]*\nEnd Site\n\{\nOFFSET 0 0 4\n\}\n\}\n"
 )
-PARTS = ("UpLeg", "Leg", "Foot", "ToeBase", "Arm", "ForeArm", "Hand")  # the humanoid's, each side
 
 
 def with_motion(hierarchy: str, frames: list[list[float]] | int = 2) -> str:
