@@ -191,7 +191,10 @@ class GroupStats:
     start: movement nobody stepped for); the rest are a predicted bout that began before its true
     one (see :func:`false_movement_kinds`);
     moving_frames / detected_moving: truly moving frames and those predicted as any movement;
-    correct: frames predicted with the exact true class.
+    correct: frames predicted with the exact true class;
+    planted_still / planted_false: the truly still frames in which the file's contacts have both
+    feet on the floor, and those predicted moving (the issue's "no movement while both feet stay
+    planted"); contact_frames: frames whose contacts the file gives (0: none, the figure is None).
     """
 
     name: str
@@ -203,10 +206,19 @@ class GroupStats:
     detected_moving: int
     false_after: int
     false_without: int
+    planted_still: int = 0
+    planted_false: int = 0
+    contact_frames: int = 0
 
     @property
     def accuracy(self) -> float | None:
         return self.correct / self.frames if self.frames else None
+
+    @property
+    def false_movement_planted(self) -> float | None:
+        """Share of the truly still frames with both feet planted (the files' contacts) that were
+        predicted moving; None without contacts or without such frames."""
+        return self.planted_false / self.planted_still if self.contact_frames and self.planted_still else None
 
     def _of_still(self, n: int) -> float | None:
         return n / self.still_frames if self.still_frames else None
@@ -244,6 +256,8 @@ class GroupStats:
             "false_movement_after_bout": self.false_after_bout,
             "false_movement_before_bout": self.false_before_bout,
             "false_starts": self.false_starts,
+            "false_movement_both_feet_planted": self.false_movement_planted,
+            "still_frames_both_feet_planted": self.planted_still if self.contact_frames else None,
             "moving_frames": self.moving_frames,
             "movement_detected": self.movement_detected,
         }
@@ -308,6 +322,10 @@ class Evaluation:
             "false_movement_after_bout": self.overall.false_after_bout,
             "false_movement_before_bout": self.overall.false_before_bout,
             "false_starts": self.overall.false_starts,
+            "false_movement_both_feet_planted": self.overall.false_movement_planted,
+            "still_frames_both_feet_planted": (
+                self.overall.planted_still if self.overall.contact_frames else None
+            ),
             "still_frames": self.overall.still_frames,
             "movement_detected": self.overall.movement_detected,
             "moving_frames": self.overall.moving_frames,
@@ -385,10 +403,13 @@ def false_movement_kinds(truth: NDArray[np.int64], pred: NDArray[np.int64]) -> N
 
 
 def _group(
-    name: str, truth: NDArray[np.int64], pred: NDArray[np.int64], kinds: NDArray[np.int8]
+    name: str, truth: NDArray[np.int64], pred: NDArray[np.int64], kinds: NDArray[np.int8],
+    planted: NDArray[np.int8],
 ) -> GroupStats:
+    """One group's counts; ``planted``: 1 both feet planted, 0 not, -1 the file gives no contacts."""
     still = truth == _STILL
     moving = truth > _STILL
+    both = still & (planted == 1)
     return GroupStats(
         name=name,
         frames=int(truth.size),
@@ -399,6 +420,9 @@ def _group(
         detected_moving=int(np.sum(moving & (pred != _STILL))),
         false_after=int(np.sum(kinds == AFTER_BOUT)),
         false_without=int(np.sum(kinds == NO_BOUT)),
+        planted_still=int(both.sum()),
+        planted_false=int(np.sum(both & (pred != _STILL))),
+        contact_frames=int(np.sum(planted >= 0)),
     )
 
 
@@ -413,7 +437,9 @@ def evaluate(sequences: list[ScoredSequence], exclude_s: float = 0.3) -> Evaluat
     ``stop_beyond_rhythm``: the stop latency minus the bout's own typical pause between steps
     (from ground-truth contacts when the file has them, else nothing is subtracted). False movement
     is also split by the predicted bout it lies in (:func:`false_movement_kinds`): held on after a
-    true bout, or a false start (a predicted bout that meets no true one).
+    true bout, or a false start (a predicted bout that meets no true one); and counted over the
+    still frames in which the file's contacts have both feet planted (files without contacts give
+    no such figure).
     """
     if exclude_s < 0:
         raise ValueError(f"exclude_s must be >= 0, got {exclude_s}")
@@ -422,7 +448,8 @@ def evaluate(sequences: list[ScoredSequence], exclude_s: float = 0.3) -> Evaluat
     stops: list[float] = []
     beyond: list[float] = []
     n_start_missed = n_stop_missed = 0
-    Part = tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int8]]  # truth, pred, false kinds
+    # truth, pred, false kinds, both feet planted (1 / 0, -1: no contacts in the file)
+    Part = tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int8], NDArray[np.int8]]
     by_tag: dict[str, list[Part]] = {}
     per_seq: list[GroupStats] = []
     by_src: dict[str, list[Part]] = {}
@@ -433,6 +460,11 @@ def evaluate(sequences: list[ScoredSequence], exclude_s: float = 0.3) -> Evaluat
         filled = fill_ignore(truth)
         keep = transition_mask(filled, s.fps, exclude_s) & (truth >= 0)
         t_k, p_k, k_k = truth[keep], pred[keep], false_movement_kinds(filled, pred)[keep]
+        if s.contacts is None:
+            c_k = np.full(t_k.shape, -1, dtype=np.int8)
+        else:
+            both: NDArray[np.int8] = np.asarray(np.all(np.asarray(s.contacts, dtype=bool), axis=1), np.int8)
+            c_k = both[keep]
         conf += confusion(t_k, p_k)
         lat = latencies(filled, pred, s.fps)
         starts += [float(v) for v in lat.start_s if np.isfinite(v)]
@@ -450,16 +482,15 @@ def evaluate(sequences: list[ScoredSequence], exclude_s: float = 0.3) -> Evaluat
         tags = np.asarray(s.tags).astype(str)[keep]
         for tag in np.unique(tags).tolist():
             sel = tags == tag
-            by_tag.setdefault(tag or UNTAGGED, []).append((t_k[sel], p_k[sel], k_k[sel]))
-        per_seq.append(_group(s.name, t_k, p_k, k_k))
-        by_src.setdefault(s.source, []).append((t_k, p_k, k_k))
+            by_tag.setdefault(tag or UNTAGGED, []).append((t_k[sel], p_k[sel], k_k[sel], c_k[sel]))
+        per_seq.append(_group(s.name, t_k, p_k, k_k, c_k))
+        by_src.setdefault(s.source, []).append((t_k, p_k, k_k, c_k))
 
     def joined(name: str, parts: list[Part]) -> GroupStats:
         if not parts:
-            return _group(name, np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int8))
-        truth_all = np.concatenate([part[0] for part in parts])
-        pred_all = np.concatenate([part[1] for part in parts])
-        return _group(name, truth_all, pred_all, np.concatenate([part[2] for part in parts]))
+            empty = np.zeros(0, np.int8)
+            return _group(name, np.zeros(0, np.int64), np.zeros(0, np.int64), empty, empty)
+        return _group(name, *(np.concatenate([part[i] for part in parts]) for i in range(4)))
 
     def groups(by: dict[str, list[Part]]) -> tuple[GroupStats, ...]:
         return tuple(joined(k, by[k]) for k in sorted(by))
@@ -519,6 +550,9 @@ def text_report(ev: Evaluation) -> str:
         f"of {o.moving_frames} moving frames",
         f"  of the still frames: held on after a bout {_pct(o.false_after_bout)}, begun before a bout "
         f"{_pct(o.false_before_bout)}, false starts (a command with no bout) {_pct(o.false_starts)}",
+        "  with both feet planted (the files' contacts): "
+        + (f"{_pct(o.false_movement_planted)} of {o.planted_still}" if o.contact_frames
+           else "— (no contacts in the files)"),
         "command changes per true change: " + ("—" if ev.flicker is None else f"{ev.flicker:.2f}"),
         "",
     ]
@@ -526,13 +560,13 @@ def text_report(ev: Evaluation) -> str:
         w = max([len(title), *(len(g.name) for g in rows)]) + 2
         lines.append(
             f"{title:<{w}}{'frames':>8}{'accuracy':>10}{'still':>8}{'false mov.':>12}"
-            f"{'false st.':>11}{'moving':>8}{'detected':>10}"
+            f"{'false st.':>11}{'planted':>10}{'moving':>8}{'detected':>10}"
         )
         for g in rows:
             lines.append(
                 f"{g.name:<{w}}{g.frames:>8}{_pct(g.accuracy):>10}{g.still_frames:>8}"
-                f"{_pct(g.false_movement):>12}{_pct(g.false_starts):>11}{g.moving_frames:>8}"
-                f"{_pct(g.movement_detected):>10}"
+                f"{_pct(g.false_movement):>12}{_pct(g.false_starts):>11}{_pct(g.false_movement_planted):>10}"
+                f"{g.moving_frames:>8}{_pct(g.movement_detected):>10}"
             )
         lines.append("")
     return "\n".join(lines).rstrip() + "\n"

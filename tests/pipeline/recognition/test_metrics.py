@@ -186,3 +186,30 @@ def test_the_text_report_names_the_split() -> None:
         "false starts (a command with no bout) 12.50 %" in text
     )
     assert "false st." in text
+
+
+def test_false_movement_with_both_feet_planted_is_counted_from_the_files_contacts() -> None:
+    """The issue's rule "no movement while both feet stay planted", as a figure: of the truly still
+    frames whose contacts have both feet down, the share called moving; a foot up (a kick's stance,
+    a step into a lunge) does not count; a file without contacts gives no figure, not a zero."""
+    truth = [S] * 10 + [F] * 4 + [S] * 6
+    pred = [S] * 2 + [F] * 2 + [S] * 6 + [F] * 6 + [S] * 4  # 2 frames early, 2 held on after the bout
+    up, down = (True, False), (True, True)
+    contacts = [down] * 2 + [up] * 2 + [down] * 6 + [up] * 4 + [down] * 6  # the first pair: a foot up
+    ev = evaluate([_seq(truth, pred, tags=["kick"] * 10 + ["walk"] * 10, contacts=contacts)], exclude_s=0.0)
+    o = ev.overall
+    # still frames with both feet planted: 2 + 6 + 6 = 14; called moving there: the 2 after the bout
+    assert (o.planted_still, o.planted_false) == (14, 2) and o.false_movement_planted == pytest.approx(2 / 14)
+    assert o.false_movement == pytest.approx(4 / 16)  # the 2 frames with a foot up count there only
+    tag = {g.name: g for g in ev.per_tag}
+    assert tag["kick"].false_movement_planted == 0.0
+    assert tag["walk"].false_movement_planted == pytest.approx(2 / 6)
+    d = ev.to_dict()
+    assert d["false_movement_both_feet_planted"] == pytest.approx(2 / 14)
+    assert d["still_frames_both_feet_planted"] == 14
+    text = text_report(ev)
+    assert "with both feet planted (the files' contacts): 14.29 % of 14" in text and "planted" in text
+    none = evaluate([_seq(truth, pred)], exclude_s=0.0)
+    assert none.overall.false_movement_planted is None
+    assert none.to_dict()["still_frames_both_feet_planted"] is None
+    assert "with both feet planted (the files' contacts): — (no contacts in the files)" in text_report(none)
