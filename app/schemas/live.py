@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, StrictBool, model_validator
 
 Source = Literal["simulator", "cameras", "videos"]
 
@@ -127,6 +127,8 @@ class StatusPublic(BaseModel):
     navigator_mode: Literal["auto", "manual"] = "auto"
     navigation: NavigationPublic = Field(default_factory=NavigationPublic)
     action: ActionPublic | None = None
+    held: bool = Field(False, description="The operator holds navigation (PUT /navigation/hold): every "
+                       "locomotion datagram says still; action and people show what the recogniser says.")
     running_session_id: int | None = None
     active_calibration_id: int | None = None
     restart_for: list[Literal["calibration", "model"]] = Field(
@@ -184,3 +186,17 @@ class NavigatorPublic(BaseModel):
     mode: Literal["auto", "manual"]
     navigation: NavigationMode = "single"
     user_ids: list[int] = Field(default_factory=list, description="The chosen people (each, group).")
+
+
+class HoldUpdate(BaseModel):
+    """``{"held": true}``: hold navigation (every locomotion datagram says ``still``, whatever the
+    participant does); ``{"held": false}``: release it."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    held: StrictBool
+
+
+class HoldPublic(BaseModel):
+    held: bool = Field(description="Every locomotion datagram says still while true.")
+    changed: bool = Field(False, description="Whether this request changed it.")

@@ -148,6 +148,8 @@ class SessionSummaryPublic(BaseModel):
     duration_s: float | None
     without_navigator_s: float | None = Field(description="Time the session ran with nobody steering.")
     without_navigator_fraction: float | None
+    held_s: float | None = Field(None, description="Time the operator held navigation (the walls got still).")
+    holds: int = Field(0, description="Times the operator held navigation during the session.")
     locomotion_alarms: int = Field(description="Times no locomotion command went out for more than 2 s.")
     locomotion_gap_s: float
     navigator_changes: int

@@ -65,6 +65,9 @@ class PipelineFacade(Protocol):
     def set_navigator(self, user_id: int | None) -> None: ...
     def set_navigation(self, mode: str, user_ids: list[int]) -> None: ...
     def set_adaptation(self, adaptation: OutputAdaptation | None) -> None: ...
+    def set_held(self, held: bool) -> bool: ...
+    @property
+    def held(self) -> bool: ...
     def add_sink(self, sink: ResultSink) -> None: ...
     def snapshot_jpeg(self, camera: str) -> bytes | None: ...
     def send_prompt(self, text: str, label: str, remaining_s: float) -> None: ...
@@ -254,6 +257,7 @@ class PipelineService:
         self._result_sinks: tuple[ResultSink, ...] = ()
         self._navigation: str | None = None  # the operator's navigation mode, kept over rebuilds
         self._adaptation: OutputAdaptation | None = None  # the running session's teach adaptation
+        self._held = False  # the operator holds navigation: now and in every pipeline built later
 
     def send_prompt(self, text: str, label: str, remaining_s: float) -> None:
         """A ``prompt`` datagram to the workstations (the recording protocol's instruction)."""
@@ -272,6 +276,29 @@ class PipelineService:
     @property
     def adaptation(self) -> OutputAdaptation | None:
         return self._adaptation
+
+    def set_held(self, held: bool) -> bool:
+        """Hold navigation (every locomotion datagram says ``still``) or release it, now and for every
+        pipeline built later (``Pipeline.set_held``). Without a pipeline the status shows it and the
+        session's log gets the ``hold`` event here. Whether it changed anything."""
+        with self._lock:
+            if self._pipeline is not None:
+                changed = self._pipeline.set_held(held)
+            else:
+                changed = held != self._held
+                if changed:
+                    self._events.record("hold", {"held": held, "message": "navigation held by the operator"
+                                                 if held else "navigation released by the operator"})
+                    with self._snap_lock:
+                        self._status = replace(self._status, held=held)
+                        self._snapshot = self._status.to_json()
+                    self.refresh()
+            self._held = held
+        return changed
+
+    @property
+    def held(self) -> bool:
+        return self._held
 
     def video_controls(self) -> dict[str, tuple[VideoControl, float]]:
         """The running pipeline's camera video switches (``Pipeline.video_controls``; {}: none)."""
@@ -415,6 +442,8 @@ class PipelineService:
             pipeline.set_navigation(self._navigation, [])
         if self._adaptation is not None:
             pipeline.set_adaptation(self._adaptation)
+        if self._held and not pipeline.held:  # held before any pipeline was built
+            pipeline.set_held(True)
         pipeline.subscribe(_Subscription(self, pipeline))
         if self.feed is not None:
             self.feed.own_clock(False)  # the pipeline's statuses set the sockets' rate now
@@ -492,5 +521,5 @@ class PipelineService:
         with self._lock:
             self._close_pipeline()
             with self._snap_lock:
-                self._status = PipelineStatus("stopped" if self._factory else "unavailable")
+                self._status = PipelineStatus("stopped" if self._factory else "unavailable", held=self._held)
                 self._snapshot = self._status.to_json()

@@ -1,5 +1,6 @@
 """A session's summary from its event log: how long it ran, how long it ran without a navigator,
-the gaps in the locomotion stream (the dashboard's alarm), the actions, and what was corrected.
+how long the operator held navigation, the gaps in the locomotion stream (the dashboard's alarm),
+the actions, and what was corrected.
 """
 
 from __future__ import annotations
@@ -41,6 +42,34 @@ def without_navigator_s(events: list[Event], start_ts: float, end_ts: float) -> 
     return max(0.0, total)
 
 
+def held_s(events: list[Event], start_ts: float, end_ts: float) -> tuple[float, int]:
+    """Seconds of [start_ts, end_ts] the operator held navigation, and how often a hold began, from
+    the session's ``session`` (held at its start) and ``hold`` events."""
+    held = False
+    t = start_ts
+    total = 0.0
+    holds = 0
+    for e in events:
+        if e.ts < start_ts:
+            continue
+        if e.ts > end_ts:
+            break
+        p = e.payload or {}
+        if e.kind == "session" and p.get("state") == "running":
+            now = bool(p.get("held", False))
+        elif e.kind == "hold":
+            now = bool(p.get("held"))
+        else:
+            continue
+        if held:
+            total += e.ts - t
+        holds += now and not held
+        held, t = now, e.ts
+    if held:
+        total += end_ts - t
+    return max(0.0, total), holds
+
+
 def session_summary(db: Session, session_id: int) -> dict[str, Any]:
     session = get_session(db, session_id)
     events = list(
@@ -52,6 +81,8 @@ def session_summary(db: Session, session_id: int) -> dict[str, Any]:
         "duration_s": None,
         "without_navigator_s": None,
         "without_navigator_fraction": None,
+        "held_s": None,
+        "holds": 0,
         "locomotion_alarms": 0,
         "locomotion_gap_s": 0.0,
         "navigator_changes": 0,
@@ -72,6 +103,8 @@ def session_summary(db: Session, session_id: int) -> dict[str, Any]:
     without = without_navigator_s(events, start, end)
     out["without_navigator_s"] = round(without, 1)
     out["without_navigator_fraction"] = round(without / duration, 4) if duration > 0 else None
+    held, out["holds"] = held_s(events, start, end)
+    out["held_s"] = round(held, 1)
     actions: dict[str, float] = defaultdict(float)
     label: str | None = None
     t = start
@@ -116,6 +149,8 @@ SESSION_COLUMNS: tuple[str, ...] = (
     "duration_s",
     "without_navigator_s",
     "without_navigator_fraction",
+    "held_s",
+    "holds",
     "locomotion_alarms",
     "locomotion_gap_s",
     "navigator_changes",

@@ -6,6 +6,7 @@ import { mountAction } from "./panels/action.js";
 import { mountAlarm } from "./panels/alarm.js";
 import { mountCalibration } from "./panels/calibration.js";
 import { mountCameras } from "./panels/cameras.js";
+import { mountHold } from "./panels/hold.js";
 import { mountPeople } from "./panels/people.js";
 import { mountScript } from "./panels/script.js";
 import { mountSession } from "./panels/session.js";
@@ -34,6 +35,7 @@ async function main() {
   }
   mountStatus();
   mountAlarm();
+  mountHold();
   mountAction();
   mountSteps(document.getElementById("step-strip-slot"));
   mountPeople();

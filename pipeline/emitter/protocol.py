@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
 from pipeline.errors import InputError
@@ -78,6 +78,11 @@ class LocomotionCommand:
             raise ValueError(f"action must be one of {ACTIONS}, got {self.action!r}")
         if len(self.position_m) != 3:
             raise ValueError(f"position_m must have 3 values, got {len(self.position_m)}")
+
+    def held(self) -> LocomotionCommand:
+        """This command while the operator holds navigation: ``still``, speed 0, confidence 1 (the
+        operator's decision, not the recogniser's guess); the user, yaw and position as they are."""
+        return replace(self, action="still", confidence=1.0, speed_mps=0.0)
 
 
 def _finite(x: float, nd: int) -> float:

@@ -17,8 +17,14 @@ In the live runtime two emitters share one stream (issue 16, item 3): the fusion
 (role ``standby``: the heartbeats while no fusion worker sends). They share the socket and
 a :class:`SharedStream` (``pipeline.runtime.stream.StreamBook``): one ``seq`` for every
 destination, counted across both and across restarts, the endpoints (the standby sets them,
-the fusion emitter follows), and the fusion emitter's tick, which tells the standby to
-stay silent.
+the fusion emitter follows), the fusion emitter's tick, which tells the standby to
+stay silent, and the operator's hold.
+
+While the operator holds navigation (:meth:`UdpEmitter.set_held`), every ``locomotion`` datagram
+(and its OSC message) says ``still`` with speed 0 and confidence 1, whatever was submitted; its
+user, yaw and position, and the ``head`` datagrams, go on as they are (the walls keep their
+perspective). The next datagram built after the call is held: with a shared stream, the one the
+fusion worker sends, without a message to it.
 """
 
 from __future__ import annotations
@@ -78,6 +84,11 @@ class SharedStream(Protocol):
     def take_seq(self) -> int: ...
 
     def add_sent(self, n: int) -> None: ...
+
+    @property
+    def held(self) -> bool: ...
+
+    def set_held(self, held: bool) -> None: ...
 
     def tick(self, now: float | None = None) -> None: ...
 
@@ -216,6 +227,7 @@ class UdpEmitter:
         self._wake = threading.Event()
         self._thread: threading.Thread | None = None
         self._sent = 0
+        self._held = False  # the operator's hold, without a shared stream
         self.errors = 0
         if role != "fusion":
             self.set_endpoints(endpoints or [])
@@ -266,6 +278,23 @@ class UdpEmitter:
                 self._last_beat = time.monotonic() - self.config.heartbeat_s
         if changed:
             self._wake.set()
+
+    @property
+    def held(self) -> bool:
+        """Whether navigation is held: every locomotion command goes out ``still`` (module docstring)."""
+        return self._shared.held if self._shared is not None else self._held
+
+    def set_held(self, held: bool) -> None:
+        """Hold navigation (True) or release it; the repeat thread sends the held command at once.
+        The fusion emitter only reads the hold: the main process's emitter sets it."""
+        if self.role == "fusion":
+            raise ValueError("the fusion worker's emitter follows the hold; the main process sets it")
+        with self._lock:
+            if self._shared is not None:
+                self._shared.set_held(held)
+            self._held = bool(held)
+            self._last_loco = 0.0  # the current command (if any) goes out again now, held or not
+        self._wake.set()
 
     # -- sending --------------------------------------------------------------------------
     def submit(self, command: LocomotionCommand | Sequence[LocomotionCommand] | None,
@@ -348,6 +377,8 @@ class UdpEmitter:
 
     def _send_locomotion(self, cmds: tuple[LocomotionCommand, ...], now: float) -> None:
         osc = []
+        if self.held:
+            cmds = tuple(cmd.held() for cmd in cmds)
         for cmd in cmds:
             ts = cmd.timestamp_s + self._offset
             self._send(functools.partial(_encode_locomotion, cmd, ts))

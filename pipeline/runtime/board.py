@@ -109,11 +109,11 @@ class StatusBoard:
         configured mode, shown while no frame says otherwise)."""
         with self._lock:
             run, state, error = self._run, self._state, self._last_error
-        endpoints, sent = tuple(self.emitter.endpoints), self.emitter.sent
+        endpoints, sent, held = tuple(self.emitter.endpoints), self.emitter.sent, self.emitter.held
         if run is None:
             return PipelineStatus(state, latency_ms=RuntimeMetrics().latency_summary(), last_error=error,
                                   workstations=endpoints, emitted=sent,
-                                  navigation=NavigationStatus.of(None, navigation))
+                                  navigation=NavigationStatus.of(None, navigation), held=held)
         latest = run.latest
         processed = run.metrics.processed
         health = PipelineStatus(
@@ -121,7 +121,7 @@ class StatusBoard:
             max(0, run.produced - processed), processed, run.metrics.latency_summary(),
             tuple(CameraStatus(c.name, c.ok, round(c.fps, 2), c.last_error) for c in run.cameras.values()),
             navigation=NavigationStatus.of(None, navigation), last_error=error, workstations=endpoints,
-            emitted=sent)
+            emitted=sent, held=held)
         if latest is None:
             return health
         result = latest.result

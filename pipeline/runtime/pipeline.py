@@ -63,11 +63,12 @@ class Handover:
     """What a pipeline built to replace another carries on (the app rebuilds it for a new calibration
     or a newly active model): the operator's navigation mode with its chosen people, the highest
     user id given out so far, so that the new pipeline numbers people past it, the navigator the
-    operator chose by hand, and the stream's next ``seq``. A kept choice of people is then nobody
-    until the operator ticks them again, as after a new run of the same pipeline: an id given out
-    afresh never falls on somebody the operator did not choose; the navigator chosen by hand is
-    looked for where they stood; the workstations see one ``seq`` sequence (SPEC: it increases by
-    one per datagram; a receiver may drop a datagram whose ``seq`` went back)."""
+    operator chose by hand, the stream's next ``seq`` and the operator's hold. A kept choice of
+    people is then nobody until the operator ticks them again, as after a new run of the same
+    pipeline: an id given out afresh never falls on somebody the operator did not choose; the
+    navigator chosen by hand is looked for where they stood; the workstations see one ``seq``
+    sequence (SPEC: it increases by one per datagram; a receiver may drop a datagram whose ``seq``
+    went back); a hold goes on holding."""
 
     navigation: NavigationConfig
     numbered_past: int
@@ -75,6 +76,7 @@ class Handover:
     #: fused: looked for there in the new pipeline's first run (None: the automatic choice)
     navigator: tuple[int, tuple[float, float]] | None = None
     next_seq: int = 0
+    held: bool = False  # the operator held navigation: the new pipeline sends still too
 
 
 class Pipeline:
@@ -174,7 +176,8 @@ class Pipeline:
         navigator = self._stop()
         self.emitter.stop()  # its last heartbeat (stopped) is sent: the next seq is the successor's
         with self._lock:
-            return Handover(self.chain.navigation, self._numbered_past, navigator, self._book.peek_seq())
+            return Handover(self.chain.navigation, self._numbered_past, navigator, self._book.peek_seq(),
+                            self.emitter.held)
 
     def _take_over(self, handover: Handover) -> None:
         """Carry on from the pipeline this one replaces (at construction): its navigation mode and
@@ -190,6 +193,8 @@ class Pipeline:
                               f"{chosen}; people are numbered from {self._numbered_past + 1} on",
                               {"mode": navigation.mode, "user_ids": list(navigation.user_ids),
                                "numbered_from": self._numbered_past + 1})
+            if handover.held:
+                self.emitter.set_held(True)  # no event: the hold goes on, it does not begin
 
     def _stream_spec(self) -> StreamSpec:
         return StreamSpec(self._emitter_config, self.chain.head, self._book.spec, self._sock,
@@ -351,6 +356,29 @@ class Pipeline:
             self._board.event("adaptation", f"teach adaptation {'of ' + str(who) if adaptation else 'off'}",
                               {"state": "on" if adaptation else "off", "participant": who,
                                "adaptation_id": adaptation.adaptation_id if adaptation is not None else None})
+
+    @property
+    def held(self) -> bool:
+        """Whether the operator holds navigation (:meth:`set_held`)."""
+        return self.emitter.held
+
+    def set_held(self, held: bool) -> bool:
+        """Hold navigation (True): from the next datagram on, every locomotion command goes out
+        ``still`` (speed 0, confidence 1), whatever the recogniser says, in every navigation mode,
+        in this run and the next ones, until it is released (False). The recogniser goes on: the
+        status shows what it says. A change is a ``hold`` event (the session's log). Whether it
+        changed anything."""
+        if not isinstance(held, bool):
+            raise InputError(f"held must be true or false, got {held!r}")
+        with self._lock:
+            if held == self.emitter.held:
+                return False
+            self.emitter.set_held(held)
+            self._board.event("hold", "navigation held by the operator: the workstations get still"
+                              if held else "navigation released by the operator",
+                              {"held": held})
+        self._publisher.publish_now()
+        return True
 
     def set_workstations(self, endpoints: list[tuple[str, int]]) -> None:
         """Replace the UDP destinations; InputError (nothing changes) for one that does not resolve."""

@@ -183,6 +183,8 @@ class PipelineStatus:
         (multi-view frames). people: everyone tracked in 3D, with their own commands; people3d:
         their skeletons. action: the navigator's command. frame_index: the newest fused frame's
         (-1 before the first). workstations / emitted: the UDP destinations and datagrams sent.
+        held: the operator holds navigation (every locomotion command goes out ``still``; ``action``
+        and ``people`` still show what the recogniser says).
         timestamp_s: Unix time the status was made.
     """
 
@@ -203,6 +205,7 @@ class PipelineStatus:
     last_error: str | None = None
     workstations: tuple[tuple[str, int], ...] = ()
     emitted: int = 0
+    held: bool = False
     timestamp_s: float = field(default_factory=time.time)
 
     def to_json(self) -> dict[str, Any]:
@@ -221,6 +224,7 @@ class PipelineStatus:
             "navigator_mode": self.navigator_mode,
             "navigation": self.navigation.to_json(),
             "action": None if self.action is None else self.action.to_json(),
+            "held": self.held,
             "ts": self.timestamp_s,
             "extra": {"people3d": [s.to_json() for s in self.people3d]} if self.people3d else {},
         }

@@ -12,13 +12,15 @@ A ``StreamBook`` is a small shared-memory segment (int64 words)::
     [0] next seq    [1] datagrams sent    [2] fusion's last tick (monotonic s, float64 bits)
     [3] endpoints version (odd while written)    [4] UDP endpoints    [5] OSC endpoints
     [6] the seq lease written to the seq file (0: no file)
-    [7 ...] (IPv4 as an int, port) pairs: MAX_ENDPOINTS UDP, then MAX_ENDPOINTS OSC
+    [7] 1 while the operator holds navigation (every locomotion command goes out ``still``)
+    [8 ...] (IPv4 as an int, port) pairs: MAX_ENDPOINTS UDP, then MAX_ENDPOINTS OSC
 
 The main process is the only writer of the endpoints (a seqlock: readers retry a torn
-read); the fusion worker writes its tick every ``TICK_S`` (:mod:`pipeline.emitter.udp`)
-from its emitter thread. Whoever sends takes ``seq`` from the book; only one of them sends
-at a time (the main process stands by while the tick is fresh), so ``seq`` stays
-monotonic with no lock a killed worker could leave held.
+read) and of the hold (one word: the next datagram either sender builds reads it, so a hold
+needs no message to the fusion worker and outlives a restarted one); the fusion worker writes
+its tick every ``TICK_S`` (:mod:`pipeline.emitter.udp`) from its emitter thread. Whoever sends
+takes ``seq`` from the book; only one of them sends at a time (the main process stands by while
+the tick is fresh), so ``seq`` stays monotonic with no lock a killed worker could leave held.
 
 ``seq`` also goes on across server processes when the book has a ``seq_file``
 (``emitter.seq_file``; ``cavewalk serve`` and ``demo`` keep it beside the database): a receiver
@@ -57,7 +59,8 @@ ACTIVE_S = 3 * TICK_S  # a tick younger than this: the fusion worker sends the s
 SEQ_LEASE = 100_000  # seq numbers a book may take before it writes its seq file again (about 14 min
 # at 120 datagrams a second); a server killed at any moment left its successor a gap of at most this
 _LEASE = 6
-_HEAD = 7
+_HELD = 7
+_HEAD = 8
 _log = logging.getLogger(__name__)
 _WORDS = _HEAD + 4 * MAX_ENDPOINTS
 
@@ -167,6 +170,16 @@ class StreamBook:
         tick = float(self._floats[2])
         now = time.monotonic() if now is None else now
         return tick > 0.0 and now - tick < ACTIVE_S
+
+    # -- the operator's hold -----------------------------------------------------------------
+    @property
+    def held(self) -> bool:
+        """Whether the operator holds navigation: every locomotion command is sent ``still``."""
+        return bool(self._words[_HELD])
+
+    def set_held(self, held: bool) -> None:
+        """Hold navigation or release it (the main process only)."""
+        self._words[_HELD] = int(bool(held))
 
     # -- endpoints -----------------------------------------------------------------------------
     @property

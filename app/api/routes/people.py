@@ -1,11 +1,11 @@
-"""The people tracked now, the primary navigator and the camera snapshots."""
+"""The people tracked now, the primary navigator, the operator's hold and the camera snapshots."""
 
 from __future__ import annotations
 
 from fastapi import APIRouter, HTTPException, Response, status
 
 from app.api.deps import PipelineDep
-from app.schemas.live import NavigatorPublic, NavigatorUpdate, PersonPublic
+from app.schemas.live import HoldPublic, HoldUpdate, NavigatorPublic, NavigatorUpdate, PersonPublic
 from app.services.live import UnknownUser
 from pipeline.errors import InputError
 
@@ -46,6 +46,21 @@ def put_navigator(body: NavigatorUpdate, pipeline: PipelineDep) -> NavigatorPubl
         raise HTTPException(status.HTTP_400_BAD_REQUEST, str(exc)) from exc
     return NavigatorPublic(navigator=navigator, mode=mode, navigation=chosen["mode"],
                            user_ids=chosen["chosen"])
+
+
+@router.get("/navigation/hold", response_model=HoldPublic)
+def get_hold(pipeline: PipelineDep) -> HoldPublic:
+    return HoldPublic(held=pipeline.held)
+
+
+@router.put("/navigation/hold", response_model=HoldPublic)
+def put_hold(body: HoldUpdate, pipeline: PipelineDep) -> HoldPublic:
+    """Hold navigation (``{"held": true}``): from the next datagram on, every locomotion command to the
+    workstations says ``still`` (speed 0), in every navigation mode and across restarts of the
+    pipeline, until ``{"held": false}`` releases it. The recogniser goes on (the status shows what
+    it says, and ``held``); the session's log gets a ``hold`` event for each change."""
+    changed = pipeline.set_held(body.held)
+    return HoldPublic(held=pipeline.held, changed=changed)
 
 
 @router.get(

@@ -56,7 +56,8 @@ def questionnaire_error(exc: QuestionnaireError) -> JSONResponse:
 
 
 def start_context(request: Request, settings: Settings) -> dict[str, Any]:
-    """What a session's start event records: the active calibration, the models, the navigator."""
+    """What a session's start event records: the active calibration, the models, the navigator, and
+    whether navigation is held (the operator's hold: the session's summary counts its time)."""
     snap = request.app.state.pipeline.snapshot()
     calibration = request.app.state.calibration
     model = settings.recognition.model_path
@@ -71,6 +72,7 @@ def start_context(request: Request, settings: Settings) -> dict[str, Any]:
         "pipeline": snap.get("state"),
         "source": snap.get("source"),
         "navigator": snap.get("navigator"),
+        "held": bool(request.app.state.pipeline.held),
     }
 
 

@@ -286,6 +286,7 @@ def test_sessions_csv_carries_each_sessions_summary(study: TestClient) -> None:
         assert float(row["duration_s"]) == summary["duration_s"] and summary["duration_s"] >= 0
         assert float(row["without_navigator_s"]) == summary["without_navigator_s"], "no pipeline: all of it"
         assert int(row["questionnaires"]) == summary["questionnaires"] >= 4
+        assert float(row["held_s"]) == summary["held_s"] == 0.0 and int(row["holds"]) == summary["holds"] == 0
         assert row["condition"] in ("CC", "EC") and row["started_at"]
 
 

@@ -133,6 +133,47 @@ def test_osc_server_receives_locomotion() -> None:
     )
 
 
+def test_a_held_emitter_sends_still_on_udp_and_osc_until_released() -> None:
+    """The sole emitter (no shared book): held, the current command goes out again at once as
+    still (UDP and OSC), speed 0, confidence 1; released, as submitted."""
+    got: list[tuple[Any, ...]] = []
+    dispatcher = Dispatcher()
+    dispatcher.map(OSC_ADDRESS, lambda addr, *args: got.append(args))
+    server = ThreadingOSCUDPServer(("127.0.0.1", 0), dispatcher)
+    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread.start()
+    rx = Listener()
+    emitter = UdpEmitter(EmitterConfig(rate_hz=20.0, heartbeat_s=100.0), [("127.0.0.1", rx.port)],
+                         osc_endpoints=[("127.0.0.1", server.server_address[1])])
+    emitter.start()
+    try:
+        emitter.submit(cmd("right"))
+        assert not emitter.held
+        time.sleep(0.3)
+        emitter.set_held(True)
+        assert emitter.held
+        time.sleep(0.3)
+        emitter.set_held(False)
+        time.sleep(0.3)
+    finally:
+        emitter.close()
+        server.shutdown()
+        server.server_close()
+    rx.close()
+    loco = [m for m in rx.messages if m is not None and m["type"] == "locomotion"]
+    actions = [m["action"] for m in loco]
+    first_still, last_still = actions.index("still"), len(actions) - 1 - actions[::-1].index("still")
+    assert set(actions[:first_still]) == {"right"} and set(actions[last_still + 1:]) == {"right"}, actions
+    assert set(actions[first_still:last_still + 1]) == {"still"}, "one held stretch, nothing else in it"
+    assert last_still - first_still >= 3, f"held for 0.3 s at 20 Hz: {actions}"
+    held = loco[first_still]
+    assert (held["speed_mps"], held["confidence"], held["yaw_deg"], held["position_m"]) == (
+        0.0, 1.0, 30.0, [0.5, -0.25, 0.0])
+    osc_actions = [g[1] for g in got]
+    assert "still" in osc_actions and osc_actions[0] == "right" and osc_actions[-1] == "right", osc_actions
+    assert all(g[4] == 0.0 for g in got if g[1] == "still"), "OSC's held speed is 0 too"
+
+
 def test_osc_locomotion_message_types_ts_as_a_double() -> None:
     ts = 1_796_148_736.123456
     message = OscMessage(osc_locomotion_message(cmd("left"), ts))

@@ -17,6 +17,7 @@ import subprocess
 import sys
 import threading
 import time
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -244,6 +245,45 @@ def test_the_book_hands_seq_and_endpoints_between_the_two_emitters() -> None:
         assert book.endpoints()[1] == [("127.0.0.1", rx.port)], "a rejected list changes nothing"
         with pytest.raises(ValueError, match="do not go together"):
             UdpEmitter(config, role="fusion")
+    finally:
+        standby.close()
+        fusion.close()
+        rx.close()
+        book.unlink()
+
+
+def test_the_operator_s_hold_set_in_the_main_process_is_what_the_fusion_worker_s_emitter_sends() -> None:
+    """The hold lives in the book: the standby (main process) sets it, the fusion emitter (another
+    book attached, as in the worker) sends every locomotion command still from its next datagram,
+    with the user, yaw and position as they were; released, the command goes out as submitted."""
+    from pipeline.emitter.protocol import LocomotionCommand
+
+    book = StreamBook.create()
+    rx = DatagramRecorder()
+    sock = stream_socket(EmitterConfig())
+    config = EmitterConfig(rate_hz=60.0, heartbeat_s=100.0, stale_after_s=100.0)
+    standby = UdpEmitter(config, [("127.0.0.1", rx.port)], shared=book, role="standby", sock=sock)
+    fusion = UdpEmitter(config, shared=StreamBook.attach(book.spec), role="fusion", sock=sock)
+    t = time.monotonic()
+    forward = LocomotionCommand(3, "forward", 0.8, 40.0, 1.2, (0.25, -0.5, 0.0), t)
+    try:
+        fusion.submit(forward)  # sent at once (after the fusion emitter's first heartbeat)
+        standby.set_held(True)
+        assert fusion.held and standby.held and book.held
+        fusion.tick(t + 1.0)  # a repeat: held
+        fusion.submit(replace(forward, timestamp_s=t + 1.1))  # a fresh result, due at the next tick
+        fusion.tick(t + 2.0)  # held too
+        standby.set_held(False)
+        fusion.tick(t + 3.0)  # released: as submitted
+        wait_until(lambda: len(rx.of_type("locomotion")) >= 4, "four locomotion datagrams")
+        loco = rx.of_type("locomotion")
+        assert [(m["action"], m["speed_mps"], m["confidence"]) for m in loco] == [
+            ("forward", 1.2, 0.8), ("still", 0.0, 1.0), ("still", 0.0, 1.0), ("forward", 1.2, 0.8)]
+        assert all(m["user_id"] == 3 and m["yaw_deg"] == 40.0 and m["position_m"] == [0.25, -0.5, 0.0]
+                   for m in loco), "the hold changes the command, not who or where"
+        with pytest.raises(ValueError, match="main process sets it"):
+            fusion.set_held(True)
+        assert not book.held, "the fusion emitter cannot hold the stream"
     finally:
         standby.close()
         fusion.close()

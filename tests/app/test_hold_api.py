@@ -1,0 +1,87 @@
+"""The operator's hold through the API, on the real app and runtime: the simulator's stepping user,
+served by uvicorn, a real UDP socket as the workstation. Held, every locomotion datagram says still
+while the recogniser goes on saying the user steps, also across a pipeline rebuilt for a model;
+released, the walls move again; the session's log and summary count the hold; bad requests change
+nothing."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Any
+
+import httpx
+import pytest
+
+from tests.app.conftest import Served, make_settings
+from tests.datagrams import DatagramRecorder
+from tests.waiting import HTTP_TIMEOUT_S, wait_until
+
+pytestmark = pytest.mark.slow
+
+http = httpx.Client(timeout=HTTP_TIMEOUT_S)
+IN_FLIGHT_S = 0.3  # a datagram built before the hold was set is read by then (loopback)
+
+
+def moving(messages: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    return [m for m in messages if m["type"] == "locomotion" and m["action"] != "still"]
+
+
+def steps_while_held(status: dict[str, Any]) -> bool:
+    return bool(status["held"]) and status["action"] is not None and status["action"]["label"] != "still"
+
+
+def test_a_held_navigation_sends_still_whatever_the_user_does_until_released(tmp_path: Path) -> None:
+    rx = DatagramRecorder()
+    settings = make_settings(tmp_path).model_copy(update={"workstations": [f"127.0.0.1:{rx.port}"]})
+    try:
+        with Served(settings) as served:
+            base = f"{served.base}/api/v1"
+            assert http.get(f"{base}/navigation/hold").json() == {"held": False, "changed": False}
+            wait_until(lambda: moving([m for _, m in rx.got]) or None, "the stepping user moves the walls")
+            pid = http.post(f"{base}/participants", json={"code": "HOLD1"}).json()["id"]
+            sid = http.post(f"{base}/sessions", json={"participant_id": pid, "condition": "EC"}).json()["id"]
+            assert http.post(f"{base}/sessions/{sid}/start").status_code == 200
+
+            r = http.put(f"{base}/navigation/hold", json={"held": True})
+            assert r.status_code == 200 and r.json() == {"held": True, "changed": True}, r.text
+            time.sleep(IN_FLIGHT_S)
+            mark = len(rx.got)
+            # the recogniser goes on: it says the user steps while the walls get still
+            served.wait_status(steps_while_held)
+
+            # a pipeline rebuilt for a model (Restart now) holds too
+            active = http.get(f"{base}/models/active").json()
+            assert http.post(f"{base}/models/{active['id']}/activate").status_code == 200
+            assert http.post(f"{base}/pipeline/restart").status_code == 200
+            rebuilt = len(rx.got)
+            served.wait_status(lambda s: s["state"] == "running" and steps_while_held(s))
+            wait_until(lambda: rx.locomotion_since(rebuilt) > 60 or None, "the rebuilt pipeline's stream")
+
+            assert http.put(f"{base}/navigation/hold", json={"held": True}).json() == {"held": True,
+                                                                                       "changed": False}
+            for body in ({"held": "yes"}, {"held": 1}, {}, {"held": True, "until": 3}, [True]):
+                r = http.put(f"{base}/navigation/hold", json=body)
+                assert r.status_code == 422 and r.json()["detail"], (body, r.text)
+            r = http.put(f"{base}/navigation/hold", content=b"{not json",
+                         headers={"Content-Type": "application/json"})
+            assert r.status_code == 422, r.text
+            assert http.get(f"{base}/navigation/hold").json()["held"] is True, "a rejected request holds on"
+
+            end = len(rx.got)
+            r = http.put(f"{base}/navigation/hold", json={"held": False})
+            assert r.status_code == 200 and r.json() == {"held": False, "changed": True}, r.text
+            wait_until(lambda: moving([m for _, m in rx.got[end:]]) or None, "the walls move again")
+            assert served.wait_status(lambda s: True)["held"] is False
+            assert http.post(f"{base}/sessions/{sid}/stop").status_code == 200
+            summary = http.get(f"{base}/sessions/{sid}/summary").json()
+            events = http.get(f"{base}/sessions/{sid}/events").json()
+    finally:
+        rx.close()
+    held = [m for _, m in rx.got[mark:end] if m["type"] == "locomotion"]
+    assert len(held) > 60, f"the stream went on while held ({len(held)} locomotion datagrams)"
+    assert not moving(held), f"held: every locomotion datagram says still, got {moving(held)[:3]}"
+    assert {m["speed_mps"] for m in held} == {0.0} and {m["confidence"] for m in held} == {1.0}
+    assert [e["payload"]["held"] for e in events if e["kind"] == "hold"] == [True, False], events
+    assert summary["holds"] == 1 and summary["held_s"] > 0, summary
+    assert summary["held_s"] <= summary["duration_s"], summary

@@ -1,0 +1,62 @@
+"""The operator's hold on the dashboard, in headless Chromium against the real app (the simulator's
+stepping user, the real recogniser, a real UDP socket as the workstation). Held before the pipeline
+is even started, the walls get only still once it runs, while the notice shows what the recogniser
+says; the key H releases it and the walls move again. Screenshots are test artifacts."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import httpx
+import pytest
+
+from tests.app.conftest import Served, make_settings
+from tests.browser import CHROMIUM, chromium, watched_page
+from tests.datagrams import DatagramRecorder
+from tests.waiting import HTTP_TIMEOUT_S, wait_until
+
+pytestmark = [pytest.mark.e2e, pytest.mark.slow]
+
+
+def test_hold_then_start_sends_still_and_the_key_h_releases(tmp_path: Path, artifacts_dir: Path) -> None:
+    from playwright.sync_api import expect, sync_playwright
+
+    if not Path(CHROMIUM).exists():
+        pytest.fail(f"{CHROMIUM} missing: apt-get install -y chromium chromium-driver")
+    rx = DatagramRecorder()
+    settings = make_settings(tmp_path).model_copy(update={"workstations": [f"127.0.0.1:{rx.port}"]})
+    try:
+        with Served(settings, autostart=None) as served, sync_playwright() as pw, chromium(pw) as browser:
+            errors: list[str] = []
+            page = watched_page(browser, errors, viewport={"width": 1600, "height": 1000})
+            page.goto(served.base)
+            button, notice = page.locator("#hold-toggle"), page.locator("#hold-notice")
+            expect(page.locator("#ws-state")).to_have_text("live: open", timeout=30_000)
+            expect(notice).to_be_hidden()
+            button.click()  # nothing runs yet: the next pipeline is held from its first datagram
+            expect(button).to_have_attribute("aria-pressed", "true", timeout=30_000)
+            expect(button).to_have_text("Release navigation")
+            expect(notice).to_be_visible()
+            assert httpx.get(f"{served.base}/api/v1/navigation/hold", timeout=HTTP_TIMEOUT_S).json()["held"]
+
+            page.locator("#pipeline-start").click()  # the simulator is the selected source
+            expect(page.locator("#hold-recognised")).to_have_text(re.compile("forward|left|right"),
+                                                                    timeout=120_000)
+            notice.screenshot(path=str(artifacts_dir / "hold-notice.png"))
+            wait_until(lambda: len(rx.of_type("locomotion")) > 60 or None, "a second of the held stream")
+            page.locator("body").click(position={"x": 5, "y": 500})  # the focus off the buttons
+            before_key = len(rx.got)
+            page.keyboard.press("h")
+            expect(button).to_have_attribute("aria-pressed", "false", timeout=30_000)
+            expect(notice).to_be_hidden()
+            released = len(rx.got)
+            wait_until(lambda: any(m["type"] == "locomotion" and m["action"] != "still"
+                                   for _, m in rx.got[released:]) or None, "the walls move again")
+            hold = httpx.get(f"{served.base}/api/v1/navigation/hold", timeout=HTTP_TIMEOUT_S).json()
+            assert hold == {"held": False, "changed": False}, hold
+            assert errors == [], errors
+    finally:
+        rx.close()
+    held = [m for _, m in rx.got[:before_key] if m["type"] == "locomotion"]
+    assert held and {m["action"] for m in held} == {"still"}, {m["action"] for m in held}
