@@ -37,7 +37,7 @@ from app.db.repositories import fail_unfinished_calibration_runs, running_sessio
 from app.services.backup import BackupService
 from app.services.calibration import CalibrationService
 from app.services.event_log import EventWriter
-from app.services.live import LiveFeed, PipelineFactory, PipelineService, SourceName
+from app.services.live import HOLD_FILE, LiveFeed, PipelineFactory, PipelineService, SourceName
 from app.services.locomotion_watch import LocomotionWatch
 from app.services.models import ModelService
 from app.services.pipeline_factory import runtime_factory, simulator_factory
@@ -160,7 +160,8 @@ def create_app(
         feed.bind(asyncio.get_running_loop())
         watch = LocomotionWatch(events, on_change=feed.publish)
         watch.start()  # raises and logs the alarm even when no status comes
-        pipeline = PipelineService(built, events, sinks=(watch, *((viewer,) if viewer else ())), feed=feed)
+        pipeline = PipelineService(built, events, sinks=(watch, *((viewer,) if viewer else ())), feed=feed,
+                                   hold_file=settings.paths.db.parent / HOLD_FILE)
         events.on_session_change(feed.publish)  # a session started or stopped: the dashboard shows it
         if built is None:
             pipeline.unavailable_reason = reason

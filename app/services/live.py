@@ -37,13 +37,17 @@ from pipeline.runtime.plan import SourceName
 from pipeline.runtime.publisher import StatusSink
 from pipeline.runtime.sinks import ResultSink
 from pipeline.runtime.status import NavigationStatus, PipelineEvent, PipelineStatus
+from pipeline.takes.files import write_atomic
 from pipeline.takes.teach import OutputAdaptation
 from pipeline.takes.video import VideoControl
 
 log = logging.getLogger(__name__)
 
-__all__ = ["LiveFeed", "LiveSink", "PipelineFactory", "PipelineService", "PipelineUnavailable", "SourceName",
-           "UnknownUser"]
+#: beside the database: "held" while the operator holds navigation (a server started again holds too)
+HOLD_FILE = "navigation-hold"
+
+__all__ = ["HOLD_FILE", "LiveFeed", "LiveSink", "PipelineFactory", "PipelineService", "PipelineUnavailable",
+           "SourceName", "UnknownUser"]
 
 
 class PipelineUnavailable(RuntimeError):
@@ -219,6 +223,17 @@ class _Subscription:
         self._service.on_status(self._pipeline, status)
 
 
+def _read_hold(path: Path) -> bool:
+    """Whether ``path`` says navigation is held (a file that cannot be read: held, and said)."""
+    try:
+        return path.read_bytes().strip() == b"held"
+    except FileNotFoundError:
+        return False
+    except OSError as exc:
+        log.error("%s cannot be read (%s): navigation is held until the operator releases it", path, exc)
+        return True
+
+
 class PipelineService:
     """Owns one pipeline (built on first start by ``factory``) and hands its pushed status on."""
 
@@ -228,6 +243,7 @@ class PipelineService:
         events: EventWriter,
         sinks: tuple[LiveSink, ...] = (),
         feed: LiveFeed | None = None,
+        hold_file: Path | None = None,
     ) -> None:
         self._factory = factory
         self._events = events
@@ -257,7 +273,15 @@ class PipelineService:
         self._result_sinks: tuple[ResultSink, ...] = ()
         self._navigation: str | None = None  # the operator's navigation mode, kept over rebuilds
         self._adaptation: OutputAdaptation | None = None  # the running session's teach adaptation
-        self._held = False  # the operator holds navigation: now and in every pipeline built later
+        # the operator holds navigation: now, in every pipeline built later and, through hold_file
+        # (beside the database), in the next server process: a crash never releases a hold
+        self._hold_file = hold_file
+        self._held = hold_file is not None and _read_hold(hold_file)
+        if self._held:
+            self._status = replace(self._status, held=True)
+            self._snapshot = self._status.to_json()
+            log.warning("navigation is held (%s says so): the workstations get still until it is released",
+                        hold_file)
 
     def send_prompt(self, text: str, label: str, remaining_s: float) -> None:
         """A ``prompt`` datagram to the workstations (the recording protocol's instruction)."""
@@ -294,7 +318,23 @@ class PipelineService:
                         self._snapshot = self._status.to_json()
                     self.refresh()
             self._held = held
+            if changed:
+                self._keep_hold(held)
         return changed
+
+    def _keep_hold(self, held: bool) -> None:
+        """The hold in ``hold_file`` for the next server process (a failure is logged: the hold itself
+        is on or off already)."""
+        if self._hold_file is None:
+            return
+        try:
+            if held:
+                write_atomic(self._hold_file, b"held\n")
+            else:
+                self._hold_file.unlink(missing_ok=True)
+        except OSError as exc:
+            log.error("the hold could not be kept in %s (%s): a server started again would not know it",
+                      self._hold_file, exc)
 
     @property
     def held(self) -> bool:

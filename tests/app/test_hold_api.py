@@ -13,6 +13,7 @@ from typing import Any
 import httpx
 import pytest
 
+from app.services.live import HOLD_FILE
 from tests.app.conftest import Served, make_settings
 from tests.datagrams import DatagramRecorder
 from tests.waiting import HTTP_TIMEOUT_S, wait_until
@@ -85,3 +86,29 @@ def test_a_held_navigation_sends_still_whatever_the_user_does_until_released(tmp
     assert [e["payload"]["held"] for e in events if e["kind"] == "hold"] == [True, False], events
     assert summary["holds"] == 1 and summary["held_s"] > 0, summary
     assert summary["held_s"] <= summary["duration_s"], summary
+
+
+def test_a_hold_outlives_the_server_process(tmp_path: Path) -> None:
+    """A server stopped (or crashed) while navigation is held starts again held: from its first
+    datagram the walls get still, until the operator releases it."""
+    rx = DatagramRecorder()
+    settings = make_settings(tmp_path).model_copy(update={"workstations": [f"127.0.0.1:{rx.port}"]})
+    kept = settings.paths.db.parent / HOLD_FILE
+    try:
+        with Served(settings, autostart=None) as served:
+            assert http.put(f"{served.base}/api/v1/navigation/hold", json={"held": True}).status_code == 200
+        assert kept.read_text() == "held\n"
+        before = len(rx.got)
+        with Served(settings) as served:  # the simulator starts at once
+            base = f"{served.base}/api/v1"
+            assert http.get(f"{base}/navigation/hold").json()["held"] is True
+            served.wait_status(steps_while_held)
+            wait_until(lambda: rx.locomotion_since(before) > 60 or None, "a second of the new stream")
+            end = len(rx.got)
+            assert http.put(f"{base}/navigation/hold", json={"held": False}).json()["changed"] is True
+            assert not kept.exists(), "released: nothing kept for the next server"
+            wait_until(lambda: moving([m for _, m in rx.got[end:]]) or None, "the walls move again")
+    finally:
+        rx.close()
+    held = [m for _, m in rx.got[before:end] if m["type"] == "locomotion"]
+    assert held and not moving(held), moving(held)[:3]
