@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import time
 from collections import defaultdict
+from collections.abc import Callable
 from typing import Any
 
 from sqlalchemy import select
@@ -16,58 +17,56 @@ from app.db.models import Event, Participant, StudySession
 from app.db.study_repository import get_session
 
 
-def without_navigator_s(events: list[Event], start_ts: float, end_ts: float) -> float:
-    """Seconds of [start_ts, end_ts] with no navigator, from the session's ``session``, ``navigator``
-    and ``pipeline`` events (a stopped or failed pipeline has no navigator)."""
-    nav: Any = None
-    t = start_ts
-    total = 0.0
+def _time_when(events: list[Event], start_ts: float, end_ts: float, initial: Any,
+               update: Callable[[Event, Any], Any], counts: Callable[[Any], bool]) -> tuple[float, int]:
+    """Seconds of [start_ts, end_ts] in which ``counts(state)`` holds, and how often it began: the
+    state starts as ``initial`` and each event of the window makes it ``update(event, state)``."""
+    state, t, total, began = initial, start_ts, 0.0, 0
     for e in events:
         if e.ts < start_ts:
             continue
         if e.ts > end_ts:
             break
-        if nav is None:
+        was = counts(state)
+        if was:
             total += e.ts - t
-        t = e.ts
-        p = e.payload or {}
-        if e.kind == "session" and p.get("state") == "running":
-            nav = p.get("navigator")
-        elif e.kind == "navigator":
-            nav = p.get("current")
-        elif e.kind == "pipeline" and p.get("state") in ("stopped", "error", "stalled"):
-            nav = None
-    if nav is None:
+        t, state = e.ts, update(e, state)
+        began += counts(state) and not was
+    if counts(state):
         total += end_ts - t
-    return max(0.0, total)
+    return max(0.0, total), began
+
+
+def _navigator(e: Event, nav: Any) -> Any:
+    p = e.payload or {}
+    if e.kind == "session" and p.get("state") == "running":
+        return p.get("navigator")
+    if e.kind == "navigator":
+        return p.get("current")
+    if e.kind == "pipeline" and p.get("state") in ("stopped", "error", "stalled"):
+        return None
+    return nav
+
+
+def _held(e: Event, held: bool) -> bool:
+    p = e.payload or {}
+    if e.kind == "session" and p.get("state") == "running":
+        return bool(p.get("held", False))
+    if e.kind == "hold":
+        return bool(p.get("held"))
+    return held
+
+
+def without_navigator_s(events: list[Event], start_ts: float, end_ts: float) -> float:
+    """Seconds of [start_ts, end_ts] with no navigator, from the session's ``session``, ``navigator``
+    and ``pipeline`` events (a stopped or failed pipeline has no navigator)."""
+    return _time_when(events, start_ts, end_ts, None, _navigator, lambda nav: nav is None)[0]
 
 
 def held_s(events: list[Event], start_ts: float, end_ts: float) -> tuple[float, int]:
     """Seconds of [start_ts, end_ts] the operator held navigation, and how often a hold began, from
     the session's ``session`` (held at its start) and ``hold`` events."""
-    held = False
-    t = start_ts
-    total = 0.0
-    holds = 0
-    for e in events:
-        if e.ts < start_ts:
-            continue
-        if e.ts > end_ts:
-            break
-        p = e.payload or {}
-        if e.kind == "session" and p.get("state") == "running":
-            now = bool(p.get("held", False))
-        elif e.kind == "hold":
-            now = bool(p.get("held"))
-        else:
-            continue
-        if held:
-            total += e.ts - t
-        holds += now and not held
-        held, t = now, e.ts
-    if held:
-        total += end_ts - t
-    return max(0.0, total), holds
+    return _time_when(events, start_ts, end_ts, False, _held, bool)
 
 
 def session_summary(db: Session, session_id: int) -> dict[str, Any]:
