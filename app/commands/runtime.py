@@ -82,6 +82,8 @@ def receive_cmd(
                        f"{msg['forward']} up {msg['up']} predicted {msg['predicted_ms']:.0f} ms")
         elif msg["type"] == "navigation":
             typer.echo(f"#{msg['seq']:>6} navigation {msg['mode']} users {msg['user_ids']}")
+        elif msg["type"] == "hold":
+            typer.echo(f"#{msg['seq']:>6} hold {'on: every locomotion says still' if msg['held'] else 'off'}")
         elif msg["type"] == "prompt":
             typer.echo(f"#{msg['seq']:>6} prompt {msg['label']:<8} {msg['remaining_s']:5.1f} s "
                        f"{msg['text']}")

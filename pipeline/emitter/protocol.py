@@ -47,6 +47,7 @@ NAVIGATION_MODES = ("single", "each", "group")
 MAX_NAVIGATION_IDS = 64
 OSC_GROUP_USER_ID = -1  # the group stream's user_id in OSC, which has no null
 _PROMPT_KEYS = {"v", "type", "seq", "ts", "text", "label", "remaining_s"}  # additive (issue 18)
+_HOLD_KEYS = {"v", "type", "seq", "ts", "held"}  # additive: the operator's hold
 MAX_PROMPT_CHARS = 200
 OSC_HEAD_ADDRESS = "/cave/head"  # + "/{user_id}"
 UNIT_TOLERANCE = 0.01  # forward and up are unit vectors to within this
@@ -145,6 +146,13 @@ def navigation_message(mode: str, user_ids: Any, seq: int, ts_unix: float) -> di
             "mode": mode, "user_ids": sorted(int(u) for u in user_ids)[:MAX_NAVIGATION_IDS]}
 
 
+def hold_message(held: bool, seq: int, ts_unix: float) -> dict[str, Any]:
+    """Whether the operator holds navigation (every ``locomotion`` says ``still`` while ``held``):
+    sent when it changes and after every heartbeat while held. Additive."""
+    return {"v": PROTOCOL_VERSION, "type": "hold", "seq": int(seq), "ts": round(float(ts_unix), 6),
+            "held": bool(held)}
+
+
 def _vector(values: Any, nd: int) -> list[float]:
     return [_finite(v, nd) for v in values]
 
@@ -229,10 +237,10 @@ def validate_datagram(data: bytes | str | dict[str, Any]) -> dict[str, Any]:
     kind = msg.get("type")
     keys = {"locomotion": _LOCOMOTION_KEYS, "heartbeat": _HEARTBEAT_KEYS,
             "head": _HEAD_KEYS, "prompt": _PROMPT_KEYS,
-            "navigation": _NAVIGATION_KEYS}.get(kind)  # type: ignore[arg-type]
+            "navigation": _NAVIGATION_KEYS, "hold": _HOLD_KEYS}.get(kind)  # type: ignore[arg-type]
     if keys is None:
-        raise InputError(f"type: expected 'locomotion', 'heartbeat', 'head', 'prompt' or 'navigation', "
-                         f"got {kind!r}")
+        raise InputError(f"type: expected 'locomotion', 'heartbeat', 'head', 'prompt', 'navigation' or "
+                         f"'hold', got {kind!r}")
     if missing := keys - msg.keys():
         raise InputError(f"{kind}: missing keys {sorted(missing)}")
     if extra := msg.keys() - keys:
@@ -250,6 +258,10 @@ def validate_datagram(data: bytes | str | dict[str, Any]) -> dict[str, Any]:
         return _validate_prompt(msg)
     if kind == "navigation":
         return _validate_navigation(msg)
+    if kind == "hold":
+        if not isinstance(msg["held"], bool):
+            raise InputError(f"held: expected true or false, got {msg['held']!r}")
+        return msg
     if msg["user_id"] is not None:  # null: the group's command (issue 20)
         _integer(msg, "user_id", 0)
     if msg["action"] not in ACTIONS:

@@ -36,6 +36,7 @@ class ReceiverStats:
     errors: list[str] = field(default_factory=list)
     by_user: dict[str, int] = field(default_factory=dict)  # locomotion per stream ("group" = null)
     navigation: dict[str, dict[str, Any]] = field(default_factory=dict)  # sender -> last announcement
+    held: dict[str, bool] = field(default_factory=dict)  # sender -> its last ``hold`` announcement
     _next_seq: dict[str, int] = field(default_factory=dict)
 
     def feed(self, data: bytes, sender: str, recv_unix: float) -> dict[str, Any] | None:
@@ -69,10 +70,14 @@ class ReceiverStats:
             self.by_user[stream] = self.by_user.get(stream, 0) + 1
         elif msg["type"] == "navigation":
             self.navigation[sender] = {"mode": msg["mode"], "user_ids": list(msg["user_ids"])}
+        elif msg["type"] == "hold":
+            self.held[sender] = bool(msg["held"])
         return msg
 
     def _check_stream(self, msg: dict[str, Any], sender: str) -> None:
         """InputError for a ``locomotion`` that contradicts the sender's announced navigation mode."""
+        if self.held.get(sender) and msg["action"] != "still":
+            raise InputError(f"locomotion: the sender holds navigation, but the action is {msg['action']!r}")
         nav = self.navigation.get(sender)
         if nav is None:  # nothing announced (a sender before issue 20): no mode to check against
             return
@@ -104,6 +109,7 @@ class ReceiverStats:
             "errors": list(self.errors),
             "by_user": dict(self.by_user),
             "navigation": {k: dict(v) for k, v in self.navigation.items()},
+            "held": dict(self.held),
         }
 
 

@@ -24,7 +24,9 @@ While the operator holds navigation (:meth:`UdpEmitter.set_held`), every ``locom
 (and its OSC message) says ``still`` with speed 0 and confidence 1, whatever was submitted; its
 user, yaw and position, and the ``head`` datagrams, go on as they are (the walls keep their
 perspective). The next datagram built after the call is held: with a shared stream, the one the
-fusion worker sends, without a message to it.
+fusion worker sends, without a message to it. A ``hold`` datagram says so: whichever emitter
+sends the stream announces a change at its next tick, and repeats ``held: true`` after every
+heartbeat while the hold lasts (a workstation started late learns it within a second).
 """
 
 from __future__ import annotations
@@ -45,6 +47,7 @@ from pipeline.emitter.protocol import (
     encode,
     head_message,
     heartbeat_message,
+    hold_message,
     locomotion_message,
     navigation_message,
     osc_head_message,
@@ -228,6 +231,7 @@ class UdpEmitter:
         self._thread: threading.Thread | None = None
         self._sent = 0
         self._held = False  # the operator's hold, without a shared stream
+        self._announced_held = False  # the hold the last ``hold`` datagram of this emitter said
         self.errors = 0
         if role != "fusion":
             self.set_endpoints(endpoints or [])
@@ -377,7 +381,10 @@ class UdpEmitter:
 
     def _send_locomotion(self, cmds: tuple[LocomotionCommand, ...], now: float) -> None:
         osc = []
-        if self.held:
+        held = self.held
+        if held != self._announced_held:  # said before the first locomotion it changes
+            self._send_hold(now, held)
+        if held:
             cmds = tuple(cmd.held() for cmd in cmds)
         for cmd in cmds:
             ts = cmd.timestamp_s + self._offset
@@ -411,6 +418,13 @@ class UdpEmitter:
         self._send(lambda seq: encode(heartbeat_message(state, seq, ts)))
         self._last_beat = now
         self._send_navigation(now)
+        if self.held:
+            self._send_hold(now, True)
+
+    def _send_hold(self, now: float, held: bool) -> None:
+        ts = now + self._offset
+        self._send(lambda seq: encode(hold_message(held, seq, ts)))
+        self._announced_held = held
 
     def _send_navigation(self, now: float) -> None:
         if self._navigation is None:
@@ -437,6 +451,9 @@ class UdpEmitter:
                 self._pending = False
             if now - self._last_beat >= self.config.heartbeat_s:
                 self._send_heartbeat(now)
+            held = self.held
+            if held != self._announced_held:  # the hold changed: said at once
+                self._send_hold(now, held)
 
     def _run(self) -> None:
         period = 1.0 / self.config.rate_hz

@@ -28,6 +28,18 @@ def moving(messages: list[dict[str, Any]]) -> list[dict[str, Any]]:
     return [m for m in messages if m["type"] == "locomotion" and m["action"] != "still"]
 
 
+def said_and_kept(messages: list[dict[str, Any]]) -> list[bool]:
+    """The ``hold`` announcements in order, checking what a workstation may rely on: after
+    ``held: true`` every locomotion says still until ``held: false``."""
+    said, held = [], False
+    for m in messages:
+        if m["type"] == "hold":
+            said.append(held := bool(m["held"]))
+        elif m["type"] == "locomotion" and held:
+            assert m["action"] == "still", f"a movement after the hold was said: {m}"
+    return said
+
+
 def steps_while_held(status: dict[str, Any]) -> bool:
     return bool(status["held"]) and status["action"] is not None and status["action"]["label"] != "still"
 
@@ -84,6 +96,9 @@ def test_a_held_navigation_sends_still_whatever_the_user_does_until_released(tmp
     assert not moving(held), f"held: every locomotion datagram says still, got {moving(held)[:3]}"
     assert {m["speed_mps"] for m in held} == {0.0} and {m["confidence"] for m in held} == {1.0}
     assert [e["payload"]["held"] for e in events if e["kind"] == "hold"] == [True, False], events
+    said = said_and_kept([m for _, m in rx.got])
+    first_off = said.index(False)  # each sender says a change once (two senders: twice)
+    assert first_off > 0 and set(said[:first_off]) == {True} and set(said[first_off:]) == {False}, said
     assert summary["holds"] == 1 and summary["held_s"] > 0, summary
     assert summary["held_s"] <= summary["duration_s"], summary
 

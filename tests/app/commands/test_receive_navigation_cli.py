@@ -7,6 +7,8 @@ mode is invalid and fails the run."""
 from __future__ import annotations
 
 import json
+import re
+import socket
 import subprocess
 import time
 
@@ -63,3 +65,40 @@ def test_receive_checks_each_and_group_streams_and_rejects_a_stream_that_contrad
     assert all(m["user_id"] is None for m in loco[-2:]), "the group's stream has user_id null"
     seqs = [m["seq"] for m in messages]
     assert seqs == list(range(len(seqs))), "one seq per datagram per destination, whatever the stream"
+
+
+def test_receive_prints_the_hold_and_rejects_a_movement_while_held() -> None:
+    """The real emitter held and released (``hold`` said before the locomotion it changes), then a
+    sender that says ``held: true`` and sends ``forward``: invalid, and the run fails."""
+    port = free_udp_port()
+    # heartbeat, forward, hold on, still, hold off, forward; then another sender's hold on and forward
+    proc = subprocess.Popen(cavewalk("receive", "--host", "127.0.0.1", "--port", str(port), "--count", "8"),
+                            cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    wait_bound(port, proc)
+    forged = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    try:
+        emitter = UdpEmitter(EmitterConfig(rate_hz=60.0, heartbeat_s=30.0, stale_after_s=0.01),
+                             [("127.0.0.1", port)])
+        emitter.tick()
+        for held in (False, True, False):
+            emitter.set_held(held)
+            emitter.submit(command(1, "forward", per_user=False))
+            time.sleep(0.03)
+        emitter.close()
+        for msg in ({"type": "hold", "seq": 0, "held": True},
+                    {"type": "locomotion", "seq": 1, "user_id": 1, "action": "forward", "confidence": 0.8,
+                     "yaw_deg": 0.0, "speed_mps": 1.0, "position_m": [0.0, 0.0, 0.0]}):
+            forged.sendto(json.dumps({"v": 1, "ts": time.time(), **msg}).encode(), ("127.0.0.1", port))
+            time.sleep(0.03)
+        out, err = proc.communicate(timeout=60)
+    finally:
+        forged.close()
+        if proc.poll() is None:
+            proc.kill()
+    said = [m.group(1) for m in re.finditer(r"^#\s*\d+ (\w+(?: \w+)?)", out, re.MULTILINE)]
+    assert said == ["heartbeat stopped", "locomotion user", "hold on", "locomotion user", "hold off",
+                    "locomotion user", "hold on"], out
+    actions = re.findall(r"locomotion user 1 (\w+)", out)
+    assert actions == ["forward", "still", "forward"], out
+    assert proc.returncode == 1 and out.splitlines()[-1].startswith("INVALID"), (out, err)
+    assert "the sender holds navigation, but the action is 'forward'" in err, err

@@ -159,7 +159,14 @@ def test_a_held_emitter_sends_still_on_udp_and_osc_until_released() -> None:
         emitter.close()
         server.shutdown()
         server.server_close()
-    rx.close()
+    stats = rx.close().summary()
+    assert stats["invalid"] == 0, stats["errors"]  # the reference receiver checks held -> still
+    said = [(m["type"], m.get("held", m.get("action"))) for m in rx.messages
+            if m is not None and m["type"] in ("hold", "locomotion")]
+    runs = [x for i, x in enumerate(said) if i == 0 or x != said[i - 1]]
+    assert runs == [("locomotion", "right"), ("hold", True), ("locomotion", "still"), ("hold", False),
+                    ("locomotion", "right")], "each change said before the first locomotion it changes"
+    assert stats["held"] == {next(iter(stats["held"])): False}, "the last word: released"
     loco = [m for m in rx.messages if m is not None and m["type"] == "locomotion"]
     actions = [m["action"] for m in loco]
     first_still, last_still = actions.index("still"), len(actions) - 1 - actions[::-1].index("still")
@@ -203,6 +210,27 @@ def test_broadcast_and_multicast_addresses_are_accepted() -> None:
         assert emitter.endpoints == [("255.255.255.255", 9), ("239.1.2.3", 9)]
     finally:
         emitter.close()
+
+
+def test_the_receiver_refuses_a_movement_from_a_sender_that_holds() -> None:
+    from pipeline.emitter import encode, hold_message, locomotion_message
+
+    stats = ReceiverStats()
+    move = cmd("forward", ts=1.0)
+    stats.feed(encode(locomotion_message(move, 0, 1.0)), "a", 1.01)
+    stats.feed(encode(hold_message(True, 1, 1.0)), "a", 1.01)
+    stats.feed(encode(locomotion_message(move.held(), 2, 1.0)), "a", 1.01)
+    stats.feed(encode(locomotion_message(move, 3, 1.0)), "a", 1.01)  # contradicts its own hold
+    stats.feed(encode(locomotion_message(move, 0, 1.0)), "b", 1.01)  # another sender: not held
+    stats.feed(encode(hold_message(False, 4, 1.0)), "a", 1.01)
+    stats.feed(encode(locomotion_message(move, 5, 1.0)), "a", 1.01)
+    s = stats.summary()
+    assert (s["valid"], s["invalid"]) == (6, 1), s
+    assert s["errors"] == ["locomotion: the sender holds navigation, but the action is 'forward'"]
+    assert s["held"] == {"a": False} and s["by_type"]["hold"] == 2
+    for bad in ({"held": 1}, {"held": "true"}, {"held": None}):
+        stats.feed(encode(hold_message(True, 6, 1.0) | bad), "a", 1.01)
+    assert stats.summary()["invalid"] == 4
 
 
 def test_receiver_counts_drops_and_reordering() -> None:
