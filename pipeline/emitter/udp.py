@@ -25,8 +25,9 @@ While the operator holds navigation (:meth:`UdpEmitter.set_held`), every ``locom
 user, yaw and position, and the ``head`` datagrams, go on as they are (the walls keep their
 perspective). The next datagram built after the call is held: with a shared stream, the one the
 fusion worker sends, without a message to it. A ``hold`` datagram says so: whichever emitter
-sends the stream announces a change at its next tick, and repeats ``held: true`` after every
-heartbeat while the hold lasts (a workstation started late learns it within a second).
+sends the stream announces a change before the first locomotion it affects (or at its next tick,
+if that comes first), and repeats ``held: true`` after every heartbeat while the hold lasts (a
+workstation started late learns it within a second).
 """
 
 from __future__ import annotations
