@@ -1,7 +1,8 @@
 """The operator's hold on the dashboard, in headless Chromium against the real app (the simulator's
 stepping user, the real recogniser, a real UDP socket as the workstation). Held before the pipeline
 is even started, the walls get only still once it runs, while the notice shows what the recogniser
-says; the key H releases it and the walls move again. Screenshots are test artifacts."""
+says; the key H releases it and the walls move again, and the session's summary counts the hold.
+Screenshots are test artifacts."""
 
 from __future__ import annotations
 
@@ -30,7 +31,14 @@ def test_hold_then_start_sends_still_and_the_key_h_releases(tmp_path: Path, arti
         with Served(settings, autostart=None) as served, sync_playwright() as pw, chromium(pw) as browser:
             errors: list[str] = []
             page = watched_page(browser, errors, viewport={"width": 1600, "height": 1000})
+            api = f"{served.base}/api/v1"
+            pid = httpx.post(f"{api}/participants", json={"code": "HOLD2"},
+                             timeout=HTTP_TIMEOUT_S).json()["id"]
+            sid = httpx.post(f"{api}/sessions", json={"participant_id": pid, "condition": "CC"},
+                             timeout=HTTP_TIMEOUT_S).json()["id"]
             page.goto(served.base)
+            row = page.locator(f'#session-table tbody tr[data-session-id="{sid}"]')
+            row.locator("button.session-start").click()  # a controller session, held throughout
             button, notice = page.locator("#hold-toggle"), page.locator("#hold-notice")
             expect(page.locator("#ws-state")).to_have_text("live: open", timeout=30_000)
             expect(notice).to_be_hidden()
@@ -55,6 +63,11 @@ def test_hold_then_start_sends_still_and_the_key_h_releases(tmp_path: Path, arti
                                    for _, m in rx.got[released:]) or None, "the walls move again")
             hold = httpx.get(f"{served.base}/api/v1/navigation/hold", timeout=HTTP_TIMEOUT_S).json()
             assert hold == {"held": False, "changed": False}, hold
+            assert httpx.post(f"{api}/sessions/{sid}/stop", timeout=HTTP_TIMEOUT_S).status_code == 200
+            row.locator("button.session-select").click()
+            summary = page.locator("#summary-list")
+            expect(summary).to_contain_text("navigation held", timeout=30_000)
+            expect(summary).to_contain_text("(1 hold)", timeout=30_000)
             assert errors == [], errors
     finally:
         rx.close()

@@ -11,7 +11,8 @@ function describe(e) {
     case "session":
       if (p.state === "running")
         return `started · calibration ${p.calibration_id ?? "none"} · pose model ${p.pose_model} · action model ${p.action_model}` +
-          (p.planned_duration_s ? ` · run ${fmtDuration(p.planned_duration_s)}` : "");
+          (p.planned_duration_s ? ` · run ${fmtDuration(p.planned_duration_s)}` : "") +
+          (p.held ? " · navigation held" : "");
       return `${p.state}${p.by ? ` (by ${p.by})` : ""}`;
     case "action":
       return `${p.previous ?? "–"} → ${p.label ?? "–"}${p.user_id != null ? ` (user ${p.user_id})` : ""}`;
@@ -83,6 +84,10 @@ export function mountSession() {
           "without a navigator",
           s.without_navigator_s == null ? "–" : `${fmtDuration(s.without_navigator_s)} (${Math.round(100 * (s.without_navigator_fraction || 0))} %)`,
           (s.without_navigator_s || 0) > 2,
+        ),
+        ...row(
+          "navigation held",
+          s.held_s == null ? "–" : s.holds ? `${fmtDuration(s.held_s)} (${s.holds} ${s.holds === 1 ? "hold" : "holds"})` : "never",
         ),
         ...row("locomotion alarms", `${s.locomotion_alarms} (${fmtDuration(s.locomotion_gap_s)})`, s.locomotion_alarms > 0),
         ...row("navigator changes", String(s.navigator_changes)),
