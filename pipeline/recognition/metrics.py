@@ -215,10 +215,15 @@ class GroupStats:
         return self.correct / self.frames if self.frames else None
 
     @property
+    def still_planted(self) -> int | None:
+        """The truly still frames with both feet planted (the files' contacts); None without contacts."""
+        return self.planted_still if self.contact_frames else None
+
+    @property
     def false_movement_planted(self) -> float | None:
         """Share of the truly still frames with both feet planted (the files' contacts) that were
         predicted moving; None without contacts or without such frames."""
-        return self.planted_false / self.planted_still if self.contact_frames and self.planted_still else None
+        return self.planted_false / self.planted_still if self.still_planted else None
 
     def _of_still(self, n: int) -> float | None:
         return n / self.still_frames if self.still_frames else None
@@ -257,7 +262,7 @@ class GroupStats:
             "false_movement_before_bout": self.false_before_bout,
             "false_starts": self.false_starts,
             "false_movement_both_feet_planted": self.false_movement_planted,
-            "still_frames_both_feet_planted": self.planted_still if self.contact_frames else None,
+            "still_frames_both_feet_planted": self.still_planted,
             "moving_frames": self.moving_frames,
             "movement_detected": self.movement_detected,
         }
@@ -323,9 +328,7 @@ class Evaluation:
             "false_movement_before_bout": self.overall.false_before_bout,
             "false_starts": self.overall.false_starts,
             "false_movement_both_feet_planted": self.overall.false_movement_planted,
-            "still_frames_both_feet_planted": (
-                self.overall.planted_still if self.overall.contact_frames else None
-            ),
+            "still_frames_both_feet_planted": self.overall.still_planted,
             "still_frames": self.overall.still_frames,
             "movement_detected": self.overall.movement_detected,
             "moving_frames": self.overall.moving_frames,
@@ -551,7 +554,7 @@ def text_report(ev: Evaluation) -> str:
         f"  of the still frames: held on after a bout {_pct(o.false_after_bout)}, begun before a bout "
         f"{_pct(o.false_before_bout)}, false starts (a command with no bout) {_pct(o.false_starts)}",
         "  with both feet planted (the files' contacts): "
-        + (f"{_pct(o.false_movement_planted)} of {o.planted_still}" if o.contact_frames
+        + (f"{_pct(o.false_movement_planted)} of {o.still_planted}" if o.still_planted is not None
            else "— (no contacts in the files)"),
         "command changes per true change: " + ("—" if ev.flicker is None else f"{ev.flicker:.2f}"),
         "",
