@@ -141,6 +141,7 @@ def create_app(
             """The live status as the dashboard gets it: the pipeline's newest status (its JSON form)
             and the app's own live facts (running study session, active calibration, alarm)."""
             message = pipeline.snapshot()
+            message["held_by"] = pipeline.held_by
             message["running_session_id"] = events.session_id
             message["active_calibration_id"] = calibration.active_id
             message["restart_for"] = pipeline.waiting_for_restart()
@@ -198,8 +199,15 @@ def create_app(
         pipeline.add_result_sink(recorder)
         app.state.recorder = recorder
         app.state.replay = TakeReplay(viewer)
-        session_timer = SessionTimer(factory, events, on_stop=lambda _sid: models.session_stopped())
+        def session_stopped(session_id: int) -> None:  # by its timer: as the stop route does
+            pipeline.release_for_session(session_id)
+            models.session_stopped()
+
+        session_timer = SessionTimer(factory, events, on_stop=session_stopped)
         app.state.session_timer = session_timer
+        left = pipeline.held_for
+        if left is not None and (running is None or running.id != left):  # it stopped before a crash
+            pipeline.release_for_session(left)
         if running is not None:  # its run time goes on (or is over) across a restart
             with factory() as db:
                 again = db.get(type(running), running.id) or running

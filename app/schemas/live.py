@@ -127,8 +127,12 @@ class StatusPublic(BaseModel):
     navigator_mode: Literal["auto", "manual"] = "auto"
     navigation: NavigationPublic = Field(default_factory=NavigationPublic)
     action: ActionPublic | None = None
-    held: bool = Field(False, description="The operator holds navigation (PUT /navigation/hold): every "
-                       "locomotion datagram says still; action and people show what the recogniser says.")
+    held: bool = Field(False, description="Navigation is held (PUT /navigation/hold, or a controller "
+                       "session's own hold): every locomotion datagram says still; action and people show "
+                       "what the recogniser says.")
+    held_by: Literal["operator", "session"] | None = Field(
+        None, description="Whose hold it is: the operator's, or the running controller (CC) session's own "
+        "(released when that session stops; [study] hold_controller_sessions); null while not held.")
     running_session_id: int | None = None
     active_calibration_id: int | None = None
     restart_for: list[Literal["calibration", "model"]] = Field(

@@ -32,7 +32,7 @@ from app.db.errors import StateConflict
 from app.services.event_log import EventWriter
 from pipeline.errors import InputError
 from pipeline.navigation.config import NavigationConfig
-from pipeline.runtime.pipeline import Handover
+from pipeline.runtime.pipeline import Handover, hold_event_message
 from pipeline.runtime.plan import SourceName
 from pipeline.runtime.publisher import StatusSink
 from pipeline.runtime.sinks import ResultSink
@@ -43,7 +43,8 @@ from pipeline.takes.video import VideoControl
 
 log = logging.getLogger(__name__)
 
-#: beside the database: "held" while the operator holds navigation (a server started again holds too)
+#: beside the database: "held" while navigation is held (a server started again holds too), and
+#: "session N" on its second line while the hold is controller session N's own
 HOLD_FILE = "navigation-hold"
 
 __all__ = ["HOLD_FILE", "LiveFeed", "LiveSink", "PipelineFactory", "PipelineService", "PipelineUnavailable",
@@ -69,7 +70,7 @@ class PipelineFacade(Protocol):
     def set_navigator(self, user_id: int | None) -> None: ...
     def set_navigation(self, mode: str, user_ids: list[int]) -> None: ...
     def set_adaptation(self, adaptation: OutputAdaptation | None) -> None: ...
-    def set_held(self, held: bool) -> bool: ...
+    def set_held(self, held: bool, by: str = "operator", why: str = "") -> bool: ...
     @property
     def held(self) -> bool: ...
     def add_sink(self, sink: ResultSink) -> None: ...
@@ -223,15 +224,21 @@ class _Subscription:
         self._service.on_status(self._pipeline, status)
 
 
-def _read_hold(path: Path) -> bool:
-    """Whether ``path`` says navigation is held (a file that cannot be read: held, and said)."""
+def _read_hold(path: Path) -> tuple[bool, int | None]:
+    """Whether ``path`` says navigation is held, and the controller session whose own hold it is (None:
+    the operator's). A file that cannot be read: held (the operator's), and said."""
     try:
-        return path.read_bytes().strip() == b"held"
+        words = path.read_bytes().split()
     except FileNotFoundError:
-        return False
+        return False, None
     except OSError as exc:
         log.error("%s cannot be read (%s): navigation is held until the operator releases it", path, exc)
-        return True
+        return True, None
+    if words[:1] != [b"held"]:
+        return False, None
+    if len(words) == 3 and words[1] == b"session" and words[2].isdigit():
+        return True, int(words[2])
+    return True, None
 
 
 class PipelineService:
@@ -275,8 +282,9 @@ class PipelineService:
         self._adaptation: OutputAdaptation | None = None  # the running session's teach adaptation
         # the operator holds navigation: now, in every pipeline built later and, through hold_file
         # (beside the database), in the next server process: a crash never releases a hold
+        # (a controller session's own hold, _held_for: released when that session stops)
         self._hold_file = hold_file
-        self._held = hold_file is not None and _read_hold(hold_file)
+        self._held, self._held_for = _read_hold(hold_file) if hold_file is not None else (False, None)
         if self._held:
             self._status = replace(self._status, held=True)
             self._snapshot = self._status.to_json()
@@ -302,39 +310,80 @@ class PipelineService:
         return self._adaptation
 
     def set_held(self, held: bool) -> bool:
-        """Hold navigation (every locomotion datagram says ``still``) or release it, now and for every
-        pipeline built later (``Pipeline.set_held``). Without a pipeline the status shows it and the
-        session's log gets the ``hold`` event here. Whether it changed anything."""
+        """The operator holds navigation (every locomotion datagram says ``still``) or releases it, now
+        and for every pipeline built later (``Pipeline.set_held``). A hold the operator asks for is the
+        operator's, also one a controller session had set (its stop then leaves it on). Whether it
+        changed anything."""
+        return self._set_hold(held, "operator", None)
+
+    def hold_for_session(self, session_id: int) -> bool:
+        """A controller (``CC``) session starts: navigation is held, as the session's own hold, until
+        the session stops (:meth:`release_for_session`) or the operator releases it. A hold that is on
+        already stays as it is (the operator's stays the operator's). Whether it changed anything."""
         with self._lock:
-            if self._pipeline is not None:
-                changed = self._pipeline.set_held(held)
+            if self._held:
+                return False
+            return self._set_hold(True, "session", session_id, f"controller session {session_id}")
+
+    def release_for_session(self, session_id: int) -> bool:
+        """Session ``session_id`` stopped: its own hold (:meth:`hold_for_session`) is released; any other
+        hold (the operator's, or none) is left as it is. Whether it changed anything."""
+        with self._lock:
+            if not self._held or self._held_for != session_id:
+                return False
+            return self._set_hold(False, "session", None, f"controller session {session_id} stopped")
+
+    def _set_hold(self, held: bool, by: str, owner: int | None, why: str = "") -> bool:
+        """Set the hold (by "operator" or "session"; ``owner``: the session whose own hold it is now),
+        record its ``hold`` event now (so it goes to the session running now), keep it in
+        ``hold_file``."""
+        with self._lock:
+            pipeline = self._pipeline
+            if pipeline is not None:
+                changed = pipeline.set_held(held, by, why)
+                for event in pipeline.drain_events():  # now, before a session that stops next leaves
+                    self._events.record(*event_fields(event))
             else:
                 changed = held != self._held
                 if changed:
-                    self._events.record("hold", {"held": held, "message": "navigation held by the operator"
-                                                 if held else "navigation released by the operator"})
+                    message = hold_event_message(held, by, why)
+                    self._events.record("hold", {"held": held, "by": by, "message": message})
                     with self._snap_lock:
                         self._status = replace(self._status, held=held)
                         self._snapshot = self._status.to_json()
                     self.refresh()
-            self._held = held
-            if changed:
-                self._keep_hold(held)
+            kept = (self._held, self._held_for)
+            self._held, self._held_for = held, owner if held else None
+            if (self._held, self._held_for) != kept:
+                self._keep_hold()
         return changed
 
-    def _keep_hold(self, held: bool) -> None:
-        """The hold in ``hold_file`` for the next server process (a failure is logged: the hold itself
-        is on or off already)."""
+    def _keep_hold(self) -> None:
+        """The hold in ``hold_file`` for the next server process ("held", and "session N" for a
+        controller session's own hold; a failure is logged: the hold itself is on or off already)."""
         if self._hold_file is None:
             return
         try:
-            if held:
-                write_atomic(self._hold_file, b"held\n")
+            if self._held:
+                owner = b"" if self._held_for is None else b"session %d\n" % self._held_for
+                write_atomic(self._hold_file, b"held\n" + owner)
             else:
                 self._hold_file.unlink(missing_ok=True)
         except OSError as exc:
             log.error("the hold could not be kept in %s (%s): a server started again would not know it",
                       self._hold_file, exc)
+
+    @property
+    def held_for(self) -> int | None:
+        """The controller session whose own hold is on (None: none; the operator's hold, or no hold)."""
+        return self._held_for
+
+    @property
+    def held_by(self) -> str | None:
+        """Whose hold it is: "operator", "session" (a controller session's own), None: not held."""
+        if not self._held:
+            return None
+        return "operator" if self._held_for is None else "session"
 
     @property
     def held(self) -> bool:
@@ -483,7 +532,7 @@ class PipelineService:
         if self._adaptation is not None:
             pipeline.set_adaptation(self._adaptation)
         if self._held and not pipeline.held:  # held before any pipeline was built
-            pipeline.set_held(True)
+            pipeline.set_held(True, self.held_by or "operator")
         pipeline.subscribe(_Subscription(self, pipeline))
         if self.feed is not None:
             self.feed.own_clock(False)  # the pipeline's statuses set the sockets' rate now

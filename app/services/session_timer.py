@@ -63,9 +63,9 @@ class SessionTimer:
         except Exception:
             log.exception("could not stop session %d at the end of its run time", session_id)
             return
+        self._on_stop(session_id)  # its events (a controller session's hold released) still go to it
         if self._events.session_id == session_id:
             self._events.set_session(None)
-        self._on_stop(session_id)
         log.info("session %d stopped at the end of its run time", session_id)
 
     def close(self) -> None:

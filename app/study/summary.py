@@ -1,5 +1,5 @@
 """A session's summary from its event log: how long it ran, how long it ran without a navigator,
-how long the operator held navigation, the gaps in the locomotion stream (the dashboard's alarm),
+how long navigation was held, the gaps in the locomotion stream (the dashboard's alarm),
 the actions, and what was corrected.
 """
 
@@ -64,8 +64,9 @@ def without_navigator_s(events: list[Event], start_ts: float, end_ts: float) -> 
 
 
 def held_s(events: list[Event], start_ts: float, end_ts: float) -> tuple[float, int]:
-    """Seconds of [start_ts, end_ts] the operator held navigation, and how often a hold began, from
-    the session's ``session`` (held at its start) and ``hold`` events."""
+    """Seconds of [start_ts, end_ts] navigation was held (the operator's hold, or a controller
+    session's own), and how often a hold began, from the session's ``session`` (held at its start)
+    and ``hold`` events."""
     return _time_when(events, start_ts, end_ts, False, _held, bool)
 
 

@@ -79,6 +79,14 @@ class Handover:
     held: bool = False  # the operator held navigation: the new pipeline sends still too
 
 
+
+def hold_event_message(held: bool, by: str, why: str = "") -> str:
+    """The ``hold`` event's message: who held or released navigation, and why."""
+    who = "the operator" if by == "operator" else f"the {by}"
+    text = (f"navigation held by {who}: the workstations get still" if held
+            else f"navigation released by {who}")
+    return f"{text} ({why})" if why else text
+
 class Pipeline:
     """The live recognition pipeline (see the module docstring).
 
@@ -362,21 +370,20 @@ class Pipeline:
         """Whether the operator holds navigation (:meth:`set_held`)."""
         return self.emitter.held
 
-    def set_held(self, held: bool) -> bool:
+    def set_held(self, held: bool, by: str = "operator", why: str = "") -> bool:
         """Hold navigation (True): from the next datagram on, every locomotion command goes out
         ``still`` (speed 0, confidence 1), whatever the recogniser says, in every navigation mode,
         in this run and the next ones, until it is released (False). The recogniser goes on: the
-        status shows what it says. A change is a ``hold`` event (the session's log). Whether it
-        changed anything."""
+        status shows what it says. A change is a ``hold`` event (the session's log) saying who
+        changed it (``by``: "operator", or "session" for a controller session's own hold) and
+        ``why`` (a few words for its message). Whether it changed anything."""
         if not isinstance(held, bool):
             raise InputError(f"held must be true or false, got {held!r}")
         with self._lock:
             if held == self.emitter.held:
                 return False
             self.emitter.set_held(held)
-            self._board.event("hold", "navigation held by the operator: the workstations get still"
-                              if held else "navigation released by the operator",
-                              {"held": held})
+            self._board.event("hold", hold_event_message(held, by, why), {"held": held, "by": by})
         self._publisher.publish_now()
         return True
 

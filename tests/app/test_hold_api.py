@@ -127,3 +127,33 @@ def test_a_hold_outlives_the_server_process(tmp_path: Path) -> None:
         rx.close()
     held = [m for _, m in rx.got[before:end] if m["type"] == "locomotion"]
     assert held and not moving(held), moving(held)[:3]
+
+
+def test_a_controller_session_holds_the_stream_until_it_stops(tmp_path: Path) -> None:
+    """The simulator's user steps all along: while a CC session runs every locomotion datagram says
+    still (the session's own hold, said by a hold datagram), and its stop lets the walls move again."""
+    rx = DatagramRecorder()
+    settings = make_settings(tmp_path).model_copy(update={"workstations": [f"127.0.0.1:{rx.port}"]})
+    try:
+        with Served(settings) as served:
+            base = f"{served.base}/api/v1"
+            wait_until(lambda: moving([m for _, m in rx.got]) or None, "the stepping user moves the walls")
+            pid = http.post(f"{base}/participants", json={"code": "HOLD3"}).json()["id"]
+            sid = http.post(f"{base}/sessions", json={"participant_id": pid, "condition": "CC"}).json()["id"]
+            assert http.post(f"{base}/sessions/{sid}/start").status_code == 200
+            time.sleep(IN_FLIGHT_S)
+            mark = len(rx.got)
+            served.wait_status(lambda s: s["held_by"] == "session" and steps_while_held(s))
+            wait_until(lambda: rx.locomotion_since(mark) > 90 or None, "1.5 s of the session's stream")
+            end = len(rx.got)
+            assert http.post(f"{base}/sessions/{sid}/stop").status_code == 200
+            wait_until(lambda: moving([m for _, m in rx.got[end:]]) or None, "the walls move again")
+            events = http.get(f"{base}/sessions/{sid}/events").json()
+    finally:
+        rx.close()
+    held = [m for _, m in rx.got[mark:end] if m["type"] == "locomotion"]
+    assert held and not moving(held), moving(held)[:3]
+    said = said_and_kept([m for _, m in rx.got])
+    assert said[:1] == [True] and said[-1] is False, said
+    assert [(e["payload"]["held"], e["payload"]["by"]) for e in events if e["kind"] == "hold"] == [
+        (True, "session"), (False, "session")], events

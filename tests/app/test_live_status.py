@@ -43,7 +43,7 @@ from pipeline.sim.world import SimConfig
 from tests.app.conftest import Served, make_settings
 from tests.waiting import HTTP_TIMEOUT_S
 
-APP_FIELDS = {"running_session_id", "active_calibration_id", "restart_for", "alarm", "storage"}
+APP_FIELDS = {"held_by", "running_session_id", "active_calibration_id", "restart_for", "alarm", "storage"}
 
 
 def group_status() -> PipelineStatus:

@@ -118,6 +118,8 @@ def start_session(
     teach = models.teach_context(code) if models is not None else {}
     row = repo.start_session(db, session_id, now, start_context(request, settings) | teach)
     events.set_session(row.id, since_ts=now)
+    if row.condition == "CC" and settings.study.hold_controller_sessions:
+        request.app.state.pipeline.hold_for_session(row.id)  # the body never moves the walls in CC
     request.app.state.session_timer.schedule(row)
     if models is not None:
         models.session_started(code)  # the participant's teach adaptation (if on) for this session only
@@ -128,6 +130,7 @@ def start_session(
 def stop_session(session_id: IdPath, request: Request, db: SessionDep, events: EventsDep) -> SessionPublic:
     events.flush()  # the session's last events go to it, not to the next one
     row = repo.stop_session(db, session_id, time.time())
+    request.app.state.pipeline.release_for_session(row.id)  # a controller session's own hold (its log)
     if events.session_id == row.id:
         events.set_session(None)
     request.app.state.session_timer.cancel(row.id)

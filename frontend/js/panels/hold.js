@@ -1,7 +1,8 @@
 // The operator's hold: while it is on, every locomotion command to the walls says still, whatever
 // the participant does (PUT /navigation/hold); the recogniser goes on, and the notice says what it
 // says. The button and the key H toggle it (not while typing in a form); the live status shows the
-// server's state, so every open dashboard agrees.
+// server's state, so every open dashboard agrees. A controller (CC) session holds by itself while it
+// runs (held_by "session"): the notice says so, and the operator may still release it.
 
 import { put, toast } from "../api.js";
 import { onStatus } from "../live.js";
@@ -10,6 +11,7 @@ export function mountHold() {
   const button = document.getElementById("hold-toggle");
   const notice = document.getElementById("hold-notice");
   const recognised = document.getElementById("hold-recognised");
+  const why = document.getElementById("hold-why");
   let held = false;
   let busy = false;
 
@@ -42,6 +44,8 @@ export function mountHold() {
   });
   onStatus((s) => {
     if (!busy) show(Boolean(s.held));
+    why.textContent = s.held_by === "session"
+      ? ` for the controller session (CC) until it stops` : "";
     recognised.textContent = s.action ? s.action.label : "nothing (no navigator)";
   });
 }
