@@ -81,11 +81,13 @@ class Handover:
 
 
 def hold_event_message(held: bool, by: str, why: str = "") -> str:
-    """The ``hold`` event's message: who held or released navigation, and why."""
-    who = "the operator" if by == "operator" else f"the {by}"
-    text = (f"navigation held by {who}: the workstations get still" if held
-            else f"navigation released by {who}")
-    return f"{text} ({why})" if why else text
+    """The ``hold`` event's message: held or released by the operator, or for ``why`` (a controller
+    session's own hold: "controller session 3", "controller session 3 stopped")."""
+    if by == "operator" or not why:
+        return ("navigation held by the operator: the workstations get still" if held
+                else "navigation released by the operator")
+    return f"navigation held for {why}: the workstations get still" if held else f"navigation released: {why}"
+
 
 class Pipeline:
     """The live recognition pipeline (see the module docstring).
@@ -375,8 +377,8 @@ class Pipeline:
         ``still`` (speed 0, confidence 1), whatever the recogniser says, in every navigation mode,
         in this run and the next ones, until it is released (False). The recogniser goes on: the
         status shows what it says. A change is a ``hold`` event (the session's log) saying who
-        changed it (``by``: "operator", or "session" for a controller session's own hold) and
-        ``why`` (a few words for its message). Whether it changed anything."""
+        changed it (``by``: "operator", or "session" for a controller session's own hold, with
+        ``why``: which session, for its message). Whether it changed anything."""
         if not isinstance(held, bool):
             raise InputError(f"held must be true or false, got {held!r}")
         with self._lock:

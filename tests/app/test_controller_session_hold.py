@@ -53,6 +53,10 @@ def test_a_controller_session_holds_while_it_runs_and_its_stop_releases(
     assert client.post(f"{API}/sessions/{cc}/stop").status_code == 200
     assert hold(client) == (False, None) and not kept.exists()
     assert hold_events(client, cc) == [(True, "session"), (False, "session")]
+    events = client.get(f"{API}/sessions/{cc}/events").json()
+    said = [e["payload"]["message"] for e in events if e["kind"] == "hold"]
+    assert said == [f"navigation held for controller session {cc}: the workstations get still",
+                    f"navigation released: controller session {cc} stopped"], said
     summary = client.get(f"{API}/sessions/{cc}/summary").json()
     assert summary["holds"] == 1 and 0 < summary["held_s"] <= summary["duration_s"], summary
 
