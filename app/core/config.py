@@ -43,7 +43,7 @@ from app.services.event_log import EventWriterConfig
 from app.study.config import StudyConfig
 from pipeline.calibration.config import CalibrationConfig
 from pipeline.cave import CaveGeometry, Wall, box_cave
-from pipeline.emitter.udp import EmitterConfig, parse_endpoint
+from pipeline.emitter.config import EmitterConfig, parse_endpoint
 from pipeline.errors import ConfigError
 from pipeline.head.config import HeadConfig
 from pipeline.identity.config import IdentityConfig

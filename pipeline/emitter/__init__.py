@@ -1,5 +1,6 @@
 """Emitter stage: protocol-v1 UDP datagrams (and optional OSC) to the CAVE workstations."""
 
+from pipeline.emitter.config import EmitterConfig
 from pipeline.emitter.protocol import (
     OSC_ADDRESS,
     OSC_LOCOMOTION_TYPES,
@@ -14,7 +15,7 @@ from pipeline.emitter.protocol import (
     validate_datagram,
 )
 from pipeline.emitter.receiver import ReceiverStats, open_receiver_socket, receive
-from pipeline.emitter.udp import EmitterConfig, UdpEmitter, resolve_endpoint
+from pipeline.emitter.udp import UdpEmitter, resolve_endpoint
 
 __all__ = [
     "OSC_ADDRESS",

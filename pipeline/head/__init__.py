@@ -6,18 +6,7 @@ vectors from the 3D skeleton, with short-horizon prediction to make up for the l
   keypoints (:func:`head_pose_from_joints`), rotation helpers, angle errors.
 - :mod:`pipeline.head.tracker`: :class:`HeadTracker`, per-user filtering and velocities, and
   :meth:`HeadEstimate.predict`, the constant-velocity extrapolation.
+
+Import from those modules: this package imports nothing, so that the settings can read
+:class:`HeadConfig` without loading the tracker's scipy.
 """
-
-from pipeline.head.config import HeadConfig
-from pipeline.head.pose import HeadFrame, angle_deg, head_pose_from_joints
-from pipeline.head.tracker import HeadEstimate, HeadPose, HeadTracker
-
-__all__ = [
-    "HeadConfig",
-    "HeadEstimate",
-    "HeadFrame",
-    "HeadPose",
-    "HeadTracker",
-    "angle_deg",
-    "head_pose_from_joints",
-]

@@ -6,7 +6,7 @@ from typing import Any
 
 import pytest
 
-from pipeline.emitter.udp import EmitterConfig, parse_endpoint
+from pipeline.emitter.config import EmitterConfig, parse_endpoint
 from pipeline.runtime.config import RuntimeConfig
 from pipeline.sources.grouper import GrouperConfig
 
