@@ -56,7 +56,7 @@ from pipeline.recognition.recognizer import RecognizerConfig
 from pipeline.runtime.config import RuntimeConfig
 from pipeline.sim.world import SimConfig
 from pipeline.takes.config import TakesConfig
-from pipeline.tracking.ocsort import OCSortConfig
+from pipeline.tracking.config import OCSortConfig
 from pipeline.triangulation.config import (
     AssociationParams,
     NavigatorConfig,
