@@ -54,7 +54,7 @@ from pipeline.pose.config import PoseConfig
 from pipeline.pose.tune import FINGERPRINT_KEYS, TUNED_KEYS, TuneConfig
 from pipeline.recognition.recognizer import RecognizerConfig
 from pipeline.runtime.config import RuntimeConfig
-from pipeline.sim.world import SimConfig
+from pipeline.sim.config import SimConfig
 from pipeline.takes.config import TakesConfig
 from pipeline.tracking.config import OCSortConfig
 from pipeline.triangulation.config import (

@@ -20,7 +20,7 @@ from pipeline.recognition.recognizer import RecognizerConfig
 from pipeline.runtime.chain import ChainConfig, PoseModel, SimWorldFactory
 from pipeline.runtime.config import RuntimeConfig
 from pipeline.runtime.pipeline import Handover, Pipeline
-from pipeline.sim.world import SimConfig
+from pipeline.sim.config import SimConfig
 from pipeline.triangulation.config import ReconstructionConfig
 
 log = logging.getLogger(__name__)

@@ -10,7 +10,7 @@ import math
 from dataclasses import dataclass, field
 
 from pipeline.errors import InputError
-from pipeline.sim.views import FaultConfig
+from pipeline.sim.config import FaultConfig
 from pipeline.triangulation.config import TriangulationParams
 
 

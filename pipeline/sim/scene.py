@@ -10,36 +10,16 @@ Both have a small radial-tangential distortion, as a calibrated real lens does.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.camera import Camera, intrinsics, look_at
+from pipeline.camera import Camera, look_at
 from pipeline.cave import CaveGeometry
 from pipeline.errors import InputError
+from pipeline.sim.config import PRESETS
 
 F64 = NDArray[np.float64]
 
-
-@dataclass(frozen=True, slots=True)
-class CameraPreset:
-    """Intrinsics of a camera model: image (width, height), focal length, distortion."""
-
-    name: str
-    image_size: tuple[int, int]
-    focal_px: float
-    dist: tuple[float, float, float, float, float]
-
-    def K(self) -> F64:
-        w, h = self.image_size
-        return intrinsics(self.focal_px, self.focal_px, (w - 1) / 2.0, (h - 1) / 2.0)
-
-
-PRESETS: dict[str, CameraPreset] = {
-    "kinect_color": CameraPreset("kinect_color", (1920, 1080), 1060.0, (0.04, -0.06, 0.0005, -0.0003, 0.02)),
-    "depth": CameraPreset("depth", (640, 576), 505.0, (0.06, -0.12, 0.0002, 0.0001, 0.04)),
-}
 
 CAMERA_HEIGHT_M = 2.3
 TARGET_HEIGHT_M = 1.0

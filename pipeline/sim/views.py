@@ -19,7 +19,7 @@ Detections come out sorted by box score, best first (as after NMS).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -27,6 +27,7 @@ from numpy.typing import NDArray
 from pipeline.camera import Camera, project, world_to_camera
 from pipeline.errors import InputError
 from pipeline.pose.types import ViewDetections
+from pipeline.sim.config import FaultConfig
 from pipeline.skeleton import NUM_JOINTS, J
 
 F64 = NDArray[np.float64]
@@ -57,83 +58,6 @@ COCO_SIGMAS = np.array(
 _NOISE_REL = COCO_SIGMAS / COCO_SIGMAS.mean()
 _REF_HEIGHT_PX = 600.0
 _FACE = (J["nose"], J["l_eye"], J["r_eye"])
-
-
-@dataclass(frozen=True, slots=True)
-class FaultConfig:
-    """What goes wrong in a simulated camera.
-
-    pixel_noise_px: keypoint noise sigma for a person 600 px tall (scales with size and joint).
-    score_visible: (mean, sd) of a visible keypoint's confidence.
-    score_hidden: (min, max) confidence of a self-occluded / occluded keypoint (uniform).
-    hidden_noise_scale: extra noise factor for hidden keypoints (the detector guesses).
-    joint_drop_rate: probability that a visible keypoint is missed anyway.
-    person_miss_rate: probability that a visible person is not detected in a view.
-    false_detection_rate: expected ghost detections per view and frame.
-    timestamp_jitter_s: sd of the camera timestamp around the true frame time.
-    min_visible_keypoints: fewer visible keypoints than this = not detected.
-    min_box_height_px: persons smaller than this are not detected.
-    occlusion: model occlusion by bodies (False: only the image border hides joints).
-    """
-
-    pixel_noise_px: float = 2.5
-    score_visible: tuple[float, float] = (0.9, 0.05)
-    score_hidden: tuple[float, float] = (0.05, 0.45)
-    hidden_noise_scale: float = 3.0
-    joint_drop_rate: float = 0.01
-    person_miss_rate: float = 0.02
-    false_detection_rate: float = 0.01
-    timestamp_jitter_s: float = 0.002
-    min_visible_keypoints: int = 4
-    min_box_height_px: float = 24.0
-    occlusion: bool = True
-
-    def __post_init__(self) -> None:
-        for name in (
-            "pixel_noise_px",
-            "hidden_noise_scale",
-            "false_detection_rate",
-            "timestamp_jitter_s",
-            "min_box_height_px",
-        ):
-            v = float(getattr(self, name))
-            if not np.isfinite(v) or v < 0:
-                raise InputError(f"faults: {name} must be >= 0, got {v}")
-            object.__setattr__(self, name, v)
-        for name in ("joint_drop_rate", "person_miss_rate"):
-            v = float(getattr(self, name))
-            if not 0.0 <= v <= 1.0:
-                raise InputError(f"faults: {name} must be in [0, 1], got {v}")
-            object.__setattr__(self, name, v)
-        m, sd = (float(x) for x in self.score_visible)
-        lo, hi = (float(x) for x in self.score_hidden)
-        if not (0 < m <= 1 and sd >= 0 and 0 <= lo <= hi <= 1):
-            raise InputError(
-                f"faults: scores must lie in [0, 1], got visible {self.score_visible}, "
-                f"hidden {self.score_hidden}"
-            )
-        object.__setattr__(self, "score_visible", (m, sd))
-        object.__setattr__(self, "score_hidden", (lo, hi))
-        if int(self.min_visible_keypoints) < 1:
-            raise InputError(f"faults: min_visible_keypoints must be >= 1, got {self.min_visible_keypoints}")
-
-    @classmethod
-    def perfect(cls) -> FaultConfig:
-        """No noise, misses, ghosts or jitter: exact projections (visible joints score 1)."""
-        return cls(
-            pixel_noise_px=0.0,
-            score_visible=(1.0, 0.0),
-            hidden_noise_scale=0.0,
-            joint_drop_rate=0.0,
-            person_miss_rate=0.0,
-            false_detection_rate=0.0,
-            timestamp_jitter_s=0.0,
-        )
-
-    def replace(self, **changes: object) -> FaultConfig:
-        values = {f.name: getattr(self, f.name) for f in fields(self)}
-        values.update(changes)
-        return FaultConfig(**values)  # type: ignore[arg-type]
 
 
 # --- visibility (pure) -----------------------------------------------------------------------

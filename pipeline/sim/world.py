@@ -13,8 +13,7 @@ import logging
 import math
 import time
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass, field
-from pathlib import Path
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -26,10 +25,11 @@ from pipeline.pose.types import ViewDetections
 from pipeline.recognition.types import ActionEstimate
 from pipeline.results import FrameResult
 from pipeline.sim.body import BodyParams, MotionStyle, body_from_height, sample_body, sample_style
+from pipeline.sim.config import STEPPER_HOMES_M, SimConfig
 from pipeline.sim.motion import UserMotion, simulate_user, smoothstep, wrap_deg
-from pipeline.sim.scene import PRESETS, default_cameras
+from pipeline.sim.scene import default_cameras
 from pipeline.sim.script import MotionScript, Segment, random_script
-from pipeline.sim.views import FaultConfig, observe_with_ids
+from pipeline.sim.views import observe_with_ids
 from pipeline.skeleton import J
 from pipeline.tracking.types import TrackedView
 from pipeline.triangulation.types import Person3D
@@ -41,58 +41,7 @@ I64 = NDArray[np.int64]
 
 NAVIGATOR = "navigator"
 _CROSSFADE_S = 0.3
-# home spots of the stepping people after the navigator (issue 20: several navigators)
-STEPPER_HOMES_M: tuple[tuple[float, float], ...] = ((0.9, 0.9), (-0.9, -0.9), (0.9, -0.9))
 WALL_CLEARANCE_M = 0.45  # bystanders keep about half a metre from the screens
-
-
-@dataclass(frozen=True, slots=True)
-class SimConfig:
-    """Settings of a simulated world.
-
-    fps: frames per second. bystanders: people besides the navigator. seed: everything random.
-    camera_preset / camera_count: the virtual cameras (see :mod:`pipeline.sim.scene`).
-    chunk_s: length of each random routine generated on the fly.
-    faults: what goes wrong in the cameras.
-    navigator_height_m: None = a random height in 1.40-2.05 m.
-    repeat_script: after the navigator's script ends, play it again (else random routines).
-    observe: run the virtual cameras (False: ground truth only, ``views`` stay empty; faster).
-    script: the navigator's routine file (JSON/TOML, :func:`pipeline.sim.script.load_script`);
-        None = random routines.
-    people: people who step (the navigator and ``people - 1`` more, each with random routines
-        round a home spot of their own, :data:`STEPPER_HOMES_M`; issue 20), besides the bystanders.
-    """
-
-    fps: float = 30.0
-    bystanders: int = 1
-    seed: int = 0
-    camera_preset: str = "kinect_color"
-    camera_count: int = 4
-    chunk_s: float = 60.0
-    faults: FaultConfig = field(default_factory=FaultConfig)
-    navigator_height_m: float | None = None
-    repeat_script: bool = False
-    observe: bool = True
-    script: Path | None = None
-    people: int = 1
-
-    def __post_init__(self) -> None:
-        if not 1 <= int(self.people) <= 1 + len(STEPPER_HOMES_M):
-            raise InputError(f"sim people must be 1..{1 + len(STEPPER_HOMES_M)}, got {self.people}")
-        if not math.isfinite(self.fps) or not 1.0 <= self.fps <= 240.0:
-            raise InputError(f"sim fps must be in [1, 240], got {self.fps}")
-        if not 0 <= int(self.bystanders) <= 8:
-            raise InputError(f"sim bystanders must be 0..8, got {self.bystanders}")
-        if self.camera_preset not in PRESETS:
-            raise InputError(
-                f"unknown camera preset {self.camera_preset!r}; presets are {', '.join(PRESETS)}"
-            )
-        if not 1 <= int(self.camera_count) <= 8:
-            raise InputError(f"sim camera_count must be 1..8, got {self.camera_count}")
-        if not 2.0 <= self.chunk_s <= 3600.0:
-            raise InputError(f"sim chunk_s must be in [2, 3600], got {self.chunk_s}")
-        if self.navigator_height_m is not None and not 1.0 <= self.navigator_height_m <= 2.3:
-            raise InputError(f"navigator_height_m must be in [1.0, 2.3], got {self.navigator_height_m}")
 
 
 @dataclass(frozen=True, slots=True)

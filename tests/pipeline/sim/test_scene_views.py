@@ -50,6 +50,14 @@ def test_projection_matches_a_hand_computation() -> None:
 
 
 @pytest.mark.parametrize("preset", sorted(PRESETS))
+def test_a_preset_K_is_the_intrinsics_matrix_of_its_focal_length_and_image_centre(preset: str) -> None:
+    p = PRESETS[preset]
+    w, h = p.image_size
+    expected = intrinsics(p.focal_px, p.focal_px, (w - 1) / 2.0, (h - 1) / 2.0)
+    assert np.array_equal(p.K(), expected), "CameraPreset.K() must build what pipeline.camera.intrinsics does"
+
+
+@pytest.mark.parametrize("preset", sorted(PRESETS))
 def test_default_cameras_hang_above_each_wall_and_look_at_the_centre(preset: str) -> None:
     cave = box_cave(3.0, 3.0, 2.5)
     cams = default_cameras(cave, preset)
