@@ -50,8 +50,7 @@ from pipeline.identity.config import IdentityConfig
 from pipeline.machine import machine_fingerprint
 from pipeline.navigation.config import NavigationConfig
 from pipeline.planner.config import PlannerConfig
-from pipeline.pose.config import PoseConfig
-from pipeline.pose.tune import FINGERPRINT_KEYS, TUNED_KEYS, TuneConfig
+from pipeline.pose.config import FINGERPRINT_KEYS, TUNED_KEYS, PoseConfig, TuneConfig
 from pipeline.recognition.recognizer import RecognizerConfig
 from pipeline.runtime.config import RuntimeConfig
 from pipeline.sim.config import SimConfig

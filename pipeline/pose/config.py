@@ -1,4 +1,5 @@
-"""The pose stage's one frozen config: the pose model and its ROI crops (the settings' ``[pose]``).
+"""The pose stage's one frozen config: the pose model and its ROI crops (the settings' ``[pose]``),
+and how ``cavewalk tune`` measures them (``[tune]``, :class:`TuneConfig`).
 
 Every field is a setting (``[pose]`` in ``cavewalk.toml``, ``CAVEWALK_POSE__<FIELD>``);
 its default and its check live here and nowhere else.
@@ -12,8 +13,8 @@ from pathlib import Path
 from typing import Literal
 
 from pipeline.pose.model_files import Precision, crop_model_path, pose_model_file, usable_model_path
-from pipeline.pose.preprocess import STRIDE
 
+STRIDE = 32  # the network's largest stride: every input side is a multiple of it
 MIN_CROP_SIDE = 128  # the shortest crop network height, px
 Provider = Literal["cpu", "cuda", "tensorrt", "openvino"]
 PROVIDERS: dict[str, str] = {"cpu": "CPUExecutionProvider", "cuda": "CUDAExecutionProvider",
@@ -153,3 +154,33 @@ class PoseConfig:
         (crops then run on the model itself); a rejected int8 crop model gives its float32 one."""
         crop = usable_model_path(crop_model_path(Path(model_path)))
         return crop if self.crop_model and crop.is_file() else None
+
+
+#: the keys of ``[pose]`` that ``cavewalk tune`` writes (and the settings take from its file)
+TUNED_KEYS = ("precision", "crop_model", "roi_long_side", "threads", "parallel", "providers")
+FINGERPRINT_KEYS = ("cpu_model", "logical_cores", "onnxruntime")
+
+
+@dataclass(frozen=True, slots=True)
+class TuneConfig:
+    """The settings' ``[tune]`` section.
+
+    on_first_start: ``cavewalk demo`` / ``serve`` run the tuning first when this machine has no
+        result yet (and the pose model is prepared).
+    crop_sides: the crop sizes measured (``pose.roi_long_side``, multiples of 32).
+    repeats: timed rounds per variant (the median is kept; other processes share the CPU).
+    lanes: the (threads, parallel) pairs measured; empty = 1 x 1, all cores x 1, 1 x up to 4.
+    """
+
+    on_first_start: bool = True
+    crop_sides: tuple[int, ...] = (320, 256, 224, 192)
+    repeats: int = 3
+    lanes: tuple[tuple[int, int], ...] = ()
+
+    def __post_init__(self) -> None:
+        if not self.crop_sides or any(s < 32 or s % 32 for s in self.crop_sides):
+            raise ValueError(f"crop_sides must be multiples of 32, got {self.crop_sides}")
+        if self.repeats < 1:
+            raise ValueError(f"repeats must be >= 1, got {self.repeats}")
+        if any(t < 0 or p < 1 for t, p in self.lanes):
+            raise ValueError(f"lanes must be (threads >= 0, parallel >= 1) pairs, got {self.lanes}")

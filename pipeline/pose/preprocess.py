@@ -18,12 +18,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pipeline.pixels import i420_planes, pixel_format
+from pipeline.pose.config import STRIDE
 
 F32 = NDArray[np.float32]
 U8 = NDArray[np.uint8]
 PAD_VALUE = 114
 CHROMA_PAD = 128  # U and V of grey: the I420 letterbox pads with the same grey (Y = 114)
-STRIDE = 32
 
 
 @dataclass(frozen=True, slots=True)

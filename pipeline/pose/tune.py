@@ -37,7 +37,7 @@ from numpy.typing import NDArray
 from pipeline.demo_data import fetch_demo
 from pipeline.errors import ModelError
 from pipeline.machine import machine_facts
-from pipeline.pose.config import PROVIDERS, PoseConfig
+from pipeline.pose.config import FINGERPRINT_KEYS, PROVIDERS, PoseConfig, TuneConfig
 from pipeline.pose.detector import PoseDetector
 from pipeline.pose.model_files import crop_model_path, pose_model_file, rejected_int8
 from pipeline.pose.quantize import AGREEMENT_FRAMES, agreement_frames, agreement_of
@@ -45,36 +45,6 @@ from pipeline.pose.roi import crop_region, roi_net_size, with_margin
 from pipeline.pose.types import Job
 
 log = logging.getLogger(__name__)
-
-#: the keys of ``[pose]`` that ``cavewalk tune`` writes (and the settings take from its file)
-TUNED_KEYS = ("precision", "crop_model", "roi_long_side", "threads", "parallel", "providers")
-FINGERPRINT_KEYS = ("cpu_model", "logical_cores", "onnxruntime")
-
-
-@dataclass(frozen=True, slots=True)
-class TuneConfig:
-    """The settings' ``[tune]`` section.
-
-    on_first_start: ``cavewalk demo`` / ``serve`` run the tuning first when this machine has no
-        result yet (and the pose model is prepared).
-    crop_sides: the crop sizes measured (``pose.roi_long_side``, multiples of 32).
-    repeats: timed rounds per variant (the median is kept; other processes share the CPU).
-    lanes: the (threads, parallel) pairs measured; empty = 1 x 1, all cores x 1, 1 x up to 4.
-    """
-
-    on_first_start: bool = True
-    crop_sides: tuple[int, ...] = (320, 256, 224, 192)
-    repeats: int = 3
-    lanes: tuple[tuple[int, int], ...] = ()
-
-    def __post_init__(self) -> None:
-        if not self.crop_sides or any(s < 32 or s % 32 for s in self.crop_sides):
-            raise ValueError(f"crop_sides must be multiples of 32, got {self.crop_sides}")
-        if self.repeats < 1:
-            raise ValueError(f"repeats must be >= 1, got {self.repeats}")
-        if any(t < 0 or p < 1 for t, p in self.lanes):
-            raise ValueError(f"lanes must be (threads >= 0, parallel >= 1) pairs, got {self.lanes}")
-
 
 @dataclass(frozen=True, slots=True)
 class Variant:
