@@ -4,30 +4,25 @@
 device index (``"0"``), a stream URL (``rtsp://``, ``http://``...), a video file or an
 image folder. ``sim`` is the simulator, which is not an image source: it hands on
 detections directly (see :mod:`pipeline.sources.sim`).
+
+The frame types are in :mod:`pipeline.sources.types`, the multi-view grouper in
+:mod:`pipeline.sources.grouper`. This package imports neither them nor cv2, so that the settings
+can read :class:`~pipeline.sources.grouper.GrouperConfig` without loading OpenCV.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from pipeline.errors import SourceError
-from pipeline.sources.grouper import FrameRef, GrouperConfig, MultiViewGroup, MultiViewGrouper
-from pipeline.sources.opencv import CameraSource, ImageFolderSource, VideoFileSource
-from pipeline.sources.types import CapturedFrame, FrameSource, iter_frames
+
+if TYPE_CHECKING:
+    from pipeline.sources.types import FrameSource
 
 STREAM_SCHEMES = ("rtsp://", "rtsps://", "http://", "https://", "udp://", "tcp://", "rtmp://")
 
-__all__ = [
-    "CapturedFrame",
-    "FrameRef",
-    "FrameSource",
-    "GrouperConfig",
-    "MultiViewGroup",
-    "MultiViewGrouper",
-    "iter_frames",
-    "open_source",
-    "source_kind",
-]
+__all__ = ["open_source", "source_kind"]
 
 
 def source_kind(uri: str) -> str:
@@ -50,6 +45,9 @@ def open_source(uri: str, name: str, *, pace_fps: float | None = None, loop: boo
     native: a video file delivers its decoder's I420 frames instead of BGR (see
     :mod:`pipeline.pixels`); other sources deliver BGR either way.
     """
+    # cv2 is heavy, and the settings import GrouperConfig from this package: load it to open a source
+    from pipeline.sources.opencv import CameraSource, ImageFolderSource, VideoFileSource
+
     kind = source_kind(uri)
     if not uri.strip():
         raise SourceError(f"camera {name}: empty source")

@@ -12,8 +12,9 @@ import pytest
 from pipeline.demo_data import DemoData
 from pipeline.errors import SourceError
 from pipeline.pixels import pixel_format, to_bgr
-from pipeline.sources import CapturedFrame, FrameSource, iter_frames, open_source, source_kind
+from pipeline.sources import open_source, source_kind
 from pipeline.sources.opencv import ImageFolderSource, Pacer, VideoFileSource
+from pipeline.sources.types import CapturedFrame, FrameSource, iter_frames
 
 
 def test_video_once_delivers_every_frame_with_rising_timestamps(demo_data: DemoData) -> None:
