@@ -26,12 +26,12 @@ import logging
 import math
 import warnings
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from app.study.config import AnalysisConfig
 from app.study.data import CONDITIONS, ResponseRecord, StudyData
 
 log = logging.getLogger(__name__)
@@ -73,26 +73,7 @@ SPHERICITY_TWO_LEVELS = (
 )
 
 
-CORRECTIONS: tuple[str, ...] = ("holm", "bonferroni", "none")
 CORRECTION_NAMES: dict[str, str] = {"holm": "Holm", "bonferroni": "Bonferroni", "none": "no correction"}
-
-
-@dataclass(frozen=True, slots=True)
-class AnalysisConfig:
-    """alpha: significance level. correction: for multiple comparisons over the tested measures.
-    normality_min_n: below this many pairs Shapiro-Wilk is said to be underpowered."""
-
-    alpha: float = 0.05
-    correction: str = "holm"
-    normality_min_n: int = 10
-
-    def __post_init__(self) -> None:
-        if not 0 < self.alpha < 1:
-            raise ValueError(f"alpha must be in (0, 1), got {self.alpha}")
-        if self.correction not in CORRECTIONS:
-            raise ValueError(f"correction must be one of {CORRECTIONS}, got {self.correction!r}")
-        if self.normality_min_n < 3:
-            raise ValueError(f"normality_min_n must be >= 3, got {self.normality_min_n}")
 
 
 def adjust_p(p_values: Sequence[float], method: str) -> list[float]:

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from itertools import pairwise
 from typing import Any
 
+from app.study.config import DesignConfig
 from app.study.data import CONDITIONS, StudyData
 
 #: The questionnaires every session needs: (instrument, phase); phase None = any phase.
@@ -22,16 +23,6 @@ PER_SESSION: tuple[tuple[str, str | None], ...] = (
     ("ipq", None),
     ("nasa_tlx", None),
 )
-
-
-@dataclass(frozen=True, slots=True)
-class DesignConfig:
-    min_gap_days: float = 2.0
-
-    def __post_init__(self) -> None:
-        if self.min_gap_days < 0:
-            raise ValueError(f"min_gap_days must be >= 0, got {self.min_gap_days}")
-
 
 
 def order_for(first: str) -> tuple[str, str]:
