@@ -39,7 +39,7 @@ from pydantic_settings import (
     TomlConfigSettingsSource,
 )
 
-from app.services.event_log import EventWriterConfig
+from app.services.event_log_config import EventWriterConfig
 from app.study.config import StudyConfig
 from pipeline.calibration.config import CalibrationConfig
 from pipeline.cave import CaveGeometry, Wall, box_cave

@@ -14,29 +14,14 @@ import queue
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import Any
 
 from sqlalchemy.orm import Session
 
 from app.db.repositories import add_events
+from app.services.event_log_config import EventWriterConfig
 
 log = logging.getLogger(__name__)
-
-
-@dataclass(frozen=True, slots=True)
-class EventWriterConfig:
-    """The settings' ``[event_log]``: a batch is written every ``flush_interval_s`` (at most 1 s:
-    the most a crash can lose) or when ``max_batch`` events have gathered."""
-
-    flush_interval_s: float = 0.5
-    max_batch: int = 2000
-
-    def __post_init__(self) -> None:
-        if not 0 < self.flush_interval_s <= 1.0:
-            raise ValueError(f"flush_interval_s must be in (0, 1], got {self.flush_interval_s}")
-        if self.max_batch < 1:
-            raise ValueError(f"max_batch must be >= 1, got {self.max_batch}")
 
 
 class _Flush:
