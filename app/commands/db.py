@@ -4,21 +4,14 @@ see :mod:`app.services.backup`)."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
 from app.core.config import get_settings
-from app.db.backup import (
-    BackupError,
-    BackupInfo,
-    backup_database,
-    backup_folder,
-    list_backups,
-    new_backup_path,
-    prune_backups,
-    restore_database,
-)
+
+if TYPE_CHECKING:
+    from app.db.backup import BackupInfo
 
 app = typer.Typer(name="db", help="The study database: backups and restore.", no_args_is_help=True)
 
@@ -28,6 +21,9 @@ DbOption = Annotated[
 
 
 def _paths(db: Path | None) -> tuple[Path, Path]:
+    # app.db.backup (SQLAlchemy, alembic) is imported where it is used: cavewalk's start-up time
+    from app.db.backup import backup_folder
+
     settings = get_settings()
     path = (db or settings.paths.db).expanduser()
     return path, backup_folder(path, settings.backup.folder)
@@ -51,6 +47,8 @@ def backup_cmd(
     ] = None,
 ) -> None:
     """A checked copy of the database, also while the server uses it (it goes on writing)."""
+    from app.db.backup import backup_database, new_backup_path, prune_backups
+
     path, folder = _paths(db)
     target = out.expanduser() if out is not None else new_backup_path(folder, path, "manual")
     info = backup_database(path, target)
@@ -67,6 +65,8 @@ def backup_cmd(
 @app.command("backups")
 def backups_cmd(db: DbOption = None) -> None:
     """The database's backups in the backup folder, newest first."""
+    from app.db.backup import list_backups
+
     path, folder = _paths(db)
     found = list_backups(folder, path)
     if not found:
@@ -86,6 +86,8 @@ def restore_cmd(
 ) -> None:
     """Put a backup in place of the database (no server may be using it). A damaged, foreign or newer
     backup is refused before anything changes; the database it replaces is kept first."""
+    from app.db.backup import BackupError, restore_database
+
     path, folder = _paths(db)
     source = backup.expanduser()
     if not source.is_file() and not source.is_absolute() and (folder / backup).is_file():

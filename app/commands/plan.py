@@ -13,10 +13,7 @@ from typing import Annotated, Any
 import typer
 
 from app.core.config import get_settings
-from app.services.planner import default_layout, run_plan
-from pipeline.calibration.io import load_calibration
 from pipeline.errors import InputError
-from pipeline.planner.plan import write_plan
 
 REGION_ORDER = ("centre", "inner", "edges", "corners")
 
@@ -77,6 +74,11 @@ def plan(
     ] = None,
 ) -> None:
     """Floor heat maps of how many cameras see a standing person's joints and the expected 3D error."""
+    # the planner and the calibration reader pull cv2 and scipy: imported here for cavewalk's start-up time
+    from app.services.planner import default_layout, run_plan
+    from pipeline.calibration.io import load_calibration
+    from pipeline.planner.plan import write_plan
+
     settings = get_settings()
     if calibration is not None and cameras is not None:
         raise InputError(

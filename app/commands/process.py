@@ -5,18 +5,16 @@ from __future__ import annotations
 import logging
 from dataclasses import replace
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
 from app.core.config import get_settings
-from app.services.pipeline_factory import chain_config
-from pipeline.calibration.io import load_calibration
-from pipeline.camera import Camera
 from pipeline.errors import InputError
-from pipeline.results import ResultsWriter
-from pipeline.runtime.chain import PoseModel, build_chain
-from pipeline.runtime.offline import OfflinePipeline, RunSummary, SyncedVideos, parse_named_paths
+
+if TYPE_CHECKING:
+    from pipeline.camera import Camera
+    from pipeline.runtime.offline import RunSummary, SyncedVideos
 
 log = logging.getLogger(__name__)
 
@@ -25,6 +23,9 @@ app = typer.Typer()
 
 def _calibrated_cameras(path: Path, cameras: list[str]) -> list[Camera]:
     """The calibration's cameras for the videos, in video order; every video must be calibrated."""
+    # the pipeline (cv2, scipy, onnxruntime) is imported where it is used, not at the top: cavewalk's start-up
+    from pipeline.calibration.io import load_calibration
+
     by_name = {c.name: c for c in load_calibration(path)}
     missing = [c for c in cameras if c not in by_name]
     if missing:
@@ -85,6 +86,11 @@ def process(
     Frames are written while every view has one. A video that ends before the frames its file
     reports (truncated, damaged) ends the run there with a warning naming how many frames each
     view really had; the exit status is 0 when some frames were written, 2 when none could be."""
+    from app.services.pipeline_factory import chain_config
+    from pipeline.results import ResultsWriter
+    from pipeline.runtime.chain import PoseModel, build_chain
+    from pipeline.runtime.offline import OfflinePipeline, SyncedVideos, parse_named_paths
+
     settings = get_settings()
     named = parse_named_paths(video, "video")
     cameras = _calibrated_cameras(calibration, list(named))

@@ -10,19 +10,11 @@ import threading
 import time
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
 from app.core.config import Settings, get_settings
-from app.db.engine import make_engine, make_session_factory
-from app.db.migrate import prepare_database
-from app.db.take_repository import create_take, finish_take_row, take_by_uid
-from app.services.backup import backup_before_upgrade
-from app.services.pipeline_factory import build_pipeline, simulator_factory
-from app.services.recorder import model_identity, settings_snapshot
-from app.services.storage import DiskFull, StorageWatch
-from pipeline.calibration.io import calibration_to_dict, load_calibration
 from pipeline.errors import InputError, SourceError
 from pipeline.takes.files import MANIFEST, write_json
 from pipeline.takes.protocol import (
@@ -33,8 +25,10 @@ from pipeline.takes.protocol import (
     parse_protocol_text,
     shipped_protocols,
 )
-from pipeline.takes.recorder import TakeRecorder
 from pipeline.takes.video import VideoSession
+
+if TYPE_CHECKING:
+    from app.services.storage import StorageWatch
 
 app = typer.Typer()
 
@@ -176,6 +170,12 @@ def _record_local(
     videos: bool = False,
 ) -> tuple[dict, str | None]:
     """The take's manifest, and why it stopped early when the disk became full (None: it did not)."""
+    # the pipeline (cv2, scipy) and the database (SQLAlchemy) are imported where they are used: start-up time
+    from app.services.pipeline_factory import build_pipeline, simulator_factory
+    from app.services.recorder import model_identity, settings_snapshot
+    from pipeline.calibration.io import calibration_to_dict, load_calibration
+    from pipeline.takes.recorder import TakeRecorder
+
     cameras = load_calibration(calibration) if calibration else None
     sim = simulator_factory(settings)
     pipeline = build_pipeline(settings, cameras, sim)
@@ -243,6 +243,10 @@ def _record_local(
 # ------------------------------------------------------------------------------- the index
 def _check_index(db: Path, uid: str) -> None:
     """Before recording: the database can be used and has no take named ``uid`` yet."""
+    from app.db.engine import make_engine, make_session_factory
+    from app.db.migrate import prepare_database
+    from app.db.take_repository import take_by_uid
+
     prepare_database(db)
     engine = make_engine(db)
     try:
@@ -255,6 +259,9 @@ def _check_index(db: Path, uid: str) -> None:
 
 def _index_take(db: Path, out: Path, manifest: dict[str, Any]) -> int:
     """A take recorded here goes into the takes index like a server's (its row points to ``out``)."""
+    from app.db.engine import make_engine, make_session_factory
+    from app.db.take_repository import create_take, finish_take_row
+
     engine = make_engine(db)
     try:
         with make_session_factory(engine)() as session:
@@ -376,6 +383,9 @@ def record_cmd(
         index_db = (db or settings.paths.db).expanduser()
         if with_videos and source == "simulator":
             raise InputError("--videos: the simulator has no camera images; use --source cameras or videos")
+        from app.services.backup import backup_before_upgrade
+        from app.services.storage import DiskFull, StorageWatch
+
         disk = StorageWatch({"take": out, "database": index_db}, settings.storage)
         if (state := disk.check())["level"] == "full":
             raise DiskFull(f"the take refused: {state['message']}")

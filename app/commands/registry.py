@@ -10,20 +10,26 @@ from __future__ import annotations
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from app.core.config import Settings
-from app.db.engine import make_engine, make_session_factory
 from app.db.errors import RecordNotFound, StateConflict
-from app.db.migrate import prepare_database, upgrade
-from app.services.backup import backup_before_upgrade
-from app.services.event_log import EventWriter
-from app.services.models import ModelService
 from pipeline.errors import CavewalkError, ConfigError
+
+if TYPE_CHECKING:
+    from app.services.models import ModelService
 
 
 @contextmanager
 def open_registry(settings: Settings, db: Path | None = None) -> Iterator[ModelService]:
     """The registry of the database ``db`` (default: the settings' ``paths.db``), migrated first."""
+    # SQLAlchemy is imported when a command opens the registry, not at the top: cavewalk's start-up time
+    from app.db.engine import make_engine, make_session_factory
+    from app.db.migrate import prepare_database, upgrade
+    from app.services.backup import backup_before_upgrade
+    from app.services.event_log import EventWriter
+    from app.services.models import ModelService
+
     path = (db or settings.paths.db).expanduser()
     if path.exists() and path.is_dir():
         raise ConfigError(f"--db {path} is a folder, not a database file")

@@ -10,21 +10,21 @@ import threading
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
 from app.core.config import Settings, get_settings
-from app.services.pipeline_factory import build_pipeline, simulator_factory
-from pipeline.calibration.io import load_calibration
 from pipeline.demo_data import fetch_demo
 from pipeline.emitter.receiver import open_receiver_socket, receive
 from pipeline.errors import InputError
 from pipeline.navigation.config import NavigationConfig
-from pipeline.runtime.bench import Scenario, machine_info, run_scenario
-from pipeline.runtime.chain import SimWorldFactory
 from pipeline.runtime.config import RuntimeConfig
-from pipeline.runtime.pipeline import Pipeline
+
+if TYPE_CHECKING:
+    from pipeline.runtime.bench import Scenario
+    from pipeline.runtime.chain import SimWorldFactory
+    from pipeline.runtime.pipeline import Pipeline
 
 app = typer.Typer()
 
@@ -158,6 +158,9 @@ def bench_cmd(
         raise InputError(f"--videos must be off, on or both, got {videos!r}")
     if videos != "off" and source == "sim":
         raise InputError("--videos needs the demo (--source demo or both): the simulator has no images")
+    # the pipeline, cv2 and scipy are imported by the command that runs them (cavewalk's start-up time)
+    from pipeline.runtime.bench import machine_info, run_scenario
+
     scenarios = _scenarios(source, flat_out, counts, modes, videos)
     settings = get_settings()
     report: dict[str, Any] = {"machine": machine_info(settings.pose, settings.pose_model_path),
@@ -192,6 +195,10 @@ def _finite(obj: Any) -> Any:
 
 def _scenarios(source: str, flat_out: bool, people: list[int] | None = None,
                modes: tuple[str, ...] | list[str] = ("each",), videos: str = "off") -> list[Scenario]:
+    from app.services.pipeline_factory import build_pipeline, simulator_factory
+    from pipeline.calibration.io import load_calibration
+    from pipeline.runtime.bench import Scenario
+
     settings = get_settings()
     base = replace(settings.runtime, latency_window=1_000_000)
     out = []
@@ -232,6 +239,8 @@ def _scenarios(source: str, flat_out: bool, people: list[int] | None = None,
 
 
 def _sim_pipeline(settings: Settings, sim: SimWorldFactory, config: RuntimeConfig) -> Callable[[], Pipeline]:
+    from app.services.pipeline_factory import build_pipeline
+
     return lambda: build_pipeline(settings, None, sim, runtime=config)
 
 

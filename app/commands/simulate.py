@@ -12,9 +12,7 @@ import typer
 
 from app.core.config import get_settings
 from pipeline.errors import InputError
-from pipeline.results import ResultsWriter
 from pipeline.sim.script import load_script
-from pipeline.sim.world import SimWorld
 from pipeline.skeleton import SkeletonSequence, save_npz
 
 app = typer.Typer()
@@ -57,6 +55,10 @@ def simulate(
     """Simulate a user in the CAVE: the navigator's 3D skeleton with ground-truth labels (NPZ),
     and with --keypoints what the virtual cameras' pose detector reports (per-frame JSON Lines;
     track ids and 3D people are the ground truth, 0 = the navigator)."""
+    # the simulator and the results writer pull scipy: imported here for cavewalk's start-up time
+    from pipeline.results import ResultsWriter
+    from pipeline.sim.world import SimWorld
+
     settings = get_settings()
     script_path = script if script is not None else settings.sim.script
     routine = load_script(script_path) if script_path is not None else None

@@ -9,18 +9,15 @@ from typing import Annotated
 import typer
 
 from app.core.config import get_settings
-from app.db.engine import connect_read_only, make_engine, make_session_factory, table_names
-from app.db.migrate import upgrade
-from app.services.backup import backup_before_upgrade
-from app.study.data import load_study
-from app.study.report import write_report
-from app.study.summary import session_rows
 from pipeline.errors import InputError
 
 app = typer.Typer(name="study", help="The user study.", no_args_is_help=True)
 
 
 def _table_names(path: Path) -> set[str]:
+    # the database (SQLAlchemy) and the report (its figures) are imported where used: cavewalk's start-up time
+    from app.db.engine import connect_read_only, table_names
+
     try:
         con = connect_read_only(path)
         try:
@@ -39,6 +36,13 @@ def report(
     ] = None,
 ) -> None:
     """Write the study's figures (PNG + SVG), tables (CSV), analysis.json and report.md into OUT."""
+    from app.db.engine import make_engine, make_session_factory
+    from app.db.migrate import upgrade
+    from app.services.backup import backup_before_upgrade
+    from app.study.data import load_study
+    from app.study.report import write_report
+    from app.study.summary import session_rows
+
     settings = get_settings()
     path = db or settings.paths.db
     if not path.is_file():

@@ -6,14 +6,16 @@ from __future__ import annotations
 import os
 from collections.abc import Callable
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
 from app.core.config import Settings, get_settings, read_tuned, reload_settings, set_settings, tuned_file
 from pipeline.errors import InputError
 from pipeline.machine import machine_facts
-from pipeline.pose.tune import TuneResult, tune, tuned_settings, tuned_toml
+
+if TYPE_CHECKING:
+    from pipeline.pose.tune import TuneResult
 
 app = typer.Typer()
 
@@ -21,6 +23,9 @@ app = typer.Typer()
 def run_tune(settings: Settings, out: Path, progress: Callable[[str], None] = typer.echo,
              repeats: int | None = None, sides: tuple[int, ...] | None = None) -> TuneResult:
     """Tune, write ``out`` (atomically), say what was chosen and what the settings now hold."""
+    # the pose stage (cv2, onnxruntime) is imported when it is tuned, not at the top: start-up time
+    from pipeline.pose.tune import tune, tuned_settings, tuned_toml
+
     config = settings.tune
     if repeats is not None or sides is not None:
         from dataclasses import replace
