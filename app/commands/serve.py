@@ -15,7 +15,6 @@ from app.commands.tune import first_start
 from app.core.config import get_settings, load_settings, parse_endpoint, set_settings
 from pipeline.errors import CavewalkError, ConfigError, InputError
 from pipeline.runtime.logfile import log_to_file, to_log_file_only
-from pipeline.runtime.stream import check_seq_file
 
 app = typer.Typer()
 
@@ -57,13 +56,15 @@ def run_server(
     people: int | None = None,
     navigation: str | None = None,
 ) -> None:
-    # the web app (FastAPI, uvicorn) and the database (SQLAlchemy) are imported here: start-up time
+    # the web app (FastAPI, uvicorn), the database (SQLAlchemy) and the shared stream are imported here:
+    # cavewalk's start-up time
     import uvicorn
 
     from app.db.engine import DatabaseLock
     from app.db.migrate import prepare_database
     from app.main import create_app, operator_token
     from app.services.backup import backup_before_upgrade
+    from pipeline.runtime.stream import check_seq_file
 
     if config is not None:  # serve and demo also take --config after the command name
         set_settings(load_settings(config))

@@ -15,8 +15,7 @@ import typer
 from app.commands.registry import open_registry
 from app.core.config import get_settings
 from pipeline.errors import InputError
-from pipeline.takes.dataset import load_takes
-from pipeline.takes.finetune import FinetuneConfig, require_training, train_on_takes
+from pipeline.takes.config import FinetuneConfig
 
 app = typer.Typer()
 _D = FinetuneConfig()
@@ -53,6 +52,10 @@ def train(
 ) -> None:
     """Fine-tune from the active (or --base) model on labelled takes plus simulator data; write the
     model and its card (data, leave-one-participant-out figures, confusion matrix) and register it."""
+    # the trainer (the recogniser's modules; torch when it runs) is imported here: cavewalk's start-up time
+    from pipeline.takes.dataset import load_takes
+    from pipeline.takes.finetune import require_training, train_on_takes
+
     require_training()  # before anything else: a clear message when the extra is missing
     settings = get_settings()
     if out.suffix != ".onnx":

@@ -1,4 +1,5 @@
-"""The settings' ``[takes]`` section."""
+"""The settings' ``[takes]`` section, and the options of a fine-tuning run on takes (``cavewalk train``;
+the training itself is :mod:`pipeline.takes.finetune`)."""
 
 from __future__ import annotations
 
@@ -61,3 +62,38 @@ class TakesConfig:
             raise ValueError(f"video_stop_timeout_s must be in [1, 120], got {self.video_stop_timeout_s}")
         if not 1 <= self.max_duration_s <= 86400:
             raise ValueError(f"max_duration_s must be in [1, 86400], got {self.max_duration_s}")
+
+
+@dataclass(frozen=True, slots=True)
+class FinetuneConfig:
+    """Settings of one fine-tuning run (the ``cavewalk train`` options).
+
+    epochs x windows_per_epoch windows (batch_size each step) at learning rate lr (AdamW, cosine);
+    sim_routines of sim_duration_s simulated routines (stepping and still, in turn) join the takes;
+    loso: leave-one-participant-out figures (one more fine-tune per participant, when >= 2);
+    heldout_routines: simulated test routines (seed 7919) scored with the base and the new model.
+    """
+
+    epochs: int = 2
+    windows_per_epoch: int = 4096
+    batch_size: int = 128
+    lr: float = 5e-4
+    weight_decay: float = 1e-3
+    label_smoothing: float = 0.05
+    sim_routines: int = 8
+    sim_duration_s: float = 20.0
+    seed: int = 0
+    threads: int = 1
+    loso: bool = True
+    heldout_routines: int = 4
+
+    def __post_init__(self) -> None:
+        if self.epochs < 1 or self.windows_per_epoch < self.batch_size or self.batch_size < 1:
+            raise ValueError(
+                f"epochs >= 1 and windows_per_epoch >= batch_size >= 1, got {self.epochs}, "
+                f"{self.windows_per_epoch}, {self.batch_size}"
+            )
+        if not 0 < self.lr < 1 or self.sim_routines < 0 or self.heldout_routines < 0:
+            raise ValueError("lr must be in (0, 1); sim_routines and heldout_routines >= 0")
+        if self.sim_duration_s < 4:
+            raise ValueError(f"sim_duration_s must be >= 4 s, got {self.sim_duration_s}")
