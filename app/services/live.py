@@ -532,7 +532,11 @@ class PipelineService:
         if self._adaptation is not None:
             pipeline.set_adaptation(self._adaptation)
         if self._held and not pipeline.held:  # held before any pipeline was built
-            pipeline.set_held(True, self.held_by or "operator")
+            session = self._held_for
+            if session is None:
+                pipeline.set_held(True)
+            else:
+                pipeline.set_held(True, "session", f"controller session {session}")
         pipeline.subscribe(_Subscription(self, pipeline))
         if self.feed is not None:
             self.feed.own_clock(False)  # the pipeline's statuses set the sockets' rate now

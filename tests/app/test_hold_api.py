@@ -157,3 +157,27 @@ def test_a_controller_session_holds_the_stream_until_it_stops(tmp_path: Path) ->
     assert said[:1] == [True] and said[-1] is False, said
     assert [(e["payload"]["held"], e["payload"]["by"]) for e in events if e["kind"] == "hold"] == [
         (True, "session"), (False, "session")], events
+
+
+def test_a_controller_session_started_before_the_pipeline_holds_its_first_datagram(tmp_path: Path) -> None:
+    rx = DatagramRecorder()
+    settings = make_settings(tmp_path).model_copy(update={"workstations": [f"127.0.0.1:{rx.port}"]})
+    try:
+        with Served(settings, autostart=None) as served:
+            base = f"{served.base}/api/v1"
+            pid = http.post(f"{base}/participants", json={"code": "HOLD4"}).json()["id"]
+            sid = http.post(f"{base}/sessions", json={"participant_id": pid, "condition": "CC"}).json()["id"]
+            assert http.post(f"{base}/sessions/{sid}/start").status_code == 200
+            assert http.post(f"{base}/pipeline/start", json={"source": "simulator"}).status_code == 200
+            served.wait_status(lambda s: s["held_by"] == "session" and steps_while_held(s))
+            wait_until(lambda: rx.locomotion_since(0) > 60 or None, "a second of the held stream")
+            end = len(rx.got)
+            assert http.post(f"{base}/sessions/{sid}/stop").status_code == 200
+            events = http.get(f"{base}/sessions/{sid}/events").json()
+    finally:
+        rx.close()
+    held = [m for _, m in rx.got[:end] if m["type"] == "locomotion"]
+    assert held and not moving(held), moving(held)[:3]
+    said = [(e["payload"]["held"], e["payload"]["message"]) for e in events if e["kind"] == "hold"]
+    assert said and all(f"controller session {sid}" in message for _, message in said), said
+    assert said[0][0] is True and said[-1][0] is False, said
