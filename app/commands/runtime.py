@@ -83,7 +83,8 @@ def receive_cmd(
         elif msg["type"] == "navigation":
             typer.echo(f"#{msg['seq']:>6} navigation {msg['mode']} users {msg['user_ids']}")
         elif msg["type"] == "hold":
-            typer.echo(f"#{msg['seq']:>6} hold {'on: every locomotion says still' if msg['held'] else 'off'}")
+            said = f"on ({msg['by']}): every locomotion says still" if msg["held"] else "off"
+            typer.echo(f"#{msg['seq']:>6} hold {said}")
         elif msg["type"] == "prompt":
             typer.echo(f"#{msg['seq']:>6} prompt {msg['label']:<8} {msg['remaining_s']:5.1f} s "
                        f"{msg['text']}")

@@ -345,7 +345,7 @@ class PipelineService:
                     self._events.record(*event_fields(event))
             else:
                 changed = held != self._held
-                if changed:
+                if changed or (held and by != self.held_by):  # also the operator taking a session's over
                     message = hold_event_message(held, by, why)
                     self._events.record("hold", {"held": held, "by": by, "message": message})
                     with self._snap_lock:

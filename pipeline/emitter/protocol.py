@@ -47,7 +47,9 @@ NAVIGATION_MODES = ("single", "each", "group")
 MAX_NAVIGATION_IDS = 64
 OSC_GROUP_USER_ID = -1  # the group stream's user_id in OSC, which has no null
 _PROMPT_KEYS = {"v", "type", "seq", "ts", "text", "label", "remaining_s"}  # additive (issue 18)
-_HOLD_KEYS = {"v", "type", "seq", "ts", "held"}  # additive: the operator's hold
+_HOLD_KEYS = {"v", "type", "seq", "ts", "held", "by"}  # additive: the hold (the operator's or a session's)
+#: who holds navigation: the operator, or a controller (CC) session's own hold while it runs
+HOLD_BY: tuple[str, ...] = ("operator", "session")
 MAX_PROMPT_CHARS = 200
 OSC_HEAD_ADDRESS = "/cave/head"  # + "/{user_id}"
 UNIT_TOLERANCE = 0.01  # forward and up are unit vectors to within this
@@ -146,11 +148,14 @@ def navigation_message(mode: str, user_ids: Any, seq: int, ts_unix: float) -> di
             "mode": mode, "user_ids": sorted(int(u) for u in user_ids)[:MAX_NAVIGATION_IDS]}
 
 
-def hold_message(held: bool, seq: int, ts_unix: float) -> dict[str, Any]:
-    """Whether the operator holds navigation (every ``locomotion`` says ``still`` while ``held``):
-    sent when it changes and after every heartbeat while held. Additive."""
+def hold_message(by: str | None, seq: int, ts_unix: float) -> dict[str, Any]:
+    """Whether navigation is held (every ``locomotion`` says ``still`` while ``held``) and by whom
+    (``by``: "operator", or "session" for a controller session's own hold; None: not held): sent
+    when it changes and after every heartbeat while held. Additive."""
+    if by is not None and by not in HOLD_BY:
+        raise ValueError(f"by must be one of {HOLD_BY} or None, got {by!r}")
     return {"v": PROTOCOL_VERSION, "type": "hold", "seq": int(seq), "ts": round(float(ts_unix), 6),
-            "held": bool(held)}
+            "held": by is not None, "by": by}
 
 
 def _vector(values: Any, nd: int) -> list[float]:
@@ -261,6 +266,10 @@ def validate_datagram(data: bytes | str | dict[str, Any]) -> dict[str, Any]:
     if kind == "hold":
         if not isinstance(msg["held"], bool):
             raise InputError(f"held: expected true or false, got {msg['held']!r}")
+        if msg["held"] and msg["by"] not in HOLD_BY:
+            raise InputError(f"by: expected one of {HOLD_BY} while held, got {msg['by']!r}")
+        if not msg["held"] and msg["by"] is not None:
+            raise InputError(f"by: expected null when not held, got {msg['by']!r}")
         return msg
     if msg["user_id"] is not None:  # null: the group's command (issue 20)
         _integer(msg, "user_id", 0)

@@ -43,6 +43,7 @@ from typing import TYPE_CHECKING, Literal, Protocol
 
 from pipeline.emitter.config import EmitterConfig, Endpoint
 from pipeline.emitter.protocol import (
+    HOLD_BY,
     LocomotionCommand,
     encode,
     head_message,
@@ -91,7 +92,10 @@ class SharedStream(Protocol):
     @property
     def held(self) -> bool: ...
 
-    def set_held(self, held: bool) -> None: ...
+    @property
+    def hold_by(self) -> str | None: ...
+
+    def set_held(self, held: bool, by: str = "operator") -> None: ...
 
     def tick(self, now: float | None = None) -> None: ...
 
@@ -175,8 +179,8 @@ class UdpEmitter:
         self._wake = threading.Event()
         self._thread: threading.Thread | None = None
         self._sent = 0
-        self._held = False  # the operator's hold, without a shared stream
-        self._announced_held = False  # the hold the last ``hold`` datagram of this emitter said
+        self._hold_by: str | None = None  # who holds navigation, without a shared stream (None: nobody)
+        self._announced: str | None = None  # the hold the last ``hold`` datagram of this emitter said
         self.errors = 0
         if role != "fusion":
             self.set_endpoints(endpoints or [])
@@ -231,17 +235,25 @@ class UdpEmitter:
     @property
     def held(self) -> bool:
         """Whether navigation is held: every locomotion command goes out ``still`` (module docstring)."""
-        return self._shared.held if self._shared is not None else self._held
+        return self.hold_by is not None
 
-    def set_held(self, held: bool) -> None:
-        """Hold navigation (True) or release it; the repeat thread sends the held command at once.
-        The fusion emitter only reads the hold: the main process's emitter sets it."""
+    @property
+    def hold_by(self) -> str | None:
+        """Who holds navigation: "operator", "session" (a controller session's own), None: nobody."""
+        return self._shared.hold_by if self._shared is not None else self._hold_by
+
+    def set_held(self, held: bool, by: str = "operator") -> None:
+        """Hold navigation (True; ``by`` the operator or a controller session) or release it; the
+        repeat thread sends the held command at once. The fusion emitter only reads the hold: the
+        main process's emitter sets it."""
         if self.role == "fusion":
             raise ValueError("the fusion worker's emitter follows the hold; the main process sets it")
+        if held and by not in HOLD_BY:
+            raise ValueError(f"by must be one of {HOLD_BY}, got {by!r}")
         with self._lock:
             if self._shared is not None:
-                self._shared.set_held(held)
-            self._held = bool(held)
+                self._shared.set_held(held, by)
+            self._hold_by = by if held else None
             self._last_loco = 0.0  # the current command (if any) goes out again now, held or not
         self._wake.set()
 
@@ -326,10 +338,10 @@ class UdpEmitter:
 
     def _send_locomotion(self, cmds: tuple[LocomotionCommand, ...], now: float) -> None:
         osc = []
-        held = self.held
-        if held != self._announced_held:  # said before the first locomotion it changes
-            self._send_hold(now, held)
-        if held:
+        by = self.hold_by
+        if by != self._announced:  # said before the first locomotion it changes
+            self._send_hold(now, by)
+        if by is not None:
             cmds = tuple(cmd.held() for cmd in cmds)
         for cmd in cmds:
             ts = cmd.timestamp_s + self._offset
@@ -363,13 +375,14 @@ class UdpEmitter:
         self._send(lambda seq: encode(heartbeat_message(state, seq, ts)))
         self._last_beat = now
         self._send_navigation(now)
-        if self.held:
-            self._send_hold(now, True)
+        by = self.hold_by
+        if by is not None:
+            self._send_hold(now, by)
 
-    def _send_hold(self, now: float, held: bool) -> None:
+    def _send_hold(self, now: float, by: str | None) -> None:
         ts = now + self._offset
-        self._send(lambda seq: encode(hold_message(held, seq, ts)))
-        self._announced_held = held
+        self._send(lambda seq: encode(hold_message(by, seq, ts)))
+        self._announced = by
 
     def _send_navigation(self, now: float) -> None:
         if self._navigation is None:
@@ -396,9 +409,9 @@ class UdpEmitter:
                 self._pending = False
             if now - self._last_beat >= self.config.heartbeat_s:
                 self._send_heartbeat(now)
-            held = self.held
-            if held != self._announced_held:  # the hold changed: said at once
-                self._send_hold(now, held)
+            by = self.hold_by
+            if by != self._announced:  # the hold changed: said at once
+                self._send_hold(now, by)
 
     def _run(self) -> None:
         period = 1.0 / self.config.rate_hz

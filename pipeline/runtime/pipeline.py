@@ -378,14 +378,19 @@ class Pipeline:
         in this run and the next ones, until it is released (False). The recogniser goes on: the
         status shows what it says. A change is a ``hold`` event (the session's log) saying who
         changed it (``by``: "operator", or "session" for a controller session's own hold, with
-        ``why``: which session, for its message). Whether it changed anything."""
+        ``why``: which session, for its message); the ``hold`` datagrams say ``by`` too. Whether
+        it held or released navigation (a hold taken over by the operator is said, but changes
+        nothing the walls get)."""
         if not isinstance(held, bool):
             raise InputError(f"held must be true or false, got {held!r}")
         with self._lock:
-            if held == self.emitter.held:
+            was = self.emitter.hold_by
+            if was == (by if held else None):
                 return False
-            self.emitter.set_held(held)
+            self.emitter.set_held(held, by)
             self._board.event("hold", hold_event_message(held, by, why), {"held": held, "by": by})
+            if held == (was is not None):  # only who holds it changed (the operator took it over)
+                return False
         self._publisher.publish_now()
         return True
 

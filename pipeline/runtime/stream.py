@@ -12,7 +12,8 @@ A ``StreamBook`` is a small shared-memory segment (int64 words)::
     [0] next seq    [1] datagrams sent    [2] fusion's last tick (monotonic s, float64 bits)
     [3] endpoints version (odd while written)    [4] UDP endpoints    [5] OSC endpoints
     [6] the seq lease written to the seq file (0: no file)
-    [7] 1 while the operator holds navigation (every locomotion command goes out ``still``)
+    [7] while navigation is held (every locomotion command goes out ``still``): 1 the operator's
+        hold, 2 a controller session's own; 0 not held
     [8 ...] (IPv4 as an int, port) pairs: MAX_ENDPOINTS UDP, then MAX_ENDPOINTS OSC
 
 The main process is the only writer of the endpoints (a seqlock: readers retry a torn
@@ -47,6 +48,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from pipeline.emitter.protocol import HOLD_BY
 from pipeline.emitter.udp import TICK_S
 from pipeline.errors import InputError
 from pipeline.runtime.shm import STREAM_PREFIX, attach_segment
@@ -174,12 +176,20 @@ class StreamBook:
     # -- the operator's hold -----------------------------------------------------------------
     @property
     def held(self) -> bool:
-        """Whether the operator holds navigation: every locomotion command is sent ``still``."""
+        """Whether navigation is held: every locomotion command is sent ``still``."""
         return bool(self._words[_HELD])
 
-    def set_held(self, held: bool) -> None:
-        """Hold navigation or release it (the main process only)."""
-        self._words[_HELD] = int(bool(held))
+    @property
+    def hold_by(self) -> str | None:
+        """Who holds navigation: "operator", "session" (a controller session's own), None: nobody."""
+        word = int(self._words[_HELD])
+        return HOLD_BY[word - 1] if 1 <= word <= len(HOLD_BY) else ("operator" if word else None)
+
+    def set_held(self, held: bool, by: str = "operator") -> None:
+        """Hold navigation (``by`` the operator or a session) or release it (the main process only)."""
+        if held and by not in HOLD_BY:
+            raise ValueError(f"by must be one of {HOLD_BY}, got {by!r}")
+        self._words[_HELD] = HOLD_BY.index(by) + 1 if held else 0
 
     # -- endpoints -----------------------------------------------------------------------------
     @property

@@ -91,6 +91,7 @@ def test_the_operators_hold_stays_the_operators(client: TestClient, tmp_path: Pa
     assert hold(client) == (True, "operator") and kept.read_text() == "held\n"
     assert client.post(f"{API}/sessions/{third}/stop").status_code == 200
     assert hold(client) == (True, "operator")
+    assert hold_events(client, third) == [(True, "session"), (True, "operator")]
 
 
 def test_a_controller_session_stopped_by_its_timer_releases(client: TestClient) -> None:

@@ -155,6 +155,7 @@ def test_a_controller_session_holds_the_stream_until_it_stops(tmp_path: Path) ->
     assert held and not moving(held), moving(held)[:3]
     said = said_and_kept([m for _, m in rx.got])
     assert said[:1] == [True] and said[-1] is False, said
+    assert {m["by"] for _, m in rx.got if m["type"] == "hold" and m["held"]} == {"session"}, "who holds"
     assert [(e["payload"]["held"], e["payload"]["by"]) for e in events if e["kind"] == "hold"] == [
         (True, "session"), (False, "session")], events
 

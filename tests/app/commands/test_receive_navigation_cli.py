@@ -85,7 +85,7 @@ def test_receive_prints_the_hold_and_rejects_a_movement_while_held() -> None:
             emitter.submit(command(1, "forward", per_user=False))
             time.sleep(0.03)
         emitter.close()
-        for msg in ({"type": "hold", "seq": 0, "held": True},
+        for msg in ({"type": "hold", "seq": 0, "held": True, "by": "session"},
                     {"type": "locomotion", "seq": 1, "user_id": 1, "action": "forward", "confidence": 0.8,
                      "yaw_deg": 0.0, "speed_mps": 1.0, "position_m": [0.0, 0.0, 0.0]}):
             forged.sendto(json.dumps({"v": 1, "ts": time.time(), **msg}).encode(), ("127.0.0.1", port))
@@ -98,6 +98,7 @@ def test_receive_prints_the_hold_and_rejects_a_movement_while_held() -> None:
     said = [m.group(1) for m in re.finditer(r"^#\s*\d+ (\w+(?: \w+)?)", out, re.MULTILINE)]
     assert said == ["heartbeat stopped", "locomotion user", "hold on", "locomotion user", "hold off",
                     "locomotion user", "hold on"], out
+    assert re.findall(r"hold on \((\w+)\)", out) == ["operator", "session"], out
     actions = re.findall(r"locomotion user 1 (\w+)", out)
     assert actions == ["forward", "still", "forward"], out
     assert proc.returncode == 1 and out.splitlines()[-1].startswith("INVALID"), (out, err)

@@ -161,10 +161,10 @@ def test_a_held_emitter_sends_still_on_udp_and_osc_until_released() -> None:
         server.server_close()
     stats = rx.close().summary()
     assert stats["invalid"] == 0, stats["errors"]  # the reference receiver checks held -> still
-    said = [(m["type"], m.get("held", m.get("action"))) for m in rx.messages
+    said = [(m["type"], m["by"] if m["type"] == "hold" else m["action"]) for m in rx.messages
             if m is not None and m["type"] in ("hold", "locomotion")]
     runs = [x for i, x in enumerate(said) if i == 0 or x != said[i - 1]]
-    assert runs == [("locomotion", "right"), ("hold", True), ("locomotion", "still"), ("hold", False),
+    assert runs == [("locomotion", "right"), ("hold", "operator"), ("locomotion", "still"), ("hold", None),
                     ("locomotion", "right")], "each change said before the first locomotion it changes"
     assert stats["held"] == {next(iter(stats["held"])): False}, "the last word: released"
     loco = [m for m in rx.messages if m is not None and m["type"] == "locomotion"]
@@ -179,6 +179,37 @@ def test_a_held_emitter_sends_still_on_udp_and_osc_until_released() -> None:
     osc_actions = [g[1] for g in got]
     assert "still" in osc_actions and osc_actions[0] == "right" and osc_actions[-1] == "right", osc_actions
     assert all(g[4] == 0.0 for g in got if g[1] == "still"), "OSC's held speed is 0 too"
+
+
+def test_who_holds_is_said_and_a_change_of_holder_is_said_again() -> None:
+    """A controller session's own hold says ``by: "session"``; the operator taking it over is said
+    before the next locomotion, the held stream goes on still throughout; a bad holder changes nothing."""
+    rx = Listener()
+    emitter = UdpEmitter(EmitterConfig(rate_hz=20.0, heartbeat_s=100.0), [("127.0.0.1", rx.port)])
+    emitter.start()
+    try:
+        emitter.submit(cmd("forward"))
+        emitter.set_held(True, "session")
+        assert emitter.hold_by == "session"
+        time.sleep(0.3)
+        emitter.set_held(True, "operator")
+        with pytest.raises(ValueError, match="by must be one of"):
+            emitter.set_held(True, "someone")
+        assert emitter.hold_by == "operator"
+        time.sleep(0.3)
+        emitter.set_held(False, "operator")
+        time.sleep(0.3)
+    finally:
+        emitter.close()
+    stats = rx.close().summary()
+    assert stats["invalid"] == 0, stats["errors"]
+    said = [(m["type"], m["by"] if m["type"] == "hold" else m["action"]) for m in rx.messages
+            if m is not None and m["type"] in ("hold", "locomotion")]
+    runs = [x for i, x in enumerate(said) if i == 0 or x != said[i - 1]]
+    if runs[0] == ("locomotion", "forward"):  # sent before the hold was set
+        runs = runs[1:]
+    assert runs == [("hold", "session"), ("locomotion", "still"), ("hold", "operator"),
+                    ("locomotion", "still"), ("hold", None), ("locomotion", "forward")], runs
 
 
 def test_osc_locomotion_message_types_ts_as_a_double() -> None:
@@ -218,19 +249,21 @@ def test_the_receiver_refuses_a_movement_from_a_sender_that_holds() -> None:
     stats = ReceiverStats()
     move = cmd("forward", ts=1.0)
     stats.feed(encode(locomotion_message(move, 0, 1.0)), "a", 1.01)
-    stats.feed(encode(hold_message(True, 1, 1.0)), "a", 1.01)
+    stats.feed(encode(hold_message("operator", 1, 1.0)), "a", 1.01)
     stats.feed(encode(locomotion_message(move.held(), 2, 1.0)), "a", 1.01)
     stats.feed(encode(locomotion_message(move, 3, 1.0)), "a", 1.01)  # contradicts its own hold
     stats.feed(encode(locomotion_message(move, 0, 1.0)), "b", 1.01)  # another sender: not held
-    stats.feed(encode(hold_message(False, 4, 1.0)), "a", 1.01)
+    stats.feed(encode(hold_message(None, 4, 1.0)), "a", 1.01)
     stats.feed(encode(locomotion_message(move, 5, 1.0)), "a", 1.01)
     s = stats.summary()
     assert (s["valid"], s["invalid"]) == (6, 1), s
     assert s["errors"] == ["locomotion: the sender holds navigation, but the action is 'forward'"]
     assert s["held"] == {"a": False} and s["by_type"]["hold"] == 2
-    for bad in ({"held": 1}, {"held": "true"}, {"held": None}):
-        stats.feed(encode(hold_message(True, 6, 1.0) | bad), "a", 1.01)
-    assert stats.summary()["invalid"] == 4
+    for bad in ({"held": 1}, {"held": "true"}, {"held": None}, {"by": "someone"}, {"by": None}):
+        stats.feed(encode(hold_message("session", 6, 1.0) | bad), "a", 1.01)
+    stats.feed(encode(hold_message(None, 7, 1.0) | {"by": "operator"}), "a", 1.01)  # released by nobody
+    stats.feed(encode({k: v for k, v in hold_message(None, 8, 1.0).items() if k != "by"}), "a", 1.01)
+    assert stats.summary()["invalid"] == 8
 
 
 def test_receiver_counts_drops_and_reordering() -> None:

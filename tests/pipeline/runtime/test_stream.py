@@ -268,8 +268,9 @@ def test_the_operator_s_hold_set_in_the_main_process_is_what_the_fusion_worker_s
     forward = LocomotionCommand(3, "forward", 0.8, 40.0, 1.2, (0.25, -0.5, 0.0), t)
     try:
         fusion.submit(forward)  # sent at once (after the fusion emitter's first heartbeat)
-        standby.set_held(True)
+        standby.set_held(True, "session")
         assert fusion.held and standby.held and book.held
+        assert fusion.hold_by == book.hold_by == "session", "who holds goes through the book too"
         fusion.tick(t + 1.0)  # a repeat: held
         fusion.submit(replace(forward, timestamp_s=t + 1.1))  # a fresh result, due at the next tick
         fusion.tick(t + 2.0)  # held too
@@ -277,6 +278,8 @@ def test_the_operator_s_hold_set_in_the_main_process_is_what_the_fusion_worker_s
         fusion.tick(t + 3.0)  # released: as submitted
         wait_until(lambda: len(rx.of_type("locomotion")) >= 4, "four locomotion datagrams")
         loco = rx.of_type("locomotion")
+        said = [m["by"] for m in rx.of_type("hold")]  # said on each change and after a heartbeat
+        assert said[-1] is None and set(said[:-1]) == {"session"}, f"the fusion emitter says who: {said}"
         assert [(m["action"], m["speed_mps"], m["confidence"]) for m in loco] == [
             ("forward", 1.2, 0.8), ("still", 0.0, 1.0), ("still", 0.0, 1.0), ("forward", 1.2, 0.8)]
         assert all(m["user_id"] == 3 and m["yaw_deg"] == 40.0 and m["position_m"] == [0.25, -0.5, 0.0]
