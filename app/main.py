@@ -199,10 +199,13 @@ def create_app(
         pipeline.add_result_sink(recorder)
         app.state.recorder = recorder
         app.state.replay = TakeReplay(viewer)
-        def session_stopped(session_id: int) -> None:  # by its timer: as the stop route does
+        def session_stopped(session_id: int) -> None:
+            """A session stopped (by the operator's route or by its timer): a controller session's own
+            hold is released and the participant's teach adaptation comes off."""
             pipeline.release_for_session(session_id)
             models.session_stopped()
 
+        app.state.session_stopped = session_stopped
         session_timer = SessionTimer(factory, events, on_stop=session_stopped)
         app.state.session_timer = session_timer
         left = pipeline.held_for

@@ -130,13 +130,10 @@ def start_session(
 def stop_session(session_id: IdPath, request: Request, db: SessionDep, events: EventsDep) -> SessionPublic:
     events.flush()  # the session's last events go to it, not to the next one
     row = repo.stop_session(db, session_id, time.time())
-    request.app.state.pipeline.release_for_session(row.id)  # a controller session's own hold (its log)
+    request.app.state.session_stopped(row.id)  # as the timer's stop: its events still go to the session
     if events.session_id == row.id:
         events.set_session(None)
     request.app.state.session_timer.cancel(row.id)
-    models = getattr(request.app.state, "models", None)
-    if models is not None:
-        models.session_stopped()
     return session_public(row)
 
 
